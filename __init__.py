@@ -1,0 +1,29 @@
+"""pdmkit: a predictive-maintenance workbench.
+
+Layers, lowest first (an import may only point down):
+
+``pdmkit.models``
+    Dynamic models: physics simulators, system identification, residual generators.
+``pdmkit.ensembles``
+    Recordings and their condition variables: readers, Parquet stores, dataset loaders.
+``pdmkit.features``
+    Condition indicators (statistical, spectral, model-based) and their ranking.
+``pdmkit.rul``
+    Remaining-useful-life models and prognostic metrics.
+``pdmkit.experiments``
+    Workflows people run (classify faults, compare sensors, demo), the CLI and reports.
+
+Examples
+--------
+>>> import numpy as np
+>>> import pdmkit.features as pf
+>>> x = np.sin(2 * np.pi * 50 * np.arange(4096) / 4096.0)
+>>> round(float(pf.extract(x, fs=4096.0, groups=("stats",))["stats/RMS"].iloc[0]), 4)
+0.7071
+"""
+
+from pdmkit import errors
+from pdmkit._config import data_dir
+
+__version__ = "0.1.0"
+__all__ = ["__version__", "data_dir", "errors"]

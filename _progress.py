@@ -1,0 +1,42 @@
+"""Progress bars that show on a terminal and stay quiet otherwise."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Iterable, Iterator
+from typing import TypeVar
+
+T = TypeVar("T")
+
+__all__ = ["progress"]
+
+
+def progress(
+    iterable: Iterable[T], *, desc: str = "", total: int | None = None, enable: bool | None = None
+) -> Iterator[T]:
+    """Wrap ``iterable`` in a tqdm bar when stderr is a terminal.
+
+    Parameters
+    ----------
+    iterable : iterable
+        What to iterate over.
+    desc : str
+        Label shown before the bar.
+    total : int, optional
+        Number of items, when ``len(iterable)`` is not available.
+    enable : bool, optional
+        Force the bar on (True) or off (False); default: on only for a terminal.
+
+    Examples
+    --------
+    >>> list(progress(range(3), desc="members", enable=False))
+    [0, 1, 2]
+    """
+    if enable is None:
+        enable = sys.stderr.isatty()
+    if not enable:
+        yield from iterable
+        return
+    from tqdm.auto import tqdm
+
+    yield from tqdm(iterable, desc=desc, total=total, leave=False)

@@ -1,0 +1,354 @@
+"""The ``pdmkit`` command line.
+
+Every sub-command writes its results as data (Parquet / JSON) and a self-contained HTML
+report into ``--out DIR``; ``--json PATH`` writes the machine-readable summary anywhere.
+Errors in the input end the command with exit status 2 and one line that names the
+problem; results already written are never half-overwritten.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from pdmkit._atomic import atomic_path
+from pdmkit.errors import DataError, ModelError
+
+__all__ = ["main"]
+
+
+# --------------------------------------------------------------------------- helpers
+def _say(message: str) -> None:
+    print(f"pdmkit: {message}", file=sys.stderr, flush=True)
+
+
+def _json_default(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"cannot write {type(value).__name__} to JSON")
+
+
+def write_json(data: dict, path: str | Path) -> Path:
+    """Write ``data`` as indented JSON, atomically (NaN written as null)."""
+    text = json.dumps(_nan_to_none(data), indent=2, default=_json_default)
+    with atomic_path(path) as tmp:
+        tmp.write_text(text + "\n")
+    return Path(path)
+
+
+def _nan_to_none(value):
+    if isinstance(value, dict):
+        return {k: _nan_to_none(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_nan_to_none(v) for v in value]
+    if isinstance(value, float | np.floating) and not np.isfinite(value):
+        return None
+    return value
+
+
+def write_parquet(table: pd.DataFrame, path: str | Path) -> Path:
+    """Write a table to Parquet atomically."""
+    with atomic_path(path) as tmp:
+        table.to_parquet(tmp)
+    return Path(path)
+
+
+def _finish(summary: dict, args: argparse.Namespace, report, name: str) -> None:
+    out = Path(args.out)
+    write_json(summary, out / f"{name}.json")
+    if args.json:
+        write_json(summary, args.json)
+    path = report.write(out / "report.html")
+    _say(f"wrote {out / f'{name}.json'} and {path}")
+
+
+# --------------------------------------------------------------------------- inputs
+def _add_input_options(parser: argparse.ArgumentParser, *, features_ok: bool = True) -> None:
+    source = parser.add_mutually_exclusive_group(required=True)
+    source.add_argument("--dataset", help="named dataset (see `pdmkit datasets`), e.g. cwru")
+    source.add_argument("--ensemble", type=Path, help="Parquet ensemble directory")
+    if features_ok:
+        source.add_argument("--features", type=Path, help="feature table (Parquet)")
+    parser.add_argument("--label", help="condition column holding the class label")
+    parser.add_argument(
+        "--groups",
+        nargs="+",
+        default=None,
+        help="indicator groups to extract (default: the dataset's, else stats spectral)",
+    )
+    parser.add_argument("--out", type=Path, default=Path("results"), help="output folder")
+    parser.add_argument("--json", type=Path, help="also write the JSON summary here")
+
+
+def _feature_table(args: argparse.Namespace):
+    """Return (table, label, sensors) for the input the user named."""
+    from pdmkit.experiments._datasets import get_profile
+
+    if getattr(args, "features", None) is not None:
+        from pdmkit.ensembles import read_table
+
+        table = read_table(args.features)
+        return table, args.label, None
+    if args.dataset is not None:
+        profile = get_profile(args.dataset)
+        _say(f"loading dataset {profile.name!r}")
+        ensemble = profile.load()
+        groups = tuple(args.groups) if args.groups else profile.groups
+        options = profile.options()
+        label = args.label or profile.label
+        sensors = {k: list(v) for k, v in profile.sensors.items()}
+    else:
+        from pdmkit.ensembles import Ensemble
+
+        ensemble = Ensemble.from_parquet(args.ensemble)
+        groups = tuple(args.groups) if args.groups else ("stats", "spectral")
+        options, label, sensors = {}, args.label, None
+    from pdmkit.features import extract_ensemble
+
+    _say(f"extracting {', '.join(groups)} indicators from {len(ensemble)} members")
+    table = extract_ensemble(ensemble, groups=groups, **options)
+    return table, label, sensors
+
+
+def _require_label(table: pd.DataFrame, label: str | None) -> str:
+    if label is None:
+        candidates = [c for c in table.columns if "/" not in str(c)]
+        raise DataError(
+            f"no --label given; name the condition column that holds the class "
+            f"(columns without '/' in this table: {candidates})"
+        )
+    if label not in table.columns:
+        raise DataError(
+            f"label column {label!r} is not in the feature table; "
+            f"condition columns found: {[c for c in table.columns if '/' not in str(c)]}"
+        )
+    return label
+
+
+def _parse_sensors(items: Sequence[str] | None, table: pd.DataFrame, default):
+    if items:
+        sensors = {}
+        for item in items:
+            name, sep, signals = item.partition("=")
+            if not sep or not signals:
+                raise DataError(f"--sensor {item!r}: expected NAME=SIGNAL[,SIGNAL...]")
+            sensors[name] = [s for s in signals.split(",") if s]
+        return sensors
+    if default:
+        return default
+    signals = sorted({str(c).split("/")[0] for c in table.columns if str(c).count("/") >= 2})
+    if not signals:
+        raise DataError(
+            "cannot tell the sensors apart: feature columns are not named "
+            "<signal>/<group>/<Feature>; pass --sensor NAME=SIGNAL[,SIGNAL...]"
+        )
+    return {s: [s] for s in signals}
+
+
+# --------------------------------------------------------------------------- commands
+def _cmd_datasets(args: argparse.Namespace) -> int:
+    from pdmkit.ensembles import DATASETS
+    from pdmkit.experiments._datasets import PROFILES
+
+    print("Datasets (loaders in pdmkit.ensembles):")
+    for name, description in DATASETS.items():
+        flag = "  [classify/sensors]" if name in PROFILES else ""
+        print(f"  {name:16s} {description}{flag}")
+    return 0
+
+
+def _cmd_features(args: argparse.Namespace) -> int:
+    from pdmkit.experiments._report import Report
+
+    table, label, _ = _feature_table(args)
+    out = Path(args.out)
+    write_parquet(table, out / "features.parquet")
+    feature_cols = [c for c in table.columns if "/" in str(c)]
+    summary = {
+        "n_members": int(len(table)),
+        "n_features": len(feature_cols),
+        "features": feature_cols,
+        "conditions": [c for c in table.columns if c not in feature_cols],
+        "path": str(out / "features.parquet"),
+    }
+    report = Report("pdmkit features")
+    report.add_text(
+        f"{summary['n_members']} members, {summary['n_features']} condition indicators."
+    )
+    report.add_table(table[feature_cols].describe().T, caption="Indicator statistics")
+    _finish(summary, args, report, "features")
+    return 0
+
+
+def _ranking(table: pd.DataFrame, label: str, method: str):
+    from pdmkit.features import rank_features
+
+    feature_cols = [c for c in table.columns if "/" in str(c)]
+    return rank_features(table, table[label], method=method, features=feature_cols)
+
+
+def _cmd_rank(args: argparse.Namespace) -> int:
+    from pdmkit.experiments._report import Report
+
+    table, label, _ = _feature_table(args)
+    label = _require_label(table, label)
+    ranking = _ranking(table, label, args.method)
+    ranked = ranking.to_pandas()
+    write_parquet(ranked, Path(args.out) / "ranking.parquet")
+    summary = {
+        "method": args.method,
+        "label": label,
+        "ranking": ranked.head(args.top).to_dict(orient="records"),
+    }
+    report = Report(f"pdmkit rank ({args.method})")
+    report.add_figure(ranking.plot(k=min(args.top, 30)), caption="Ranked indicators")
+    report.add_table(ranked.head(args.top), caption=f"Top {args.top} indicators")
+    _finish(summary, args, report, "ranking")
+    return 0
+
+
+def _cmd_classify(args: argparse.Namespace) -> int:
+    from pdmkit.experiments._classify import classify
+    from pdmkit.experiments._report import Report
+
+    table, label, _ = _feature_table(args)
+    label = _require_label(table, label)
+    result = classify(
+        table,
+        label,
+        model=args.model,
+        top_k=args.top_k,
+        selection=args.selection,
+        test_size=args.test_size,
+        random_state=args.seed,
+    )
+    summary = result.summary()
+    _say(f"held-out accuracy {summary['accuracy']:.4f} ({args.model}, top {args.top_k})")
+    report = Report(f"pdmkit classify ({args.model})")
+    report.add_text(
+        f"Held-out accuracy {summary['accuracy']:.4f} on {summary['n_test']} members "
+        f"(trained on {summary['n_train']}); selected indicators: "
+        f"{', '.join(summary['features'])}."
+    )
+    report.add_figure(result.plot(), caption="Confusion matrix (held-out part)")
+    report.add_table(result.to_pandas(), caption="Per-class recall")
+    if args.selection in ("kruskal", "anova"):
+        report.add_figure(
+            _ranking(table, label, args.selection).plot(k=20), caption="Indicator ranking"
+        )
+    _finish(summary, args, report, "classify")
+    return 0
+
+
+def _cmd_sensors(args: argparse.Namespace) -> int:
+    from pdmkit.experiments._report import Report
+    from pdmkit.experiments._sensors import compare_sensors, load_sensor_costs
+
+    table, label, default_sensors = _feature_table(args)
+    label = _require_label(table, label)
+    sensors = _parse_sensors(args.sensor, table, default_sensors)
+    costs = load_sensor_costs(args.costs)
+    comparison = compare_sensors(
+        table, label, sensors, costs, model=args.model, top_k=args.top_k, random_state=args.seed
+    )
+    summary = comparison.summary()
+    report = Report("pdmkit sensors")
+    frame = comparison.to_pandas()
+    report.add_figure(comparison.plot(), caption="Accuracy against cost, Pareto front marked")
+    report.add_table(frame, caption="Sensors by accuracy (cross-validated) and cost")
+    for note in frame.get("note", pd.Series(dtype=str)).dropna():
+        if note:
+            report.add_text(note)
+    _finish(summary, args, report, "sensors")
+    return 0
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from pdmkit.experiments._demo import run_demo
+
+    start = time.perf_counter()
+    summary = run_demo(args.out, members=args.members, seed=args.seed)
+    if args.json:
+        write_json(summary, args.json)
+    _say(f"demo finished in {time.perf_counter() - start:.0f} s; see {args.out}/report.html")
+    return 0
+
+
+# --------------------------------------------------------------------------- parser
+def build_parser() -> argparse.ArgumentParser:
+    """Return the argument parser of the ``pdmkit`` command."""
+    from pdmkit import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="pdmkit",
+        description="Predictive-maintenance workbench: indicators, ranking, fault "
+        "classifiers, sensor comparison.",
+    )
+    parser.add_argument("--version", action="version", version=f"pdmkit {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("datasets", help="list the named datasets")
+    p.set_defaults(func=_cmd_datasets)
+
+    p = sub.add_parser("features", help="extract condition indicators")
+    _add_input_options(p, features_ok=False)
+    p.set_defaults(func=_cmd_features)
+
+    p = sub.add_parser("rank", help="rank condition indicators")
+    _add_input_options(p)
+    p.add_argument("--method", default="kruskal", choices=["kruskal", "anova"])
+    p.add_argument("--top", type=int, default=20, help="rows in the summary")
+    p.set_defaults(func=_cmd_rank)
+
+    models = ["knn", "bagged_trees", "svm", "random_forest", "lda"]
+    p = sub.add_parser("classify", help="train and evaluate a fault classifier")
+    _add_input_options(p)
+    p.add_argument("--model", default="knn", choices=models)
+    p.add_argument("--top-k", type=int, default=5, help="indicators kept by the selector")
+    p.add_argument("--selection", default="kruskal", choices=["kruskal", "anova", "pca"])
+    p.add_argument("--test-size", type=float, default=0.25)
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=_cmd_classify)
+
+    p = sub.add_parser("sensors", help="compare sensors by accuracy and cost")
+    _add_input_options(p)
+    p.add_argument(
+        "--sensor",
+        action="append",
+        metavar="NAME=SIG[,SIG]",
+        help="a sensor and the signals it owns (repeat); default: one per signal",
+    )
+    p.add_argument("--costs", type=Path, help="TOML file of sensor costs")
+    p.add_argument("--model", default="knn", choices=models)
+    p.add_argument("--top-k", type=int, default=5)
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=_cmd_sensors)
+
+    p = sub.add_parser("demo", help="the whole workbench on the simulated pneumatic piston")
+    p.add_argument("--out", type=Path, default=Path("results/demo"))
+    p.add_argument("--json", type=Path)
+    p.add_argument("--members", type=int, default=None, help="ensemble size")
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=_cmd_demo)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``pdmkit`` command; return its exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except (DataError, ModelError, FileNotFoundError, PermissionError) as exc:
+        _say(f"error: {exc}")
+        return 2

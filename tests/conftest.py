@@ -1,0 +1,33 @@
+"""Shared fixtures: real-data location and deterministic random generators."""
+
+from __future__ import annotations
+
+import os
+
+import matplotlib
+import numpy as np
+import pytest
+
+matplotlib.use("Agg")
+
+from pdmkit._config import data_dir  # noqa: E402
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(12345)
+
+
+@pytest.fixture
+def require_data():
+    """Return a function that gives a dataset folder or skips the test with the reason."""
+
+    def _require(name: str):
+        path = data_dir(name)
+        if not path.is_dir():
+            where = os.environ.get("PDMKIT_DATA", "../shared/data")
+            pytest.skip(f"real dataset '{name}' not found in {where} ({path}); "
+                        "set PDMKIT_DATA to the folder holding the shared datasets")
+        return path
+
+    return _require
