@@ -1,1 +1,47 @@
-"""pdmkit.ensembles"""
+"""pdmkit.ensembles: recordings and their condition variables.
+
+An :class:`Ensemble` holds members (recordings): named 1-D signals, each with its
+sampling rate, and a row of condition variables (labels, settings, operating point,
+unit, cycle). It is stored on disk as a Parquet dataset that streams in batches
+(:meth:`Ensemble.to_parquet`, :func:`iter_parquet`). Readers turn the file formats
+recordings come in into arrays and tables; loaders bring the shared recorded datasets.
+
+Examples
+--------
+>>> import numpy as np
+>>> import pdmkit.ensembles as pe
+>>> ens = pe.Ensemble({"vib": np.zeros((2, 4096))}, fs=4096.0,
+...                   conditions={"fault": ["none", "inner_race"]})
+>>> ens.frames(1024).conditions["fault"].value_counts().to_dict()
+{'none': 4, 'inner_race': 4}
+"""
+
+from pdmkit.ensembles._datasets import (
+    DATASETS,
+    load_cascaded_tanks,
+    load_cmapss,
+    load_cwru,
+    load_dataset,
+    load_emps,
+    load_silverbox,
+)
+from pdmkit.ensembles._ensemble import Ensemble
+from pdmkit.ensembles._parquet import iter_parquet
+from pdmkit.ensembles._readers import read_mat, read_npz, read_table
+from pdmkit.ensembles._tables import from_frame
+
+__all__ = [
+    "DATASETS",
+    "Ensemble",
+    "from_frame",
+    "iter_parquet",
+    "load_cascaded_tanks",
+    "load_cmapss",
+    "load_cwru",
+    "load_dataset",
+    "load_emps",
+    "load_silverbox",
+    "read_mat",
+    "read_npz",
+    "read_table",
+]

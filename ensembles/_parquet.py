@@ -1,0 +1,415 @@
+"""The on-disk ensemble: a directory of Parquet files plus a small JSON manifest.
+
+Layout of a dataset directory::
+
+    ens/
+      _pdmkit_ensemble.json     format, format_version, signals, fs, conditions,
+                                n_members, files (name and member count of each part)
+      part-00000.parquet        one row per member: "member" (string), the condition
+      part-00001.parquet        columns, one list<float64> column per signal (null where
+      ...                       the member lacks it)
+
+Each part file holds ``members_per_file`` members, split into row groups of at most
+~16 M samples so that a reader holds one row group at a time.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pdmkit._atomic import atomic_dir
+from pdmkit.ensembles._ensemble import (
+    MEMBER,
+    Ensemble,
+    SignalList,
+    _names_list,
+    _positive_int,
+)
+from pdmkit.errors import DataError, DataNotFoundError
+
+__all__ = ["iter_parquet", "read_parquet", "write_parquet"]
+
+FORMAT = "pdmkit.ensemble"
+FORMAT_VERSION = 1
+MANIFEST = "_pdmkit_ensemble.json"
+_GROUP_VALUES = 1 << 24  # samples per row group (128 MiB of float64)
+_INT32_MAX = (1 << 31) - 1
+
+
+# --------------------------------------------------------------------------------------
+# writing
+# --------------------------------------------------------------------------------------
+
+
+def _list_array(xs: SignalList) -> Any:
+    """A pyarrow ``list<float64>`` array from per-member arrays (None -> null)."""
+    import pyarrow as pa
+
+    lengths = np.fromiter((0 if x is None else len(x) for x in xs), np.int64, len(xs))
+    total = int(lengths.sum())
+    if total > _INT32_MAX:
+        raise DataError(
+            f"a row group of {len(xs)} member(s) holds {total} samples, more than a "
+            "Parquet list column can take; split the longest members with frames()"
+        )
+    offsets = np.zeros(len(xs) + 1, dtype=np.int32)
+    np.cumsum(lengths, out=offsets[1:])
+    present = [x for x in xs if x is not None]
+    values = np.concatenate(present) if present else np.empty(0, dtype=np.float64)
+    mask = np.fromiter((x is None for x in xs), bool, len(xs))
+    return pa.ListArray.from_arrays(
+        pa.array(offsets), pa.array(values, type=pa.float64()), mask=pa.array(mask)
+    )
+
+
+def _row_groups(ens: Ensemble, start: int, stop: int) -> list[tuple[int, int]]:
+    """Split members ``start:stop`` into runs of at most ~_GROUP_VALUES samples."""
+    sizes = np.zeros(stop - start, dtype=np.int64)
+    for s in ens.signal_names:
+        sizes += np.maximum(ens._lengths(s)[start:stop], 0)
+    groups, first, acc = [], start, 0
+    for i, size in enumerate(sizes, start=start):
+        if acc and acc + size > _GROUP_VALUES:
+            groups.append((first, i))
+            first, acc = i, 0
+        acc += int(size)
+    groups.append((first, stop))
+    return groups
+
+
+def _write_part(file: Path, ens: Ensemble, conditions: Any, start: int, stop: int) -> None:
+    """Write members ``start:stop`` to one Parquet file (row group by row group)."""
+    import pyarrow.parquet as pq
+
+    writer = None
+    try:
+        for a, b in _row_groups(ens, start, stop):
+            table = conditions.slice(a, b - a)
+            for s in ens.signal_names:
+                table = table.append_column(s, _list_array(ens._signals[s][a:b]))
+            if writer is None:
+                writer = pq.ParquetWriter(file, table.schema)
+            writer.write_table(table)
+    finally:
+        if writer is not None:
+            writer.close()
+
+
+def _conditions_table(ens: Ensemble) -> Any:
+    import pyarrow as pa
+
+    frame = ens._conditions.reset_index()
+    try:
+        return pa.Table.from_pandas(frame, preserve_index=False)
+    except (pa.ArrowException, TypeError, ValueError) as exc:
+        # name the offending column
+        for c in frame.columns:
+            try:
+                pa.Table.from_pandas(frame[[c]], preserve_index=False)
+            except (pa.ArrowException, TypeError, ValueError) as col_exc:
+                raise DataError(
+                    f"condition column {c!r} cannot be stored in Parquet ({col_exc}); "
+                    "give it one type (numbers, strings, booleans, timestamps)"
+                ) from None
+        raise DataError(f"the conditions cannot be stored in Parquet ({exc})") from None
+
+
+def _check_target(path: Path) -> None:
+    if not path.exists():
+        return
+    if not path.is_dir():
+        raise DataError(
+            f"{path} exists and is a file; refusing to replace it with an ensemble "
+            "directory. Choose another path."
+        )
+    entries = sorted(p.name for p in path.iterdir())
+    if entries and MANIFEST not in entries:
+        raise DataError(
+            f"{path} exists and is not a pdmkit ensemble (it holds {_names_list(entries)}, "
+            f"no {MANIFEST}); refusing to replace it. Choose another path or remove it."
+        )
+
+
+def write_parquet(
+    ens: Ensemble, path: str | os.PathLike, *, members_per_file: int = 256
+) -> Path:
+    """Write ``ens`` as a pdmkit Parquet dataset; the body of :meth:`Ensemble.to_parquet`.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> ens = Ensemble({"x": np.ones((3, 4))}, fs=2.0)
+    >>> path = write_parquet(ens, pathlib.Path(tempfile.mkdtemp()) / "ens")
+    >>> read_manifest(path)["n_members"]
+    3
+    """
+    if not hasattr(ens, "_signals"):  # duck-typed: doctests may load a module twice
+        raise DataError(f"write_parquet takes an Ensemble; got {type(ens).__name__}")
+    per_file = _positive_int(members_per_file, "members_per_file")
+    path = Path(path)
+    _check_target(path)
+    conditions = _conditions_table(ens)
+    n = len(ens)
+    files = []
+    with atomic_dir(path) as tmp:
+        # at least one file, so that an empty ensemble keeps its column types
+        for k, start in enumerate(range(0, max(n, 1), per_file)):
+            stop = min(start + per_file, n)
+            name = f"part-{k:05d}.parquet"
+            _write_part(tmp / name, ens, conditions, start, stop)
+            files.append({"name": name, "n_members": stop - start})
+        manifest = {
+            "format": FORMAT,
+            "format_version": FORMAT_VERSION,
+            "member_column": MEMBER,
+            "signals": ens.signal_names,
+            "fs": ens.fs,
+            "conditions": [str(c) for c in ens._conditions.columns],
+            "n_members": n,
+            "files": files,
+        }
+        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+    return path
+
+
+# --------------------------------------------------------------------------------------
+# reading
+# --------------------------------------------------------------------------------------
+
+
+def read_manifest(path: str | os.PathLike) -> dict[str, Any]:
+    """Read and check the manifest of a pdmkit Parquet dataset.
+
+    Raises
+    ------
+    pdmkit.errors.DataNotFoundError
+        The path does not exist.
+    pdmkit.errors.DataError
+        The path is not a pdmkit ensemble directory (the message says what it found).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> read_manifest(tempfile.mkdtemp())  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.DataError: ... is not a pdmkit ensemble: the directory is empty...
+    """
+    path = Path(path)
+    if not path.exists():
+        raise DataNotFoundError(
+            f"{path} does not exist; expected a pdmkit ensemble directory"
+        )
+    what = (
+        f"expected a directory with {MANIFEST} and part-*.parquet files "
+        "(written by Ensemble.to_parquet)"
+    )
+    if not path.is_dir():
+        hint = " (read a single Parquet table with read_table)" if path.suffix else ""
+        raise DataError(f"{path} is not a pdmkit ensemble: it is a file; {what}{hint}")
+    file = path / MANIFEST
+    if not file.is_file():
+        entries = sorted(p.name for p in path.iterdir())
+        found = f"it holds {_names_list(entries)}" if entries else "the directory is empty"
+        raise DataError(f"{path} is not a pdmkit ensemble: {found}; {what}")
+    try:
+        manifest = json.loads(file.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise DataError(
+            f"{file} is not valid JSON ({exc}); the dataset is damaged"
+        ) from None
+    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
+        raise DataError(f"{file} is not a pdmkit ensemble manifest (no format {FORMAT!r})")
+    version = manifest.get("format_version")
+    if not isinstance(version, int) or version > FORMAT_VERSION:
+        raise DataError(
+            f"{file} has format_version {version!r}; this pdmkit reads up to "
+            f"{FORMAT_VERSION}. Upgrade pdmkit."
+        )
+    needed = ("signals", "fs", "conditions", "n_members", "files")
+    missing = [k for k in needed if k not in manifest]
+    if missing:
+        raise DataError(f"{file} lacks the entries {missing}; the dataset is damaged")
+    for entry in manifest["files"]:
+        if not (path / entry["name"]).is_file():
+            raise DataError(
+                f"{path} is incomplete: the manifest lists {entry['name']!r}, which is "
+                "missing; write the dataset again"
+            )
+    return manifest
+
+
+def _pick(requested: Any, available: Sequence[str], what: str, path: Path) -> list[str]:
+    if requested is None:
+        return list(available)
+    names = [requested] if isinstance(requested, str) else list(requested)
+    unknown = [s for s in names if s not in available]
+    if unknown:
+        raise DataError(
+            f"the ensemble at {path} has no {what} {_names_list(unknown)}; it has "
+            f"{_names_list(list(available), 20) or 'none'}"
+        )
+    return names
+
+
+def _lists_to_arrays(column: Any) -> tuple[SignalList, bool]:
+    """Per-member float64 arrays (read-only, zero-copy where possible) of a list column."""
+    out: SignalList = []
+    finite = True
+    for chunk in column.chunks:
+        offsets = chunk.offsets.to_numpy()
+        values = chunk.values.to_numpy(zero_copy_only=False)
+        if values.dtype != np.float64:
+            values = values.astype(np.float64)
+        if values.flags.writeable:
+            values.flags.writeable = False
+        if offsets.size > 1:
+            finite &= bool(np.isfinite(values[offsets[0] : offsets[-1]]).all())
+        valid = chunk.is_valid().to_numpy(zero_copy_only=False)
+        out.extend(
+            values[a:b] if ok else None
+            for a, b, ok in zip(offsets[:-1], offsets[1:], valid, strict=True)
+        )
+    return out, finite
+
+
+def _table_to_ensemble(
+    table: Any, manifest: dict[str, Any], signals: list[str], columns: list[str], where: str
+) -> Ensemble:
+    ids = table.column(MEMBER).to_pylist()
+    conditions = table.select(columns).to_pandas() if columns else pd.DataFrame(index=ids)
+    arrays, all_finite = {}, True
+    for s in signals:
+        arrays[s], finite = _lists_to_arrays(table.column(s))
+        all_finite &= finite
+    fs = {s: float(manifest["fs"][s]) for s in signals}
+    if not all_finite:
+        try:  # the full check names the member and the signal
+            Ensemble(
+                arrays, fs, conditions=conditions.reset_index(drop=True), member_ids=ids
+            )
+        except DataError as exc:
+            raise DataError(f"{where}: {exc}") from None
+    conditions.index = pd.Index(ids, name=MEMBER, dtype=str)
+    return Ensemble._new(arrays, fs, conditions)
+
+
+def read_parquet(
+    path: str | os.PathLike,
+    *,
+    signals: str | Sequence[str] | None = None,
+    columns: Sequence[str] | None = None,
+) -> Ensemble:
+    """Read a whole pdmkit Parquet dataset; the body of :meth:`Ensemble.from_parquet`.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = Ensemble({"x": np.ones((2, 3))}, fs=1.0).to_parquet(
+    ...     pathlib.Path(tempfile.mkdtemp()) / "ens"
+    ... )
+    >>> len(read_parquet(path))
+    2
+    """
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    path = Path(path)
+    manifest = read_manifest(path)
+    sigs = _pick(signals, manifest["signals"], "signal(s)", path)
+    cols = _pick(columns, manifest["conditions"], "condition column(s)", path)
+    parts = []
+    for entry in manifest["files"]:
+        file = path / entry["name"]
+        try:
+            table = pq.read_table(file, columns=[MEMBER, *cols, *sigs])
+        except (pa.ArrowException, OSError) as exc:
+            raise DataError(f"cannot read {file} ({exc}); the dataset is damaged") from None
+        parts.append(_table_to_ensemble(table, manifest, sigs, cols, str(file)))
+    if len(parts) == 1:
+        return parts[0]
+    return Ensemble.concat(parts)
+
+
+def iter_parquet(
+    path: str | os.PathLike,
+    batch_size: int = 256,
+    signals: str | Sequence[str] | None = None,
+    columns: Sequence[str] | None = None,
+) -> Iterator[Ensemble]:
+    """Stream a pdmkit Parquet dataset as ensembles of ``batch_size`` members.
+
+    Files are read one row group at a time (pyarrow ``iter_batches``), so memory stays
+    bounded by about one row group plus one batch, however large the dataset. Every
+    batch except the last has exactly ``batch_size`` members; the batches, in order,
+    hold the members of the dataset in the order they were written.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A directory written by :meth:`Ensemble.to_parquet`.
+    batch_size : int, default 256
+        Members per batch.
+    signals : str or sequence of str, optional
+        Signals to read (default: all).
+    columns : sequence of str, optional
+        Condition columns to read (default: all).
+
+    Yields
+    ------
+    Ensemble
+
+    Raises
+    ------
+    pdmkit.errors.DataError
+        The directory is not a pdmkit ensemble (the message says what it found), or it
+        lacks a requested signal or column.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from pdmkit.ensembles import Ensemble, iter_parquet
+    >>> ens = Ensemble({"x": np.arange(10.0).reshape(5, 2)}, fs=1.0)
+    >>> path = ens.to_parquet(pathlib.Path(tempfile.mkdtemp()) / "ens", members_per_file=2)
+    >>> [len(b) for b in iter_parquet(path, batch_size=3)]
+    [3, 2]
+    """
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    size = _positive_int(batch_size, "batch_size")
+    path = Path(path)
+    manifest = read_manifest(path)
+    sigs = _pick(signals, manifest["signals"], "signal(s)", path)
+    cols = _pick(columns, manifest["conditions"], "condition column(s)", path)
+    buffer: list[Any] = []
+    buffered = 0
+    for entry in manifest["files"]:
+        file = path / entry["name"]
+        try:
+            reader = pq.ParquetFile(file)
+            batches = reader.iter_batches(batch_size=size, columns=[MEMBER, *cols, *sigs])
+            for batch in batches:
+                if batch.num_rows == 0:
+                    continue
+                buffer.append(batch)
+                buffered += batch.num_rows
+                while buffered >= size:
+                    table = pa.Table.from_batches(buffer)
+                    yield _table_to_ensemble(
+                        table.slice(0, size), manifest, sigs, cols, str(file)
+                    )
+                    rest = table.slice(size)
+                    buffer, buffered = rest.to_batches(), rest.num_rows
+        except (pa.ArrowException, OSError) as exc:
+            raise DataError(f"cannot read {file} ({exc}); the dataset is damaged") from None
+    if buffered:
+        table = pa.Table.from_batches(buffer)
+        yield _table_to_ensemble(table, manifest, sigs, cols, str(path))
