@@ -74,9 +74,13 @@ def _finish(summary: dict, args: argparse.Namespace, report, name: str) -> None:
 
 
 # --------------------------------------------------------------------------- inputs
-def _add_input_options(parser: argparse.ArgumentParser, *, features_ok: bool = True) -> None:
+def _add_input_options(
+    parser: argparse.ArgumentParser, *, features_ok: bool = True
+) -> None:
     source = parser.add_mutually_exclusive_group(required=True)
-    source.add_argument("--dataset", help="named dataset (see `pdmkit datasets`), e.g. cwru")
+    source.add_argument(
+        "--dataset", help="named dataset (see `pdmkit datasets`), e.g. cwru"
+    )
     source.add_argument("--ensemble", type=Path, help="Parquet ensemble directory")
     if features_ok:
         source.add_argument("--features", type=Path, help="feature table (Parquet)")
@@ -87,19 +91,28 @@ def _add_input_options(parser: argparse.ArgumentParser, *, features_ok: bool = T
         default=None,
         help="indicator groups to extract (default: the dataset's, else stats spectral)",
     )
+    parser.add_argument(
+        "--signals",
+        nargs="+",
+        default=None,
+        help="use only these signals' indicators (default: the dataset's choice, else all)",
+    )
     parser.add_argument("--out", type=Path, default=Path("results"), help="output folder")
     parser.add_argument("--json", type=Path, help="also write the JSON summary here")
 
 
 def _feature_table(args: argparse.Namespace):
-    """Return (table, label, sensors) for the input the user named."""
+    """Return (table, label, sensors, features) for the input the user named.
+
+    ``features`` lists the indicator columns ``classify``/``rank`` use by default.
+    """
     from pdmkit.experiments._datasets import get_profile
 
     if getattr(args, "features", None) is not None:
         from pdmkit.ensembles import read_table
 
         table = read_table(args.features)
-        return table, args.label, None
+        return table, args.label, None, _indicator_columns(table, args.signals)
     if args.dataset is not None:
         profile = get_profile(args.dataset)
         _say(f"loading dataset {profile.name!r}")
@@ -118,7 +131,23 @@ def _feature_table(args: argparse.Namespace):
 
     _say(f"extracting {', '.join(groups)} indicators from {len(ensemble)} members")
     table = extract_ensemble(ensemble, groups=groups, **options)
-    return table, label, sensors
+    signals = args.signals
+    if signals is None and args.dataset is not None:
+        signals = profile.classify_signals
+    return table, label, sensors, _indicator_columns(table, signals)
+
+
+def _indicator_columns(table: pd.DataFrame, signals: Sequence[str] | None) -> list[str]:
+    columns = [c for c in table.columns if "/" in str(c)]
+    if signals is None:
+        return columns
+    chosen = [c for c in columns if str(c).split("/")[0] in set(signals)]
+    if not chosen:
+        found = sorted({str(c).split("/")[0] for c in columns})
+        raise DataError(
+            f"no indicators of signals {list(signals)} in the table; found {found}"
+        )
+    return chosen
 
 
 def _require_label(table: pd.DataFrame, label: str | None) -> str:
@@ -147,7 +176,9 @@ def _parse_sensors(items: Sequence[str] | None, table: pd.DataFrame, default):
         return sensors
     if default:
         return default
-    signals = sorted({str(c).split("/")[0] for c in table.columns if str(c).count("/") >= 2})
+    signals = sorted(
+        {str(c).split("/")[0] for c in table.columns if str(c).count("/") >= 2}
+    )
     if not signals:
         raise DataError(
             "cannot tell the sensors apart: feature columns are not named "
@@ -171,12 +202,12 @@ def _cmd_datasets(args: argparse.Namespace) -> int:
 def _cmd_features(args: argparse.Namespace) -> int:
     from pdmkit.experiments._report import Report
 
-    table, label, _ = _feature_table(args)
+    table, _, _, _ = _feature_table(args)
     out = Path(args.out)
     write_parquet(table, out / "features.parquet")
     feature_cols = [c for c in table.columns if "/" in str(c)]
     summary = {
-        "n_members": int(len(table)),
+        "n_members": len(table),
         "n_features": len(feature_cols),
         "features": feature_cols,
         "conditions": [c for c in table.columns if c not in feature_cols],
@@ -191,19 +222,18 @@ def _cmd_features(args: argparse.Namespace) -> int:
     return 0
 
 
-def _ranking(table: pd.DataFrame, label: str, method: str):
+def _ranking(table: pd.DataFrame, label: str, method: str, features: list[str]):
     from pdmkit.features import rank_features
 
-    feature_cols = [c for c in table.columns if "/" in str(c)]
-    return rank_features(table, table[label], method=method, features=feature_cols)
+    return rank_features(table, table[label], method=method, features=features)
 
 
 def _cmd_rank(args: argparse.Namespace) -> int:
     from pdmkit.experiments._report import Report
 
-    table, label, _ = _feature_table(args)
+    table, label, _, features = _feature_table(args)
     label = _require_label(table, label)
-    ranking = _ranking(table, label, args.method)
+    ranking = _ranking(table, label, args.method, features)
     ranked = ranking.to_pandas()
     write_parquet(ranked, Path(args.out) / "ranking.parquet")
     summary = {
@@ -222,11 +252,12 @@ def _cmd_classify(args: argparse.Namespace) -> int:
     from pdmkit.experiments._classify import classify
     from pdmkit.experiments._report import Report
 
-    table, label, _ = _feature_table(args)
+    table, label, _, features = _feature_table(args)
     label = _require_label(table, label)
     result = classify(
         table,
         label,
+        features=features,
         model=args.model,
         top_k=args.top_k,
         selection=args.selection,
@@ -245,7 +276,8 @@ def _cmd_classify(args: argparse.Namespace) -> int:
     report.add_table(result.to_pandas(), caption="Per-class recall")
     if args.selection in ("kruskal", "anova"):
         report.add_figure(
-            _ranking(table, label, args.selection).plot(k=20), caption="Indicator ranking"
+            _ranking(table, label, args.selection, features).plot(k=20),
+            caption="Indicator ranking",
         )
     _finish(summary, args, report, "classify")
     return 0
@@ -255,21 +287,29 @@ def _cmd_sensors(args: argparse.Namespace) -> int:
     from pdmkit.experiments._report import Report
     from pdmkit.experiments._sensors import compare_sensors, load_sensor_costs
 
-    table, label, default_sensors = _feature_table(args)
+    table, label, default_sensors, _ = _feature_table(args)
     label = _require_label(table, label)
     sensors = _parse_sensors(args.sensor, table, default_sensors)
     costs = load_sensor_costs(args.costs)
     comparison = compare_sensors(
-        table, label, sensors, costs, model=args.model, top_k=args.top_k, random_state=args.seed
+        table,
+        label,
+        sensors,
+        costs,
+        model=args.model,
+        top_k=args.top_k,
+        random_state=args.seed,
     )
     summary = comparison.summary()
     report = Report("pdmkit sensors")
     frame = comparison.to_pandas()
-    report.add_figure(comparison.plot(), caption="Accuracy against cost, Pareto front marked")
+    report.add_figure(
+        comparison.plot(), caption="Accuracy against cost, Pareto front marked"
+    )
     report.add_table(frame, caption="Sensors by accuracy (cross-validated) and cost")
-    for note in frame.get("note", pd.Series(dtype=str)).dropna():
+    for sensor, note in zip(frame["sensor"], frame["note"], strict=True):
         if note:
-            report.add_text(note)
+            report.add_text(f"{sensor}: {note}")
     _finish(summary, args, report, "sensors")
     return 0
 
@@ -281,7 +321,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     summary = run_demo(args.out, members=args.members, seed=args.seed)
     if args.json:
         write_json(summary, args.json)
-    _say(f"demo finished in {time.perf_counter() - start:.0f} s; see {args.out}/report.html")
+    _say(
+        f"demo finished in {time.perf_counter() - start:.0f} s; see {args.out}/report.html"
+    )
     return 0
 
 

@@ -1,0 +1,872 @@
+"""Fault classification from a feature table: selector + model pipelines and their scores.
+
+The workflow follows the seed thesis (sections 2.3.4–2.3.5 and 7.3): rank the condition
+indicators (Kruskal-Wallis or one-way ANOVA) or project them with PCA, keep the first
+``top_k``, train a classifier (kNN, bagged trees, SVM, ...), and judge it by its
+accuracy and confusion matrix on members it has not seen, with cross-validation on the
+training part.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Hashable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from sklearn.base import BaseEstimator, clone
+from sklearn.metrics import confusion_matrix
+from sklearn.model_selection import StratifiedKFold, cross_val_score, train_test_split
+from sklearn.pipeline import Pipeline
+
+from pdmkit.errors import DataError
+from pdmkit.experiments._report import _to_jsonable
+
+__all__ = [
+    "MODELS",
+    "SELECTIONS",
+    "ClassificationResult",
+    "classify",
+    "compare_models",
+    "make_classifier",
+]
+
+#: Model names accepted by :func:`make_classifier`.
+MODELS = ("knn", "bagged_trees", "svm", "random_forest", "lda")
+#: Feature-selection methods accepted by :func:`make_classifier` (and ``None``).
+SELECTIONS = ("kruskal", "anova", "pca", None)
+
+_KNN_NEIGHBORS = 5
+
+
+# --------------------------------------------------------------------------- helpers
+def _show(items: Sequence[Any], limit: int = 8) -> str:
+    """Return a short printable list: the first ``limit`` items and how many more."""
+    items = list(items)
+    head = ", ".join(repr(_plain(i)) for i in items[:limit])
+    more = f" and {len(items) - limit} more" if len(items) > limit else ""
+    return f"[{head}]{more}"
+
+
+def _plain(value: Any) -> Any:
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _sorted_labels(values: Any) -> list:
+    unique = list(pd.unique(np.asarray(values, dtype=object)))
+    try:
+        return sorted(unique)
+    except TypeError:
+        return sorted(unique, key=str)
+
+
+def _label_values(y: pd.Series, notes: list[str]) -> np.ndarray:
+    """Labels as an array scikit-learn takes as classes (strings when it would not)."""
+    from sklearn.utils.multiclass import type_of_target
+
+    values = pd.Series(y.tolist()).to_numpy()  # infer int / float / object per value
+    if type_of_target(values) in ("binary", "multiclass"):
+        return values
+    notes.append(
+        f"labels of {y.name!r} are not class-like for scikit-learn "
+        f"({type_of_target(values)}); they were compared as strings"
+    )
+    return np.array([str(v) for v in values], dtype=object)
+
+
+def _feature_columns(table: pd.DataFrame) -> list[str]:
+    """The numeric (not boolean) columns whose name contains '/'."""
+    return [
+        c
+        for c in table.columns
+        if "/" in str(c)
+        and pd.api.types.is_numeric_dtype(table[c])
+        and not pd.api.types.is_bool_dtype(table[c])
+    ]
+
+
+def _check_table(table: Any, label: str) -> pd.Series:
+    """Validate the label column; return it (object dtype) indexed by member."""
+    if not isinstance(table, pd.DataFrame):
+        raise DataError(
+            f"the feature table must be a pandas DataFrame (one row per member); "
+            f"got {type(table).__name__}"
+        )
+    if label not in table.columns:
+        conditions = [c for c in table.columns if "/" not in str(c)]
+        raise DataError(
+            f"label column {label!r} is not in the feature table; condition columns "
+            f"found: {conditions}. Pass label= one of them."
+        )
+    if table.index.has_duplicates:
+        dup = table.index[table.index.duplicated()].unique()
+        raise DataError(
+            f"member ids (the table index) must be unique; duplicated: {_show(dup)}. "
+            "Reset or rebuild the index."
+        )
+    y = table[label].astype(object)
+    missing = y.isna()
+    if missing.any():
+        raise DataError(
+            f"label {label!r} is missing for members {_show(table.index[missing])}; "
+            "fill the label or drop those members"
+        )
+    counts = y.value_counts()
+    if len(counts) < 2:
+        raise DataError(
+            f"label {label!r} has a single class {_show(counts.index)} "
+            f"({len(y)} members); a classifier needs at least 2 classes"
+        )
+    small = counts[counts < 2]
+    if len(small):
+        desc = ", ".join(f"{_plain(c)!r} has {n} member" for c, n in small.items())
+        raise DataError(
+            f"label {label!r}: every class needs at least 2 members to be split into "
+            f"training and test parts, but {desc}. Add members of that class, merge it "
+            "into another class, or drop it."
+        )
+    return y
+
+
+def _check_features(
+    table: pd.DataFrame, label: str, features: Sequence[str] | None
+) -> list:
+    if features is None:
+        features = [c for c in _feature_columns(table) if c != label]
+        if not features:
+            raise DataError(
+                "no feature columns found: expected numeric columns named "
+                "'<signal>/<group>/<Feature>' or '<group>/<Feature>'; columns found: "
+                f"{_show(table.columns)}. Pass features= explicitly."
+            )
+        return features
+    if isinstance(features, str):
+        features = [features]
+    features = list(dict.fromkeys(features))
+    if not features:
+        raise DataError("features= is empty; name at least one feature column")
+    missing = [f for f in features if f not in table.columns]
+    if missing:
+        raise DataError(
+            f"feature columns {_show(missing)} are not in the table; available feature "
+            f"columns: {_show(_feature_columns(table))}"
+        )
+    if label in features:
+        raise DataError(f"the label column {label!r} cannot also be a feature")
+    bad = [
+        f
+        for f in features
+        if not pd.api.types.is_numeric_dtype(table[f])
+        or pd.api.types.is_bool_dtype(table[f])
+    ]
+    if bad:
+        raise DataError(
+            f"feature columns must be numeric; {_show(bad)} are "
+            f"{_show([str(table[b].dtype) for b in bad])}"
+        )
+    return features
+
+
+def _feature_matrix(table: pd.DataFrame, features: list) -> np.ndarray:
+    """Return the float matrix; DataError naming members and columns when not finite."""
+    X = table[features].to_numpy(dtype=float)
+    bad = ~np.isfinite(X)
+    if not bad.any():
+        return X
+    rows = np.flatnonzero(bad.any(axis=1))
+    cols = np.flatnonzero(bad.any(axis=0))
+    hint = (
+        "Drop those members, drop those columns, or fix the feature extraction; "
+        "classifiers need finite features."
+    )
+    # a signal whose features are all NaN for a member: that member lacks the signal
+    signals: dict[str, list[int]] = {}
+    for j, name in enumerate(features):
+        if str(name).count("/") >= 2:
+            signals.setdefault(str(name).split("/")[0], []).append(j)
+    absent = sorted(
+        s for s, js in signals.items() if np.isnan(X[np.ix_(rows, js)]).all(axis=1).any()
+    )
+    if absent:
+        hint = (
+            f"Signal(s) {_show(absent)} are missing altogether for some of these members "
+            "(all their features NaN): leave those signals out (features= without their "
+            "columns, or compare_sensors to score each sensor on the members that have "
+            "it), or drop those members. Otherwise fix the feature extraction; "
+            "classifiers need finite features."
+        )
+    raise DataError(
+        f"features are NaN or infinite for {len(rows)} member(s) "
+        f"{_show(table.index[rows])} in column(s) "
+        f"{_show([features[c] for c in cols])}. {hint}"
+    )
+
+
+def make_classifier(
+    model: str | BaseEstimator = "knn",
+    *,
+    top_k: int = 5,
+    selection: str | None = "kruskal",
+    random_state: int | None = 0,
+) -> Pipeline:
+    """Build a fault-classifier pipeline: scaler -> feature selector -> model.
+
+    Parameters
+    ----------
+    model : {"knn", "bagged_trees", "svm", "random_forest", "lda"} or estimator
+        ``"knn"``: :class:`~sklearn.neighbors.KNeighborsClassifier` with 5 neighbours
+        weighted by distance; ``"bagged_trees"``: 30 bagged decision trees (MATLAB's
+        "Bagged Trees" preset, used in the seed's table 7.2); ``"svm"``: RBF-kernel
+        :class:`~sklearn.svm.SVC`; ``"random_forest"``: 200 trees; ``"lda"``: linear
+        discriminant analysis. An unfitted scikit-learn classifier is used as given
+        (cloned).
+    top_k : int, default 5
+        Number of indicators (or principal components) the selector keeps.
+    selection : {"kruskal", "anova", "pca", None}, default "kruskal"
+        ``"kruskal"`` / ``"anova"``: :class:`pdmkit.features.SelectTopRanked` keeps
+        the ``top_k`` best-ranked indicators; ``"pca"``: the first ``top_k``
+        principal components; ``None``: all indicators.
+    random_state : int or None, default 0
+        Seed of the randomised models (bagging, forest, PCA solver).
+
+    Returns
+    -------
+    sklearn.pipeline.Pipeline
+        Steps ``"scale"``, ``"select"`` (absent when ``selection=None``), ``"model"``.
+
+    Examples
+    --------
+    >>> pipe = make_classifier("bagged_trees", top_k=3, selection="pca")
+    >>> [name for name, _ in pipe.steps]
+    ['scale', 'select', 'model']
+    >>> pipe.named_steps["model"].n_estimators
+    30
+    >>> make_classifier("tree")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown model 'tree'; choose one of 'knn', 'bagged_trees', 'svm', ...
+    """
+    from sklearn.preprocessing import StandardScaler
+
+    if isinstance(top_k, bool) or not isinstance(top_k, int | np.integer) or top_k < 1:
+        raise ValueError(f"top_k must be a positive integer; got {top_k!r}")
+    if selection not in SELECTIONS:
+        raise ValueError(
+            f"unknown selection {selection!r}; choose one of "
+            f"{', '.join(repr(s) for s in SELECTIONS)}"
+        )
+    estimator = _make_estimator(model, random_state)
+    steps: list[tuple[str, Any]] = [("scale", StandardScaler())]
+    if selection in ("kruskal", "anova"):
+        from pdmkit.features import SelectTopRanked
+
+        steps.append(("select", SelectTopRanked(k=int(top_k), method=selection)))
+    elif selection == "pca":
+        from sklearn.decomposition import PCA
+
+        steps.append(("select", PCA(n_components=int(top_k), random_state=random_state)))
+    steps.append(("model", estimator))
+    return Pipeline(steps)
+
+
+def _make_estimator(model: str | BaseEstimator, random_state: int | None) -> BaseEstimator:
+    if not isinstance(model, str):
+        if hasattr(model, "fit") and hasattr(model, "predict"):
+            return clone(model)
+        raise ValueError(
+            f"model must be one of {', '.join(repr(m) for m in MODELS)} or a scikit-learn "
+            f"classifier; got {type(model).__name__}"
+        )
+    if model == "knn":
+        from sklearn.neighbors import KNeighborsClassifier
+
+        return KNeighborsClassifier(n_neighbors=_KNN_NEIGHBORS, weights="distance")
+    if model == "bagged_trees":
+        from sklearn.ensemble import BaggingClassifier
+        from sklearn.tree import DecisionTreeClassifier
+
+        return BaggingClassifier(
+            estimator=DecisionTreeClassifier(), n_estimators=30, random_state=random_state
+        )
+    if model == "svm":
+        from sklearn.svm import SVC
+
+        return SVC(kernel="rbf", gamma="scale", C=1.0)
+    if model == "random_forest":
+        from sklearn.ensemble import RandomForestClassifier
+
+        return RandomForestClassifier(n_estimators=200, random_state=random_state)
+    if model == "lda":
+        from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+
+        return LinearDiscriminantAnalysis()
+    raise ValueError(
+        f"unknown model {model!r}; choose one of {', '.join(repr(m) for m in MODELS)}, "
+        "or pass a scikit-learn classifier"
+    )
+
+
+def _model_name(model: str | BaseEstimator) -> str:
+    return model if isinstance(model, str) else type(model).__name__
+
+
+def _fit_to_size(
+    pipe: Pipeline, n_features: int, n_fit: int, notes: list[str], top_k: int
+) -> Pipeline:
+    """Shrink top_k / n_neighbors when the data are too small for them; note it."""
+    select = pipe.named_steps.get("select")
+    if select is not None:
+        from sklearn.decomposition import PCA
+
+        if isinstance(select, PCA):
+            k = min(top_k, n_features, n_fit)
+            if k < top_k:
+                notes.append(
+                    f"top_k lowered from {top_k} to {k}: PCA cannot keep more components "
+                    f"than features ({n_features}) or fitted members ({n_fit})"
+                )
+                pipe.set_params(select__n_components=k)
+        elif top_k > n_features:
+            notes.append(f"top_k={top_k} exceeds the {n_features} features; all are kept")
+            pipe.set_params(select__k=n_features)
+    model = pipe.named_steps["model"]
+    n_neighbors = getattr(model, "n_neighbors", None)
+    if isinstance(n_neighbors, int) and n_neighbors > n_fit:
+        notes.append(
+            f"n_neighbors lowered from {n_neighbors} to {n_fit}: only {n_fit} members "
+            "in the smallest training fold"
+        )
+        pipe.set_params(model__n_neighbors=n_fit)
+    return pipe
+
+
+def _cv_folds(y: pd.Series, cv: int | None, notes: list[str], where: str) -> int:
+    """Number of stratified folds actually usable (0: no cross-validation)."""
+    if cv is None or cv == 0:
+        return 0
+    if isinstance(cv, bool) or not isinstance(cv, int | np.integer) or cv < 2:
+        raise ValueError(f"cv must be an integer >= 2, or None to skip; got {cv!r}")
+    counts = y.value_counts()
+    smallest = int(counts.min())
+    if smallest < cv:
+        cls = _plain(counts.idxmin())
+        if smallest < 2:
+            notes.append(
+                f"no cross-validation: class {cls!r} has a single member in the {where}"
+            )
+            return 0
+        notes.append(
+            f"cv lowered from {cv} to {smallest} folds: class {cls!r} has only "
+            f"{smallest} members in the {where}"
+        )
+        return smallest
+    return int(cv)
+
+
+def _smallest_fit_size(y: pd.Series, folds: int) -> int:
+    """A lower bound on the members any stratified training fold holds."""
+    if not folds:
+        return len(y)
+    held = sum(math.ceil(n / folds) for n in y.value_counts())
+    return max(1, len(y) - held)
+
+
+def _cv_scores(
+    pipe: Pipeline, X: np.ndarray, y: np.ndarray, n_splits: int, random_state: int | None
+) -> np.ndarray:
+    """Accuracy on each fold of a shuffled stratified k-fold split."""
+    folds = StratifiedKFold(n_splits=n_splits, shuffle=True, random_state=random_state)
+    return cross_val_score(
+        clone(pipe), X, y, cv=folds, scoring="accuracy", error_score="raise"
+    )
+
+
+def _selected_names(pipe: Pipeline, features: list) -> list[str]:
+    """Names of what the fitted selector keeps, best first."""
+    select = pipe.named_steps.get("select")
+    if select is None:
+        return [str(f) for f in features]
+    if hasattr(select, "components_") and not hasattr(select, "selected_"):
+        return [f"PC{i + 1}" for i in range(select.components_.shape[0])]
+    idx = np.asarray(select.selected_, dtype=int)
+    scores = getattr(select, "scores_", None)
+    if scores is not None and np.shape(scores) == (len(features),):
+        # order by score, best first (stable: ties keep column order)
+        s = np.nan_to_num(np.asarray(scores, dtype=float)[idx], nan=-np.inf)
+        idx = idx[np.argsort(-s, kind="stable")]
+    return [str(features[i]) for i in idx]
+
+
+# --------------------------------------------------------------------------- result
+@dataclass(repr=False)
+class ClassificationResult:
+    """A trained fault classifier and its scores on held-out members.
+
+    Attributes
+    ----------
+    model : str
+        Model name (``"knn"``, ...) or the estimator's class name.
+    label : str
+        The condition column that was predicted.
+    labels : list
+        Class labels in sorted order (rows and columns of ``confusion``).
+    features : list of str
+        What the selector kept, best first (``"PC1"``, ... for PCA).
+    input_features : list of str
+        The feature columns the pipeline was given (and :meth:`predict` needs).
+    accuracy : float
+        Fraction of held-out members classified correctly.
+    recall, precision : dict
+        Per class, on the held-out members (precision NaN when never predicted).
+    confusion : numpy.ndarray
+        Held-out counts, rows the true class, columns the predicted class.
+    n_train, n_test : int
+        Members used for training and for the held-out test.
+    cv_accuracy, cv_accuracy_std : float
+        Mean and standard deviation of the accuracy over the stratified folds of the
+        training part (NaN when cross-validation was skipped).
+    cv_scores : numpy.ndarray
+        Accuracy of each fold.
+    pipeline : sklearn.pipeline.Pipeline
+        Fitted on the training part.
+    test_members : pandas.Index
+        Member ids of the held-out part; ``y_true`` / ``y_pred`` align with it.
+    notes : list of str
+        What was adjusted on the way (fewer folds, smaller ``top_k``, ...).
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> rng = np.random.default_rng(0)
+    >>> y = np.repeat(["healthy", "worn"], 20)
+    >>> table = pd.DataFrame({"v/stats/RMS": rng.normal(size=40) + 4 * (y == "worn"),
+    ...                       "v/stats/Mean": rng.normal(size=40), "state": y})
+    >>> res = classify(table, "state", model="lda", selection=None, cv=4)
+    >>> res.accuracy, res.n_test, res.labels
+    (1.0, 10, ['healthy', 'worn'])
+    >>> res.confusion.tolist()
+    [[5, 0], [0, 5]]
+    """
+
+    model: str
+    label: str
+    labels: list
+    features: list[str]
+    input_features: list[str]
+    accuracy: float
+    recall: dict
+    precision: dict
+    confusion: np.ndarray
+    n_train: int
+    n_test: int
+    cv_accuracy: float
+    cv_accuracy_std: float
+    cv_scores: np.ndarray
+    pipeline: Pipeline
+    selection: str | None = None
+    top_k: int | None = None
+    test_members: pd.Index = field(default_factory=lambda: pd.Index([]))
+    y_true: np.ndarray = field(default_factory=lambda: np.array([], dtype=object))
+    y_pred: np.ndarray = field(default_factory=lambda: np.array([], dtype=object))
+    notes: list[str] = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        cv = (
+            f", cv_accuracy={self.cv_accuracy:.4f}±{self.cv_accuracy_std:.4f}"
+            if math.isfinite(self.cv_accuracy)
+            else ""
+        )
+        return (
+            f"ClassificationResult(model={self.model!r}, accuracy={self.accuracy:.4f}{cv}, "
+            f"n_train={self.n_train}, n_test={self.n_test}, features={self.features})"
+        )
+
+    def to_pandas(self) -> pd.DataFrame:
+        """Per-class table on the held-out members.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Index: class label; columns ``n_test`` (members of that class held out),
+            ``correct``, ``recall``, ``precision``, ``predicted`` (members predicted as
+            that class).
+
+        Examples
+        --------
+        >>> import numpy as np, pandas as pd
+        >>> y = np.repeat(["a", "b"], 8)
+        >>> t = pd.DataFrame({"s/F": np.r_[np.zeros(8), np.ones(8)] + np.arange(16) / 100,
+        ...                   "c": y})
+        >>> classify(t, "c", selection=None, model="lda", cv=None).to_pandas()["recall"]
+        c
+        a    1.0
+        b    1.0
+        Name: recall, dtype: float64
+        """
+        cm = self.confusion
+        frame = pd.DataFrame(
+            {
+                "n_test": cm.sum(axis=1),
+                "correct": np.diag(cm),
+                "recall": [self.recall[c] for c in self.labels],
+                "precision": [self.precision[c] for c in self.labels],
+                "predicted": cm.sum(axis=0),
+            },
+            index=pd.Index(self.labels, name=self.label),
+        )
+        return frame
+
+    def confusion_to_pandas(self) -> pd.DataFrame:
+        """The confusion matrix as a labelled table (rows true, columns predicted).
+
+        Examples
+        --------
+        >>> import numpy as np, pandas as pd
+        >>> t = pd.DataFrame({"s/F": np.arange(8.0), "c": list("aaaabbbb")})
+        >>> res = classify(t, "c", selection=None, model="lda", cv=None)
+        >>> cm = res.confusion_to_pandas()
+        >>> int(cm.loc["a", "a"]), int(cm.loc["a", "b"]), cm.index.name, cm.columns.name
+        (1, 0, 'true', 'predicted')
+        """
+        return pd.DataFrame(
+            self.confusion,
+            index=pd.Index(self.labels, name="true"),
+            columns=pd.Index(self.labels, name="predicted"),
+        )
+
+    def summary(self) -> dict:
+        """Plain-JSON summary (NaN written as ``None``).
+
+        Returns
+        -------
+        dict
+            Keys ``accuracy``, ``model``, ``features``, ``labels``, ``confusion``
+            (rows true, columns predicted), ``n_train``, ``n_test``, ``cv_accuracy``,
+            ``cv_accuracy_std``, ``cv_folds``, ``recall`` (class -> recall),
+            ``label``, ``selection``, ``top_k``, ``n_input_features``, ``notes``.
+
+        Examples
+        --------
+        >>> import json, numpy as np, pandas as pd
+        >>> t = pd.DataFrame({"s/F": np.arange(8.0), "c": list("aaaabbbb")})
+        >>> s = classify(t, "c", selection=None, model="lda", cv=None).summary()
+        >>> s["accuracy"], s["confusion"], s["cv_accuracy"]
+        (1.0, [[1, 0], [0, 1]], None)
+        >>> _ = json.dumps(s)
+        """
+        return _to_jsonable(
+            {
+                "model": self.model,
+                "label": self.label,
+                "accuracy": float(self.accuracy),
+                "cv_accuracy": float(self.cv_accuracy),
+                "cv_accuracy_std": float(self.cv_accuracy_std),
+                "cv_folds": len(self.cv_scores),
+                "n_train": int(self.n_train),
+                "n_test": int(self.n_test),
+                "selection": self.selection,
+                "top_k": self.top_k,
+                "features": list(self.features),
+                "n_input_features": len(self.input_features),
+                "labels": [_plain(c) for c in self.labels],
+                "confusion": self.confusion.tolist(),
+                "recall": {str(_plain(c)): float(self.recall[c]) for c in self.labels},
+                "notes": list(self.notes),
+            }
+        )
+
+    def predict(self, table: pd.DataFrame) -> pd.Series:
+        """Predict the class of each member of a feature table.
+
+        Parameters
+        ----------
+        table : pandas.DataFrame
+            Must hold the columns in :attr:`input_features`, finite.
+
+        Returns
+        -------
+        pandas.Series
+            Predicted labels, indexed like ``table``.
+
+        Examples
+        --------
+        >>> import numpy as np, pandas as pd
+        >>> t = pd.DataFrame({"s/F": np.arange(8.0), "c": list("aaaabbbb")})
+        >>> res = classify(t, "c", selection=None, model="lda", cv=None)
+        >>> res.predict(pd.DataFrame({"s/F": [0.5, 7.5]}, index=["m1", "m2"])).tolist()
+        ['a', 'b']
+        """
+        missing = [f for f in self.input_features if f not in table.columns]
+        if missing:
+            raise DataError(
+                f"the table lacks feature columns {_show(missing)} that this classifier "
+                "was trained on; extract the same indicators first"
+            )
+        X = _feature_matrix(table, list(self.input_features))
+        return pd.Series(self.pipeline.predict(X), index=table.index, name=self.label)
+
+    def plot(self, ax: Any = None, *, normalize: bool = False, cmap: str = "Blues") -> Any:
+        """Draw the confusion matrix as a heatmap with the counts written in.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; a new figure when omitted.
+        normalize : bool, default False
+            Colour by the fraction of each true class (recall per row); the cells still
+            show the counts.
+        cmap : str, default "Blues"
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+
+        Examples
+        --------
+        >>> import matplotlib
+        >>> matplotlib.use("Agg")
+        >>> import numpy as np, pandas as pd
+        >>> t = pd.DataFrame({"s/F": np.arange(8.0), "c": list("aaaabbbb")})
+        >>> ax = classify(t, "c", selection=None, model="lda", cv=None).plot()
+        >>> ax.get_xlabel(), ax.get_ylabel()
+        ('predicted class', 'true class')
+        """
+        import matplotlib.pyplot as plt
+
+        cm = np.asarray(self.confusion)
+        n = len(self.labels)
+        if ax is None:
+            size = max(3.5, 0.6 * n + 2.0)
+            _, ax = plt.subplots(figsize=(size + 0.8, size))
+        rows = cm.sum(axis=1, keepdims=True)
+        shade = (
+            np.divide(cm, rows, out=np.zeros(cm.shape), where=rows > 0) if normalize else cm
+        )
+        image = ax.imshow(shade, cmap=cmap, vmin=0, interpolation="nearest")
+        ax.figure.colorbar(
+            image,
+            ax=ax,
+            fraction=0.046,
+            pad=0.04,
+            label="fraction of true class" if normalize else "members",
+        )
+        top = float(shade.max()) if shade.size else 0.0
+        for i in range(n):
+            for j in range(n):
+                colour = "white" if top > 0 and shade[i, j] > 0.5 * top else "black"
+                ax.text(j, i, str(int(cm[i, j])), ha="center", va="center", color=colour)
+        names = [str(c) for c in self.labels]
+        ax.set_xticks(
+            range(n), names, rotation=45 if n > 3 else 0, ha="right" if n > 3 else "center"
+        )
+        ax.set_yticks(range(n), names)
+        ax.set_xlabel("predicted class")
+        ax.set_ylabel("true class")
+        ax.set_title(
+            f"{self.model}: accuracy {self.accuracy:.1%} on {self.n_test} held-out members"
+        )
+        return ax
+
+
+# --------------------------------------------------------------------------- workflow
+def classify(
+    table: pd.DataFrame,
+    label: str,
+    *,
+    features: Sequence[str] | None = None,
+    model: str | BaseEstimator = "knn",
+    top_k: int = 5,
+    selection: str | None = "kruskal",
+    test_size: float = 0.25,
+    cv: int | None = 5,
+    random_state: int | None = 0,
+) -> ClassificationResult:
+    """Train a fault classifier on a feature table and score it on held-out members.
+
+    The members are split once, stratified by class, into a training part and a
+    held-out test part (``train_test_split(..., stratify=y, test_size=test_size,
+    random_state=random_state)``). The pipeline of :func:`make_classifier` is
+    cross-validated on the training part (``StratifiedKFold(cv, shuffle=True,
+    random_state=random_state)``), then fitted on the whole training part and scored
+    on the test part. Feature selection is part of the pipeline, so it only ever
+    sees training members.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        One row per member (index: member ids); feature columns and the label column.
+    label : str
+        Condition column holding the class (fault code, string, category).
+    features : sequence of str, optional
+        Feature columns to use; default: every numeric column whose name contains
+        ``"/"``.
+    model, top_k, selection
+        See :func:`make_classifier`. ``top_k`` is lowered (with a note) when there
+        are fewer features.
+    test_size : float, default 0.25
+        Fraction of members held out, in (0, 1).
+    cv : int or None, default 5
+        Folds of the cross-validation on the training part; lowered (with a note)
+        when the smallest class has fewer training members; ``None`` skips it.
+    random_state : int or None, default 0
+        Seed of the split, the folds and the randomised models.
+
+    Returns
+    -------
+    ClassificationResult
+
+    Raises
+    ------
+    DataError
+        The label column is missing or has NaN; fewer than 2 classes; a class with
+        a single member; NaN or infinite features (the message names the members and
+        columns); too few members for the requested split.
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> rng = np.random.default_rng(1)
+    >>> y = np.repeat(["normal", "inner", "outer"], 30)
+    >>> X = rng.normal(size=(90, 6))
+    >>> X[:, 2] += 5 * (y == "inner")
+    >>> X[:, 4] += 5 * (y == "outer")
+    >>> cols = [f"DE/stats/F{i}" for i in range(6)]
+    >>> table = pd.DataFrame(X, columns=cols).assign(fault=y)
+    >>> res = classify(table, "fault", model="knn", top_k=2, selection="anova")
+    >>> sorted(res.features)
+    ['DE/stats/F2', 'DE/stats/F4']
+    >>> res.accuracy, res.n_train, res.n_test
+    (1.0, 67, 23)
+    """
+    notes: list[str] = []
+    y = _check_table(table, label)
+    features = _check_features(table, label, features)
+    X = _feature_matrix(table, features)
+    if not isinstance(test_size, float | np.floating) or not 0.0 < test_size < 1.0:
+        raise ValueError(f"test_size must be a float in (0, 1); got {test_size!r}")
+    n = len(y)
+    n_classes = y.nunique()
+    n_test = math.ceil(test_size * n)
+    n_train = n - n_test
+    if n_test < n_classes or n_train < n_classes:
+        raise DataError(
+            f"{n} members split with test_size={test_size} give {n_train} training and "
+            f"{n_test} test members, but each part needs at least one member of each of "
+            f"the {n_classes} classes; change test_size or add members"
+        )
+    pipe = make_classifier(
+        model, top_k=top_k, selection=selection, random_state=random_state
+    )
+
+    positions = np.arange(n)
+    y_all = _label_values(y, notes)
+    train_pos, test_pos = train_test_split(
+        positions, test_size=test_size, stratify=y_all, random_state=random_state
+    )
+    y_train, y_test = y_all[train_pos], y_all[test_pos]
+
+    folds = _cv_folds(y.iloc[train_pos], cv, notes, "training part")
+    smallest_fit = _smallest_fit_size(y.iloc[train_pos], folds)
+    _fit_to_size(pipe, len(features), smallest_fit, notes, top_k)
+    if folds:
+        scores = _cv_scores(pipe, X[train_pos], y_train, folds, random_state)
+        cv_mean, cv_std = float(scores.mean()), float(scores.std())
+    else:
+        scores, cv_mean, cv_std = np.array([]), math.nan, math.nan
+
+    pipe.fit(X[train_pos], y_train)
+    y_pred = pipe.predict(X[test_pos])
+    labels = _sorted_labels(y_all)
+    cm = confusion_matrix(y_test, y_pred, labels=labels)
+    predicted = cm.sum(axis=0)
+    support = cm.sum(axis=1)
+    recall = {c: cm[i, i] / support[i] for i, c in enumerate(labels)}
+    precision = {
+        c: (cm[i, i] / predicted[i] if predicted[i] else math.nan)
+        for i, c in enumerate(labels)
+    }
+    return ClassificationResult(
+        model=_model_name(model),
+        label=label,
+        labels=labels,
+        features=_selected_names(pipe, features),
+        input_features=[str(f) for f in features],
+        accuracy=float(np.trace(cm) / cm.sum()),
+        recall={c: float(v) for c, v in recall.items()},
+        precision={c: float(v) for c, v in precision.items()},
+        confusion=cm,
+        n_train=len(train_pos),
+        n_test=len(test_pos),
+        cv_accuracy=cv_mean,
+        cv_accuracy_std=cv_std,
+        cv_scores=np.asarray(scores, dtype=float),
+        pipeline=pipe,
+        selection=selection,
+        top_k=top_k,
+        test_members=table.index[test_pos],
+        y_true=y_test,
+        y_pred=np.asarray(y_pred),
+        notes=notes,
+    )
+
+
+def compare_models(
+    table: pd.DataFrame,
+    label: str,
+    models: Sequence[str | BaseEstimator] = MODELS,
+    **kwargs: Any,
+) -> pd.DataFrame:
+    """Score several models on the same split and folds.
+
+    Parameters
+    ----------
+    table, label
+        As for :func:`classify`.
+    models : sequence, default all of :data:`MODELS`
+        Model names (or scikit-learn classifiers).
+    **kwargs
+        Passed to :func:`classify` (``features``, ``top_k``, ``selection``,
+        ``test_size``, ``cv``, ``random_state``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per model: ``model``, ``accuracy`` (held-out), ``cv_accuracy``,
+        ``cv_accuracy_std``, ``n_train``, ``n_test``, ``features`` (selected, joined
+        with ``"; "``), ``note``; in the order given.
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> rng = np.random.default_rng(2)
+    >>> y = np.repeat(["ok", "fault"], 25)
+    >>> table = pd.DataFrame({"p/stats/Mean": rng.normal(size=50) + 6 * (y == "fault"),
+    ...                       "p/stats/Std": rng.normal(size=50), "state": y})
+    >>> df = compare_models(table, "state", models=("knn", "lda"), top_k=1)
+    >>> df[["model", "accuracy"]].to_dict("records")
+    [{'model': 'knn', 'accuracy': 1.0}, {'model': 'lda', 'accuracy': 1.0}]
+    """
+    if "model" in kwargs:
+        raise TypeError("compare_models takes models=(...), not model=")
+    if isinstance(models, str):
+        models = (models,)
+    if not models:
+        raise ValueError("models is empty; name at least one model")
+    rows: list[dict[Hashable, Any]] = []
+    for model in models:
+        res = classify(table, label, model=model, **kwargs)
+        rows.append(
+            {
+                "model": res.model,
+                "accuracy": res.accuracy,
+                "cv_accuracy": res.cv_accuracy,
+                "cv_accuracy_std": res.cv_accuracy_std,
+                "n_train": res.n_train,
+                "n_test": res.n_test,
+                "features": "; ".join(res.features),
+                "note": "; ".join(res.notes),
+            }
+        )
+    return pd.DataFrame(rows)
