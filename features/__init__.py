@@ -1,1 +1,62 @@
-"""pdmkit.features"""
+"""pdmkit.features: condition indicators, and their ranking and selection.
+
+Signal functions take an array with the samples along ``axis`` (1-D for one member,
+2-D ``(members, samples)`` for a batch) and are vectorised over members:
+
+- :func:`stats` - time-domain statistics (group ``"stats"``);
+- :func:`harmonic` - SINAD, SNR, THD as MATLAB computes them (group ``"harmonic"``);
+- :func:`spectral` - Welch-PSD peaks, band powers and spectral shape (group ``"spectral"``);
+- :func:`envelope_spectrum`, :func:`envelope_features`, :func:`bearing_frequencies` -
+  bearing envelope analysis (group ``"envelope"``).
+
+:func:`extract` turns an array into a feature table (columns ``<group>/<Feature>``) and
+:func:`extract_ensemble` an ensemble into one (``<signal>/<group>/<Feature>`` beside the
+condition variables, indexed by member id). :func:`rank_features` ranks the columns
+(Kruskal-Wallis, ANOVA, monotonicity, trendability, prognosability) and
+:class:`SelectTopRanked` keeps the best ones inside a scikit-learn Pipeline.
+
+Examples
+--------
+>>> import numpy as np
+>>> import pdmkit.features as pf
+>>> x = np.random.default_rng(0).normal(size=(3, 4096))
+>>> table = pf.extract(x, fs=4096.0)
+>>> table.shape
+(3, 27)
+>>> (table["stats/Kurtosis"] - 3).abs().lt(0.2).all()  # Gaussian noise: about 3
+np.True_
+"""
+
+from pdmkit.features._envelope import (
+    CWRU_DRIVE_END,
+    CWRU_FAN_END,
+    BearingGeometry,
+    EnvelopeSpectrum,
+    bearing_frequencies,
+    envelope_features,
+    envelope_spectrum,
+)
+from pdmkit.features._extract import GROUPS, extract, extract_ensemble
+from pdmkit.features._ranking import METHODS, FeatureRanking, SelectTopRanked, rank_features
+from pdmkit.features._spectral import spectral
+from pdmkit.features._stats import harmonic, stats
+
+__all__ = [
+    "CWRU_DRIVE_END",
+    "CWRU_FAN_END",
+    "GROUPS",
+    "METHODS",
+    "BearingGeometry",
+    "EnvelopeSpectrum",
+    "FeatureRanking",
+    "SelectTopRanked",
+    "bearing_frequencies",
+    "envelope_features",
+    "envelope_spectrum",
+    "extract",
+    "extract_ensemble",
+    "harmonic",
+    "rank_features",
+    "spectral",
+    "stats",
+]

@@ -1,0 +1,729 @@
+"""Ranking and selecting condition indicators.
+
+Two kinds of ranking, as in MATLAB's Diagnostic Feature Designer:
+
+- **Separating classes** (``labels`` given): Kruskal-Wallis H (rank-based one-way
+  ANOVA, robust to outliers and skew) or the one-way ANOVA F statistic. Higher is better.
+- **Prognostic quality** (a long run-to-failure table with ``unit`` and ``time``
+  columns), as MATLAB's Predictive Maintenance Toolbox defines them, all in ``[0, 1]``,
+  higher is better:
+
+  - ``monotonicity``: ``mean_j |#(dx > 0) - #(dx < 0)| / (n_j - 1)`` over units ``j``
+    (``dx`` the successive differences of the unit's path, ``n_j`` its length);
+  - ``trendability``: ``min_{j != k} |corr(x_j, x_k)|``, the paths resampled (linear
+    interpolation over the fraction of life) to the length of the shortest one;
+  - ``prognosability``: ``exp(-std_j(x_j(end)) / mean_j |x_j(start) - x_j(end)|)``
+    (``std`` with ``n - 1``; 0 for a single unit).
+
+Features that cannot be scored (constant, all NaN, too few groups) get a NaN score, are
+ranked last and carry a note saying why.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+import scipy.stats
+from sklearn.base import BaseEstimator
+from sklearn.feature_selection import SelectorMixin
+from sklearn.utils.validation import check_is_fitted
+
+from pdmkit.errors import DataError
+
+__all__ = ["METHODS", "FeatureRanking", "SelectTopRanked", "rank_features"]
+
+METHODS = ("kruskal", "anova", "monotonicity", "trendability", "prognosability")
+_SUPERVISED = ("kruskal", "anova")
+_AXIS_LABELS = {
+    "kruskal": "Kruskal-Wallis H",
+    "anova": "ANOVA F",
+    "monotonicity": "Monotonicity",
+    "trendability": "Trendability",
+    "prognosability": "Prognosability",
+}
+
+
+# --------------------------------------------------------------------------- result
+class FeatureRanking:
+    """Features ranked by a score (higher is better), with p-values and notes.
+
+    Parameters
+    ----------
+    scores : mapping or pandas.Series
+        Feature name -> score; NaN for features that could not be scored.
+    method : str
+        How the scores were computed (one of :data:`METHODS`).
+    p_values : mapping or pandas.Series, optional
+        Feature name -> p-value (Kruskal-Wallis and ANOVA).
+    notes : mapping, optional
+        Feature name -> why it could not be scored, or what was left out.
+
+    Attributes
+    ----------
+    scores : pandas.Series
+        Scores in rank order (best first, NaN last).
+    p_values : pandas.Series or None
+        p-values in the same order.
+    notes : dict
+        Feature -> note, for the features that have one.
+    method : str
+
+    Examples
+    --------
+    >>> from pdmkit.features import FeatureRanking
+    >>> r = FeatureRanking({"a": 1.0, "b": 3.0, "c": float("nan")}, method="kruskal",
+    ...                    notes={"c": "constant feature"})
+    >>> r.top(2), r.features
+    (['b', 'a'], ['b', 'a', 'c'])
+    >>> r.to_pandas()[["feature", "score", "rank"]]
+      feature  score  rank
+    0       b    3.0     1
+    1       a    1.0     2
+    2       c    NaN     3
+    >>> r.notes
+    {'c': 'constant feature'}
+    """
+
+    def __init__(self, scores, *, method: str, p_values=None, notes=None) -> None:
+        scores = pd.Series(scores, dtype=float)
+        scores.index = scores.index.map(str)
+        values = scores.to_numpy()
+        # best first; NaN last; ties keep the input order
+        order = np.lexsort(
+            (np.arange(len(values)), -np.nan_to_num(values, nan=0.0), np.isnan(values))
+        )
+        self.scores = scores.iloc[order]
+        self.method = method
+        self.p_values = (
+            None
+            if p_values is None
+            else pd.Series(p_values, dtype=float)
+            .rename(index=str)
+            .reindex(self.scores.index)
+        )
+        self.notes = {str(k): str(v) for k, v in (notes or {}).items() if v}
+
+    @property
+    def features(self) -> list[str]:
+        """All features, best first (unscored ones last).
+
+        Examples
+        --------
+        >>> from pdmkit.features import FeatureRanking
+        >>> FeatureRanking({"x": 0.1, "y": 0.9}, method="monotonicity").features
+        ['y', 'x']
+        """
+        return [str(f) for f in self.scores.index]
+
+    def __len__(self) -> int:
+        return len(self.scores)
+
+    def __repr__(self) -> str:
+        best = ", ".join(f"{f}={s:.4g}" for f, s in self.scores.head(3).items())
+        return f"FeatureRanking(method={self.method!r}, {len(self)} features; best: {best})"
+
+    def top(self, k: int = 5) -> list[str]:
+        """The ``k`` best-ranked features that have a score (fewer if fewer do).
+
+        Examples
+        --------
+        >>> from pdmkit.features import FeatureRanking
+        >>> FeatureRanking({"x": 2.0, "y": float("nan")}, method="anova").top(5)
+        ['x']
+        """
+        if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 0:
+            raise ValueError(f"k must be a non-negative integer, got {k!r}")
+        scored = self.scores[self.scores.notna()]
+        return [str(f) for f in scored.index[: int(k)]]
+
+    def to_pandas(self) -> pd.DataFrame:
+        """Table with ``feature, score, rank, method, p_value, note``, best first.
+
+        ``p_value`` is NaN for the methods without one; ``note`` is empty unless the
+        feature was left out or partly left out.
+
+        Examples
+        --------
+        >>> from pdmkit.features import FeatureRanking
+        >>> r = FeatureRanking({"x": 2.0}, method="anova", p_values={"x": 0.01})
+        >>> r.to_pandas().drop(columns="note")
+          feature  score  rank method  p_value
+        0       x    2.0     1  anova     0.01
+        """
+        n = len(self.scores)
+        p = (
+            np.full(n, np.nan)
+            if self.p_values is None
+            else self.p_values.to_numpy(dtype=float)
+        )
+        return pd.DataFrame(
+            {
+                "feature": self.features,
+                "score": self.scores.to_numpy(),
+                "rank": np.arange(1, n + 1),
+                "method": self.method,
+                "p_value": p,
+                "note": [self.notes.get(f, "") for f in self.features],
+            }
+        )
+
+    def plot(self, ax=None, k: int = 20):
+        """Horizontal bar chart of the ``k`` best scores (best at the top).
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+            Where to draw; a new figure when omitted.
+        k : int, default 20
+            How many features to show.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+
+        Examples
+        --------
+        >>> from pdmkit.features import FeatureRanking
+        >>> ax = FeatureRanking({"x": 2.0, "y": 1.0}, method="kruskal").plot()
+        >>> [t.get_text() for t in ax.get_yticklabels()]
+        ['y', 'x']
+        """
+        import matplotlib.pyplot as plt
+
+        names = self.top(k)
+        values = self.scores.loc[names].to_numpy(dtype=float)
+        if ax is None:
+            height = 1.0 + 0.3 * max(len(names), 1)
+            _, ax = plt.subplots(figsize=(7, height))
+        finite = values[np.isfinite(values)]
+        cap = finite.max() * 1.1 if finite.size and finite.max() > 0 else 1.0
+        shown = np.where(np.isinf(values), cap, values)
+        y = np.arange(len(names))  # best at the top
+        ax.barh(y, shown[::-1], color="C0")
+        for yi, v in zip(y, values[::-1], strict=True):
+            if np.isinf(v):
+                ax.text(cap, yi, " inf", va="center")
+        ax.set_yticks(y, labels=names[::-1])
+        ax.set_xlabel(_AXIS_LABELS.get(self.method, self.method))
+        ax.set_title(f"Feature ranking ({self.method})")
+        return ax
+
+
+# --------------------------------------------------------------------------- scores
+def _group_codes(labels: np.ndarray) -> tuple[np.ndarray, int]:
+    codes, uniques = pd.factorize(pd.Series(labels), use_na_sentinel=True)
+    return codes, len(uniques)
+
+
+def _one_way_block(X: np.ndarray, codes: np.ndarray, method: str):
+    """Scores of fully-finite columns ``X`` (N x p) for group codes 0..k-1 (vectorised)."""
+    n, p = X.shape
+    present = np.unique(codes)
+    codes = np.searchsorted(present, codes)
+    k = len(present)
+    scores = np.full(p, np.nan)
+    pvals = np.full(p, np.nan)
+    notes = np.full(p, "", dtype=object)
+    if k < 2:
+        notes[:] = f"needs at least 2 groups with data, found {k}"
+        return scores, pvals, notes
+    constant = np.ptp(X, axis=0) == 0 if n else np.ones(p, dtype=bool)
+    notes[constant] = "constant feature"
+    counts = np.bincount(codes, minlength=k).astype(float)
+    onehot = np.zeros((k, n))
+    onehot[codes, np.arange(n)] = 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if method == "kruskal":
+            ranks = scipy.stats.rankdata(X, axis=0)
+            rank_sums = onehot @ ranks
+            h = 12.0 / (n * (n + 1)) * ((rank_sums**2) / counts[:, None]).sum(0) - 3.0 * (
+                n + 1
+            )
+            # with average ranks, sum(r^2) falls short of the tie-free value by
+            # sum(t^3 - t) / 12 over the tie groups: the tie correction without a sort
+            ties = 12.0 * (
+                n * (n + 1) * (2 * n + 1) / 6.0 - np.einsum("ij,ij->j", ranks, ranks)
+            )
+            correction = 1.0 - ties / (float(n) ** 3 - n)
+            scores = h / correction
+            pvals = scipy.stats.chi2.sf(scores, k - 1)
+        else:
+            if n - k < 1:
+                notes[~constant] = "every group has a single value: no within-group spread"
+                return scores, pvals, notes
+            means = (onehot @ X) / counts[:, None]
+            grand = X.mean(axis=0)
+            ssb = (counts[:, None] * (means - grand) ** 2).sum(0)
+            ssw = ((X - means[codes]) ** 2).sum(0)
+            scores = (ssb / (k - 1)) / (ssw / (n - k))
+            pvals = scipy.stats.f.sf(scores, k - 1, n - k)
+            perfect = (ssw == 0) & ~constant
+            scores[perfect] = np.inf
+            pvals[perfect] = 0.0
+            notes[perfect] = "no spread within groups (F is infinite)"
+    scores[constant] = np.nan
+    pvals[constant] = np.nan
+    return scores, pvals, notes
+
+
+def _one_way(X: np.ndarray, codes: np.ndarray, method: str):
+    """Kruskal-Wallis H or ANOVA F per column; NaN samples of a column are left out."""
+    p = X.shape[1]
+    keep_rows = codes >= 0
+    X, codes = X[keep_rows], codes[keep_rows]
+    finite = np.isfinite(X)
+    full = finite.all(axis=0)
+    scores = np.full(p, np.nan)
+    pvals = np.full(p, np.nan)
+    notes = np.full(p, "", dtype=object)
+    cols = np.flatnonzero(full)
+    if cols.size:
+        scores[cols], pvals[cols], notes[cols] = _one_way_block(X[:, cols], codes, method)
+    for j in np.flatnonzero(~full):
+        ok = finite[:, j]
+        if not ok.any():
+            notes[j] = "all values are NaN or inf"
+            continue
+        s, pv, nt = _one_way_block(X[ok, j : j + 1], codes[ok], method)
+        scores[j], pvals[j] = s[0], pv[0]
+        left_out = f"{int((~ok).sum())} NaN/inf value(s) left out"
+        notes[j] = f"{nt[0]}; {left_out}" if nt[0] else left_out
+    return scores, pvals, notes
+
+
+def _unit_paths(
+    table: pd.DataFrame, cols: list, unit, time
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per unit (in order of appearance): (life fraction in [0, 1], values n_j x p)."""
+    frame = table
+    if unit is None:
+        groups = [(None, frame)]
+    else:
+        groups = list(frame.groupby(unit, sort=False, dropna=True))
+    paths = []
+    for _, part in groups:
+        if time is not None:
+            part = part.sort_values(time, kind="stable")
+            t = part[time].to_numpy(dtype=float)
+        else:
+            t = np.arange(len(part), dtype=float)
+        span = t[-1] - t[0] if len(t) else 0.0
+        life = (t - t[0]) / span if span > 0 else np.linspace(0.0, 1.0, len(t))
+        paths.append((life, part[cols].to_numpy(dtype=float)))
+    return paths
+
+
+def _monotonicity(paths) -> tuple[np.ndarray, np.ndarray]:
+    p = paths[0][1].shape[1]
+    total = np.zeros(p)
+    used = np.zeros(p)
+    for _, x in paths:
+        for j in range(p):
+            v = x[:, j]
+            v = v[np.isfinite(v)]
+            if len(v) < 2:
+                continue
+            d = np.diff(v)
+            total[j] += abs(int((d > 0).sum()) - int((d < 0).sum())) / (len(v) - 1)
+            used[j] += 1
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return total / used, used
+
+
+def _monotonicity_fast(paths) -> tuple[np.ndarray, np.ndarray]:
+    """Monotonicity for NaN-free paths, vectorised over features."""
+    p = paths[0][1].shape[1]
+    total = np.zeros(p)
+    used = 0
+    for _, x in paths:
+        if len(x) < 2:
+            continue
+        d = np.diff(x, axis=0)
+        total += np.abs((d > 0).sum(0) - (d < 0).sum(0)) / (len(x) - 1)
+        used += 1
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return total / used, np.full(p, used)
+
+
+def _trendability(paths) -> np.ndarray:
+    p = paths[0][1].shape[1]
+    scores = np.full(p, np.nan)
+    for j in range(p):
+        series = []
+        for life, x in paths:
+            ok = np.isfinite(x[:, j])
+            if ok.sum() >= 2:
+                series.append((life[ok], x[ok, j]))
+        if len(series) < 2:
+            continue
+        length = min(len(v) for _, v in series)
+        grid = np.linspace(0.0, 1.0, length)
+        resampled = np.stack([np.interp(grid, t, v) for t, v in series])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = np.corrcoef(resampled)
+        off = ~np.eye(len(series), dtype=bool)
+        values = np.abs(corr[off])
+        values = values[np.isfinite(values)]
+        if values.size:
+            scores[j] = values.min()
+    return scores
+
+
+def _prognosability(paths) -> np.ndarray:
+    p = paths[0][1].shape[1]
+    scores = np.full(p, np.nan)
+    for j in range(p):
+        starts, ends = [], []
+        for _, x in paths:
+            v = x[:, j]
+            v = v[np.isfinite(v)]
+            if len(v):
+                starts.append(v[0])
+                ends.append(v[-1])
+        if not ends:
+            continue
+        ends_a = np.asarray(ends)
+        spread = ends_a.std(ddof=1) if len(ends_a) > 1 else 0.0
+        change = np.mean(np.abs(np.asarray(starts) - ends_a))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            scores[j] = np.exp(-spread / change)
+    return scores
+
+
+# --------------------------------------------------------------------------- public
+def _feature_columns(table: pd.DataFrame, features, exclude: set) -> list:
+    if features is not None:
+        features = [features] if isinstance(features, str) else list(features)
+        missing = [f for f in features if f not in table.columns]
+        if missing:
+            raise DataError(
+                f"features {missing} are not columns of the table; it has "
+                f"{len(table.columns)} columns, e.g. {list(table.columns[:5])}"
+            )
+        bad = [f for f in features if not pd.api.types.is_numeric_dtype(table[f])]
+        if bad:
+            raise DataError(f"features {bad} are not numeric; rank numeric indicators only")
+        return features
+    numeric = [
+        c
+        for c in table.columns
+        if c not in exclude
+        and pd.api.types.is_numeric_dtype(table[c])
+        and not pd.api.types.is_bool_dtype(table[c])
+    ]
+    slashed = [c for c in numeric if "/" in str(c)]
+    chosen = slashed or numeric
+    if not chosen:
+        raise DataError(
+            "the table has no numeric feature columns to rank; pass features=[...] to "
+            f"name them (columns: {list(table.columns[:10])})"
+        )
+    return chosen
+
+
+def _labels(table: pd.DataFrame, labels) -> tuple[np.ndarray, str | None]:
+    if labels is None:
+        raise DataError(
+            "labels are needed for a class-separation ranking: pass the name of the "
+            "condition column holding the class, or one label per row"
+        )
+    if isinstance(labels, str):
+        if labels not in table.columns:
+            raise DataError(
+                f"labels={labels!r} is not a column of the table; columns without '/': "
+                f"{[c for c in table.columns if '/' not in str(c)]}"
+            )
+        return table[labels].to_numpy(), labels
+    if isinstance(labels, pd.Series) and labels.index.equals(table.index):
+        return labels.to_numpy(), labels.name if labels.name in table.columns else None
+    if isinstance(labels, pd.Series) and set(table.index) <= set(labels.index):
+        if labels.index.has_duplicates:
+            raise DataError(
+                "labels has a repeated index; it cannot be aligned to the table"
+            )
+        aligned = labels.reindex(table.index)
+        return aligned.to_numpy(), labels.name if labels.name in table.columns else None
+    values = np.asarray(labels)
+    if values.ndim != 1 or len(values) != len(table):
+        raise DataError(
+            f"labels has {values.shape} entries; expected one per table row ({len(table)})"
+        )
+    return values, None
+
+
+def _lifetime_column(table: pd.DataFrame, given, candidates: Sequence[str], what: str):
+    if given is not None:
+        if given not in table.columns:
+            raise DataError(
+                f"{what}={given!r} is not a column of the table; columns: "
+                f"{[c for c in table.columns if '/' not in str(c)]}"
+            )
+        return given
+    return next((c for c in candidates if c in table.columns), None)
+
+
+def rank_features(
+    table: pd.DataFrame,
+    labels=None,
+    *,
+    method: str = "kruskal",
+    features: Sequence[str] | None = None,
+    unit: str | None = None,
+    time: str | None = None,
+) -> FeatureRanking:
+    """Rank condition indicators by how well they separate classes or track degradation.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Feature table (one row per member, or per unit and time for the prognostic
+        methods). By default the numeric columns named ``.../...`` are the features (all
+        numeric columns when none is), without the label, unit and time columns.
+    labels : str or array_like, optional
+        The class of each row, for ``"kruskal"`` and ``"anova"``: a column name, a
+        Series (aligned on the index) or one value per row. Rows with a missing label
+        are left out.
+    method : {"kruskal", "anova", "monotonicity", "trendability", "prognosability"}
+        Kruskal-Wallis H, one-way ANOVA F, or the prognostic metrics of MATLAB's
+        Predictive Maintenance Toolbox (see the module notes).
+    features : sequence of str, optional
+        Columns to rank, overriding the default choice.
+    unit : str, optional
+        Column telling the run-to-failure units apart; default ``"unit"`` when present,
+        else all rows form one unit.
+    time : str, optional
+        Column ordering each unit's rows; default ``"time"`` or ``"cycle"`` when present,
+        else row order.
+
+    Returns
+    -------
+    FeatureRanking
+        Scores best first; unscorable features (constant, all NaN) last with a note.
+
+    Raises
+    ------
+    pdmkit.errors.DataError
+        Missing labels, fewer than two classes, unknown columns, no numeric features.
+    ValueError
+        Unknown method.
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> from pdmkit.features import rank_features
+    >>> rng = np.random.default_rng(0)
+    >>> y = np.repeat(["ok", "fault"], 50)
+    >>> table = pd.DataFrame({"vib/stats/RMS": rng.normal(size=100) + (y == "fault"),
+    ...                       "vib/stats/Mean": rng.normal(size=100), "label": y})
+    >>> rank_features(table, "label").top(1)
+    ['vib/stats/RMS']
+
+    Prognostic metrics from a run-to-failure table:
+
+    >>> life = pd.DataFrame({"unit": np.repeat([1, 2], 20),
+    ...                      "time": np.tile(np.arange(20), 2)})
+    >>> life["wear"] = life["time"] ** 2 + rng.normal(0, 1, 40)
+    >>> round(float(rank_features(life, method="trendability").scores["wear"]), 2)
+    1.0
+    """
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {list(METHODS)}, got {method!r}")
+    if not isinstance(table, pd.DataFrame):
+        raise DataError(
+            f"table must be a pandas DataFrame of features, got {type(table).__name__}; "
+            "wrap an array with pd.DataFrame(x, columns=names)"
+        )
+    if len(table) == 0:
+        raise DataError("the table has 0 rows; nothing to rank")
+
+    if method in _SUPERVISED:
+        label_values, label_col = _labels(table, labels)
+        exclude = {label_col} if label_col is not None else set()
+        cols = _feature_columns(table, features, exclude)
+        codes, k = _group_codes(label_values)
+        if k < 2:
+            raise DataError(
+                f"labels hold {k} distinct class(es); {method} needs at least two classes"
+            )
+        X = table[cols].to_numpy(dtype=float)
+        scores, pvals, notes = _one_way(X, codes, method)
+        return FeatureRanking(
+            pd.Series(scores, index=cols),
+            method=method,
+            p_values=pd.Series(pvals, index=cols),
+            notes=dict(zip(cols, notes, strict=True)),
+        )
+
+    if labels is not None:
+        raise ValueError(
+            f"method={method!r} ranks run-to-failure paths and takes no labels; pass "
+            "unit= and time= columns (or use method='kruskal' / 'anova')"
+        )
+    unit_col = _lifetime_column(table, unit, ("unit",), "unit")
+    time_col = _lifetime_column(table, time, ("time", "cycle"), "time")
+    exclude = {c for c in (unit_col, time_col) if c is not None}
+    cols = _feature_columns(table, features, exclude)
+    paths = _unit_paths(table, cols, unit_col, time_col)
+    n_units = len(paths)
+    notes = {}
+    if method == "monotonicity":
+        finite = all(np.isfinite(x).all() for _, x in paths)
+        scores, used = (_monotonicity_fast if finite else _monotonicity)(paths)
+        for c, u in zip(cols, used, strict=True):
+            if u == 0:
+                notes[c] = "no unit has two or more values"
+    elif method == "trendability":
+        scores = _trendability(paths)
+        if n_units < 2:
+            notes = {c: "trendability needs at least two units" for c in cols}
+    else:
+        scores = _prognosability(paths)
+    for c, s in zip(cols, scores, strict=True):
+        if np.isnan(s) and c not in notes:
+            values = table[c].to_numpy(dtype=float)
+            if not np.isfinite(values).any():
+                notes[c] = "all values are NaN or inf"
+            elif np.nanmax(values) == np.nanmin(values):
+                notes[c] = "constant feature"
+            else:
+                notes[c] = "undefined for these paths"
+    return FeatureRanking(pd.Series(scores, index=cols), method=method, notes=notes)
+
+
+# --------------------------------------------------------------------------- sklearn
+def _validate(estimator, X, y):
+    """scikit-learn's input validation (``validate_data`` from 1.6 on)."""
+    try:
+        from sklearn.utils.validation import validate_data
+    except ImportError:  # pragma: no cover - scikit-learn < 1.6
+        if y is None:
+            raise ValueError(
+                f"{type(estimator).__name__} requires y to be passed, "
+                "but the target y is None"
+            ) from None
+        return estimator._validate_data(X, y)
+    return validate_data(estimator, X, y)
+
+
+class SelectTopRanked(SelectorMixin, BaseEstimator):
+    """Keep the ``k`` columns that best separate the classes (scikit-learn selector).
+
+    Ranks the columns of ``X`` against the class labels ``y`` with Kruskal-Wallis H or
+    one-way ANOVA F (as :func:`rank_features`) and keeps the ``k`` best; columns that
+    cannot be scored (constant) rank last. Use it in a Pipeline before a classifier.
+
+    Parameters
+    ----------
+    k : int, default 5
+        Number of columns to keep (all of them when ``X`` has fewer).
+    method : {"kruskal", "anova"}, default "kruskal"
+        Ranking statistic.
+
+    Attributes
+    ----------
+    ranking_ : FeatureRanking
+        The full ranking (names from ``feature_names_in_``, else ``x0, x1, ...``).
+    scores_ : ndarray of shape (n_features_in_,)
+        Score of each input column (NaN where undefined).
+    pvalues_ : ndarray of shape (n_features_in_,)
+        Its p-value.
+    selected_ : ndarray of int
+        Indices of the kept columns, ascending (the order ``transform`` returns them in).
+    n_features_in_ : int
+    feature_names_in_ : ndarray of str
+        Only when ``X`` had string column names.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.pipeline import make_pipeline
+    >>> from sklearn.neighbors import KNeighborsClassifier
+    >>> from pdmkit.features import SelectTopRanked
+    >>> rng = np.random.default_rng(0)
+    >>> y = np.repeat([0, 1], 40)
+    >>> X = rng.normal(size=(80, 6))
+    >>> X[:, 4] += 3 * y
+    >>> sel = SelectTopRanked(k=1).fit(X, y)
+    >>> sel.selected_, sel.get_feature_names_out()
+    (array([4]), array(['x4'], dtype=object))
+    >>> pipe = make_pipeline(SelectTopRanked(k=2), KNeighborsClassifier()).fit(X, y)
+    >>> pipe.score(X, y) > 0.9
+    True
+    """
+
+    def __init__(self, k: int = 5, method: str = "kruskal") -> None:
+        self.k = k
+        self.method = method
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.required = True
+        return tags
+
+    def _more_tags(self):  # scikit-learn < 1.6
+        return {"requires_y": True}
+
+    def fit(self, X, y):
+        """Rank the columns of ``X`` against the labels ``y``; keep the best ``k``.
+
+        Parameters
+        ----------
+        X : array_like of shape (n_samples, n_features)
+        y : array_like of shape (n_samples,)
+            Class labels.
+
+        Returns
+        -------
+        self
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from pdmkit.features import SelectTopRanked
+        >>> X = np.array([[0.0, 1.0], [0.1, 5.0], [1.0, 1.1], [1.1, 5.2]])
+        >>> SelectTopRanked(k=1, method="anova").fit(X, [0, 0, 1, 1]).selected_
+        array([0])
+        """
+        k = self.k
+        if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
+            raise ValueError(f"k must be a positive integer, got {k!r}")
+        if self.method not in _SUPERVISED:
+            raise ValueError(
+                f"method must be one of {list(_SUPERVISED)} for SelectTopRanked, got "
+                f"{self.method!r} (the prognostic metrics need units and time: use "
+                "rank_features)"
+            )
+        X, y = _validate(self, X, y)
+        X = np.asarray(X, dtype=float)
+        codes, n_classes = _group_codes(np.asarray(y))
+        if n_classes < 2:
+            raise ValueError(
+                f"y has {n_classes} class; SelectTopRanked needs at least two classes "
+                "to rank the features"
+            )
+        scores, pvals, notes = _one_way(X, codes, self.method)
+        names = (
+            [str(c) for c in self.feature_names_in_]
+            if hasattr(self, "feature_names_in_")
+            else [f"x{i}" for i in range(X.shape[1])]
+        )
+        self.scores_ = scores
+        self.pvalues_ = pvals
+        self.ranking_ = FeatureRanking(
+            pd.Series(scores, index=names),
+            method=self.method,
+            p_values=pd.Series(pvals, index=names),
+            notes=dict(zip(names, notes, strict=True)),
+        )
+        position = {name: i for i, name in enumerate(names)}
+        best = [position[f] for f in self.ranking_.features[: min(int(k), X.shape[1])]]
+        self.selected_ = np.sort(np.asarray(best, dtype=np.intp))
+        return self
+
+    def _get_support_mask(self):
+        check_is_fitted(self, "selected_")
+        mask = np.zeros(self.n_features_in_, dtype=bool)
+        mask[self.selected_] = True
+        return mask
