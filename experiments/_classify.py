@@ -209,6 +209,7 @@ def make_classifier(
     *,
     top_k: int = 5,
     selection: str | None = "kruskal",
+    max_correlation: float | None = 0.95,
     random_state: int | None = 0,
 ) -> Pipeline:
     """Build a fault-classifier pipeline: scaler -> feature selector -> model.
@@ -228,6 +229,11 @@ def make_classifier(
         ``"kruskal"`` / ``"anova"``: :class:`pdmkit.features.SelectTopRanked` keeps
         the ``top_k`` best-ranked indicators; ``"pca"``: the first ``top_k``
         principal components; ``None``: all indicators.
+    max_correlation : float or None, default 0.95
+        With ``"kruskal"`` / ``"anova"``: skip an indicator correlated above this with
+        a better-ranked kept one (Std, RMS and total power carry the same information
+        and tie at the top when classes separate well); ``None`` keeps the plain top
+        ``top_k``.
     random_state : int or None, default 0
         Seed of the randomised models (bagging, forest, PCA solver).
 
@@ -262,7 +268,10 @@ def make_classifier(
     if selection in ("kruskal", "anova"):
         from pdmkit.features import SelectTopRanked
 
-        steps.append(("select", SelectTopRanked(k=int(top_k), method=selection)))
+        selector = SelectTopRanked(
+            k=int(top_k), method=selection, max_correlation=max_correlation
+        )
+        steps.append(("select", selector))
     elif selection == "pca":
         from sklearn.decomposition import PCA
 

@@ -607,6 +607,25 @@ def _validate(estimator, X, y):
     return validate_data(estimator, X, y)
 
 
+def _least_redundant(X: np.ndarray, ranked: list[int], k: int, limit: float) -> list[int]:
+    """Walk the ranking, keeping columns not correlated above ``limit`` with kept ones.
+
+    When fewer than ``k`` columns pass, the best skipped ones fill the remaining places.
+    """
+    std = X.std(axis=0)
+    z = np.divide(X - X.mean(axis=0), std, out=np.zeros_like(X), where=std > 0)
+    kept: list[int] = []
+    skipped: list[int] = []
+    for j in ranked:
+        if len(kept) == k:
+            break
+        if kept and np.max(np.abs(z[:, kept].T @ z[:, j])) / len(X) > limit:
+            skipped.append(j)
+        else:
+            kept.append(j)
+    return kept + skipped[: k - len(kept)]
+
+
 class SelectTopRanked(SelectorMixin, BaseEstimator):
     """Keep the ``k`` columns that best separate the classes (scikit-learn selector).
 
@@ -620,6 +639,12 @@ class SelectTopRanked(SelectorMixin, BaseEstimator):
         Number of columns to keep (all of them when ``X`` has fewer).
     method : {"kruskal", "anova"}, default "kruskal"
         Ranking statistic.
+    max_correlation : float or None, default None
+        Skip a column whose absolute Pearson correlation with an already kept,
+        better-ranked column exceeds this value (e.g. 0.95). Rank statistics saturate
+        when classes separate perfectly, so Std, RMS and total power tie at the top;
+        without this filter the ``k`` kept columns can carry one piece of information
+        ``k`` times. ``None`` keeps the plain top ``k``.
 
     Attributes
     ----------
@@ -653,9 +678,12 @@ class SelectTopRanked(SelectorMixin, BaseEstimator):
     True
     """
 
-    def __init__(self, k: int = 5, method: str = "kruskal") -> None:
+    def __init__(
+        self, k: int = 5, method: str = "kruskal", max_correlation: float | None = None
+    ) -> None:
         self.k = k
         self.method = method
+        self.max_correlation = max_correlation
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -689,6 +717,9 @@ class SelectTopRanked(SelectorMixin, BaseEstimator):
         k = self.k
         if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
             raise ValueError(f"k must be a positive integer, got {k!r}")
+        limit = self.max_correlation
+        if limit is not None and not (isinstance(limit, int | float) and 0 < limit <= 1):
+            raise ValueError(f"max_correlation must be in (0, 1] or None, got {limit!r}")
         if self.method not in _SUPERVISED:
             raise ValueError(
                 f"method must be one of {list(_SUPERVISED)} for SelectTopRanked, got "
@@ -718,7 +749,11 @@ class SelectTopRanked(SelectorMixin, BaseEstimator):
             notes=dict(zip(names, notes, strict=True)),
         )
         position = {name: i for i, name in enumerate(names)}
-        best = [position[f] for f in self.ranking_.features[: min(int(k), X.shape[1])]]
+        ranked = [position[f] for f in self.ranking_.features]
+        if limit is None:
+            best = ranked[: min(int(k), X.shape[1])]
+        else:
+            best = _least_redundant(X, ranked, int(k), float(limit))
         self.selected_ = np.sort(np.asarray(best, dtype=np.intp))
         return self
 

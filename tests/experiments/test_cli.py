@@ -1,0 +1,188 @@
+"""The `pdmkit` command: the real CWRU workflow, summaries, errors that name the problem."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pdmkit.experiments._cli import main
+
+
+@pytest.mark.real_data
+@pytest.mark.slow
+def test_classify_cwru_reaches_the_issue_accuracy(require_data, tmp_path):
+    require_data("cwru_bearing")
+    out = tmp_path / "cls"
+    assert (
+        main(
+            [
+                "classify",
+                "--dataset",
+                "cwru",
+                "--json",
+                str(tmp_path / "c.json"),
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    summary = json.loads((tmp_path / "c.json").read_text())
+    for key in (
+        "accuracy",
+        "model",
+        "features",
+        "labels",
+        "confusion",
+        "n_train",
+        "n_test",
+    ):
+        assert key in summary
+    # issue 2: drive end, top-5 Kruskal-Wallis indicators, kNN, held out >= 0.99
+    assert summary["model"] == "knn"
+    assert len(summary["features"]) == 5
+    assert all(f.startswith("DE/") for f in summary["features"])
+    assert summary["labels"] == ["B_007", "IR_007", "IR_021", "OR_007", "normal"]
+    confusion = np.array(summary["confusion"])
+    assert confusion.sum() == summary["n_test"]
+    assert np.trace(confusion) / confusion.sum() == pytest.approx(summary["accuracy"])
+    assert summary["accuracy"] >= 0.99
+    html = (out / "report.html").read_text()
+    assert "data:image/png;base64," in html
+
+
+@pytest.mark.real_data
+@pytest.mark.slow
+def test_sensors_cwru_compares_three_accelerometers(require_data, tmp_path):
+    require_data("cwru_bearing")
+    assert (
+        main(
+            [
+                "sensors",
+                "--dataset",
+                "cwru",
+                "--json",
+                str(tmp_path / "s.json"),
+                "--out",
+                str(tmp_path / "s"),
+            ]
+        )
+        == 0
+    )
+    rows = {
+        r["sensor"]: r for r in json.loads((tmp_path / "s.json").read_text())["sensors"]
+    }
+    assert set(rows) == {"DE", "FE", "BA"}
+    # the normal record has no base accelerometer: its 29 frames leave BA's row
+    assert rows["BA"]["n_excluded"] == 29 and "normal" in rows["BA"]["note"]
+    assert rows["DE"]["n_excluded"] == 0
+    report = (tmp_path / "s" / "report.html").read_text()
+    assert "BA:" in report and "excluded" in report
+
+
+def _toy_features(path, rng):
+    y = np.repeat(["a", "b", "c"], 30)
+    table = pd.DataFrame(
+        {
+            "acc/stats/RMS": rng.normal(size=90) + (y == "b") * 4.0,
+            "acc/stats/Kurtosis": rng.normal(size=90) + (y == "c") * 4.0,
+            "mic/stats/RMS": rng.normal(size=90),
+            "fault": y,
+        }
+    )
+    table.to_parquet(path)
+    return table
+
+
+def test_classify_from_a_feature_table(tmp_path, rng):
+    _toy_features(tmp_path / "f.parquet", rng)
+    code = main(
+        [
+            "classify",
+            "--features",
+            str(tmp_path / "f.parquet"),
+            "--label",
+            "fault",
+            "--top-k",
+            "2",
+            "--json",
+            str(tmp_path / "o.json"),
+            "--out",
+            str(tmp_path),
+        ]
+    )
+    assert code == 0
+    summary = json.loads((tmp_path / "o.json").read_text())
+    assert sorted(summary["features"]) == ["acc/stats/Kurtosis", "acc/stats/RMS"]
+    assert summary["accuracy"] > 0.9
+
+
+def test_sensors_default_to_one_per_signal(tmp_path, rng):
+    _toy_features(tmp_path / "f.parquet", rng)
+    assert (
+        main(
+            [
+                "sensors",
+                "--features",
+                str(tmp_path / "f.parquet"),
+                "--label",
+                "fault",
+                "--json",
+                str(tmp_path / "o.json"),
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
+    rows = {
+        r["sensor"]: r for r in json.loads((tmp_path / "o.json").read_text())["sensors"]
+    }
+    assert set(rows) == {"acc", "mic"}
+    assert rows["acc"]["accuracy"] > rows["mic"]["accuracy"] + 0.3
+
+
+def test_missing_label_is_a_clear_error(tmp_path, rng, capsys):
+    _toy_features(tmp_path / "f.parquet", rng)
+    code = main(
+        [
+            "classify",
+            "--features",
+            str(tmp_path / "f.parquet"),
+            "--label",
+            "nope",
+            "--out",
+            str(tmp_path),
+        ]
+    )
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "'nope'" in err and "fault" in err
+
+
+def test_unknown_dataset_lists_the_known_ones(tmp_path, capsys):
+    assert main(["classify", "--dataset", "nope", "--out", str(tmp_path)]) == 2
+    assert "cwru" in capsys.readouterr().err
+
+
+def test_unreadable_feature_file_keeps_earlier_results(tmp_path, rng, capsys):
+    _toy_features(tmp_path / "f.parquet", rng)
+    args = [
+        "classify",
+        "--features",
+        str(tmp_path / "f.parquet"),
+        "--label",
+        "fault",
+        "--out",
+        str(tmp_path / "out"),
+    ]
+    assert main(args) == 0
+    before = (tmp_path / "out" / "classify.json").read_text()
+    (tmp_path / "bad.parquet").write_bytes(b"not parquet at all")
+    args[2] = str(tmp_path / "bad.parquet")
+    assert main(args) == 2
+    assert "bad.parquet" in capsys.readouterr().err
+    assert (tmp_path / "out" / "classify.json").read_text() == before
