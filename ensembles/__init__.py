@@ -4,7 +4,8 @@ An :class:`Ensemble` holds members (recordings): named 1-D signals, each with it
 sampling rate, and a row of condition variables (labels, settings, operating point,
 unit, cycle). It is stored on disk as a Parquet dataset that streams in batches
 (:meth:`Ensemble.to_parquet`, :func:`iter_parquet`). Readers turn the file formats
-recordings come in into arrays and tables; loaders bring the shared recorded datasets.
+recordings come in into arrays and tables; loaders bring the shared recorded datasets;
+simulators generate labelled ensembles from the pneumatic-piston digital twin.
 
 Examples
 --------
@@ -27,12 +28,24 @@ from pdmkit.ensembles._datasets import (
 )
 from pdmkit.ensembles._ensemble import Ensemble
 from pdmkit.ensembles._parquet import iter_parquet
+from pdmkit.ensembles._pneumatic import (
+    PNEUMATIC_FAULTS,
+    PNEUMATIC_SENSORS,
+    fault_labels,
+    pneumatic_residuals,
+    simulate_fault_ensemble,
+    simulate_leak_runs,
+    simulate_sensor_fault_ensemble,
+)
 from pdmkit.ensembles._readers import read_mat, read_npz, read_table
 from pdmkit.ensembles._tables import from_frame
 
 __all__ = [
     "DATASETS",
+    "PNEUMATIC_FAULTS",
+    "PNEUMATIC_SENSORS",
     "Ensemble",
+    "fault_labels",
     "from_frame",
     "iter_parquet",
     "load_cascaded_tanks",
@@ -41,7 +54,11 @@ __all__ = [
     "load_dataset",
     "load_emps",
     "load_silverbox",
+    "pneumatic_residuals",
     "read_mat",
     "read_npz",
     "read_table",
+    "simulate_fault_ensemble",
+    "simulate_leak_runs",
+    "simulate_sensor_fault_ensemble",
 ]

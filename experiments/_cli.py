@@ -318,7 +318,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     from pdmkit.experiments._demo import run_demo
 
     start = time.perf_counter()
-    summary = run_demo(args.out, members=args.members, seed=args.seed)
+    summary = run_demo(
+        args.out, members=args.members, seed=args.seed, recording_s=args.recording_s
+    )
     if args.json:
         write_json(summary, args.json)
     _say(
@@ -380,7 +382,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("demo", help="the whole workbench on the simulated pneumatic piston")
     p.add_argument("--out", type=Path, default=Path("results/demo"))
     p.add_argument("--json", type=Path)
-    p.add_argument("--members", type=int, default=None, help="ensemble size")
+    p.add_argument("--members", type=int, default=None, help="ensemble size (480)")
+    p.add_argument(
+        "--recording-s", type=float, default=10.0, help="seconds per recording (10)"
+    )
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=_cmd_demo)
     return parser

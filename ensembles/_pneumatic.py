@@ -1,0 +1,606 @@
+"""Simulated ensembles of the pneumatic piston twin (seed 001, sections 3.3, 8.1, 8.4).
+
+Three generators, each returning an :class:`~pdmkit.ensembles.Ensemble` of 10 s
+recordings of the fifteen sensors of seed table 3.1:
+
+* :func:`simulate_fault_ensemble`: the rig's settings of table 3.2 (throttle valves,
+  small and large dampers) set to faulty values, labelled with the seed's combined
+  fault codes, over random operating points (load mass, supply pressure) and random
+  variation of the parameters nobody labels (friction, valve coefficients, delay), so
+  that classes overlap as measured ones do;
+* :func:`simulate_sensor_fault_ensemble`: one sensor with noise, offset, drift or
+  signal loss (seed 8.1.1);
+* :func:`simulate_leak_runs`: run-to-failure units whose chamber air-leak coefficient
+  grows along unit-specific random paths (seed 8.1-8.2, 8.4).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from pdmkit._progress import progress as _progress
+from pdmkit.ensembles._ensemble import Ensemble
+from pdmkit.errors import DataError
+
+__all__ = [
+    "PNEUMATIC_FAULTS",
+    "PNEUMATIC_SENSORS",
+    "fault_labels",
+    "pneumatic_residuals",
+    "simulate_fault_ensemble",
+    "simulate_leak_runs",
+    "simulate_sensor_fault_ensemble",
+]
+
+#: The eight sensor types of the seed's table 3.1 / 9.1 and the signals each owns.
+PNEUMATIC_SENSORS: dict[str, tuple[str, ...]] = {
+    "Acc": ("AccelerometerMoving_axisZ", "AccelerometerStatic_axisZ"),
+    "Encoder": ("LeverPosition", "LeverVelocity"),
+    "Flow": ("FlowExtrusion", "FlowContraction"),
+    "Mics": ("MIC_uBumper", "MIC_bBumper", "MIC_Ambient"),
+    "Pressure": ("AirPressure",),
+    "Proximity": ("ProximitySensor_upper", "ProximitySensor_bottom"),
+    "Strain": ("StrainGauge",),
+    "Temperature": ("TempCylinder", "TempAmbient"),
+}
+
+
+@dataclass(frozen=True)
+class _Setting:
+    """A rig setting: its healthy range and the range a fault puts it in."""
+
+    parameter: str
+    healthy: tuple[float, float]
+    faulty: tuple[tuple[float, float], ...]
+    sentence: str
+
+
+#: Fault code -> the setting it changes (seed section 3.3 and table 3.2). Settings are
+#: drawn uniformly from the healthy range, or from one of the faulty ranges.
+PNEUMATIC_FAULTS: dict[str, _Setting] = {
+    "throttle_1": _Setting(
+        "throttle_a", (4.0, 7.0), ((1.0, 2.5),), "throttle valve 1 (line A) nearly closed"
+    ),
+    "throttle_2": _Setting(
+        "throttle_b", (4.0, 7.0), ((1.0, 2.5),), "throttle valve 2 (line B) nearly closed"
+    ),
+    "damper_bottom": _Setting(
+        "damper_bottom",
+        (4.0, 7.0),
+        ((1.0, 2.0), (9.0, 10.0)),
+        "small bottom damper set far too soft or too hard",
+    ),
+    "damper_upper": _Setting(
+        "damper_upper",
+        (4.0, 7.0),
+        ((1.0, 2.0), (9.0, 10.0)),
+        "small upper damper set far too soft or too hard",
+    ),
+    "large_dampers": _Setting(
+        "damper_large_damping",
+        (320.0, 480.0),
+        ((20.0, 120.0),),
+        "static large dampers worn (damping lost)",
+    ),
+}
+
+_LOADS_KG = (0.0, 1.25, 5.0, 6.25)  # table 3.2
+_SUPPLIES_BAR = (5.0, 6.0)  # table 3.2, gauge
+_P_AMBIENT = 101325.0
+
+
+def fault_labels(max_faults: int = 1) -> list[str]:
+    """The combined fault codes: ``healthy``, single faults, and combinations.
+
+    Parameters
+    ----------
+    max_faults : int, default 1
+        Largest number of simultaneous faults in a code (the seed combines them).
+
+    Returns
+    -------
+    list of str
+        Codes such as ``"throttle_1"`` or ``"damper_upper+throttle_1"`` (parts sorted).
+
+    Examples
+    --------
+    >>> fault_labels(1)  # doctest: +NORMALIZE_WHITESPACE
+    ['healthy', 'damper_bottom', 'damper_upper', 'large_dampers',
+     'throttle_1', 'throttle_2']
+    >>> len(fault_labels(2))
+    16
+    """
+    if not isinstance(max_faults, int) or not 1 <= max_faults <= len(PNEUMATIC_FAULTS):
+        raise ValueError(
+            f"max_faults must be 1..{len(PNEUMATIC_FAULTS)}; got {max_faults!r}"
+        )
+    names = sorted(PNEUMATIC_FAULTS)
+    codes = ["healthy"]
+    for r in range(1, max_faults + 1):
+        codes += ["+".join(c) for c in itertools.combinations(names, r)]
+    return codes
+
+
+def _check_labels(labels: Sequence[str]) -> list[str]:
+    out = []
+    for code in labels:
+        parts = [] if code == "healthy" else code.split("+")
+        unknown = [p for p in parts if p not in PNEUMATIC_FAULTS]
+        if unknown or not code:
+            raise DataError(
+                f"unknown fault code {code!r}: parts {unknown} are not among "
+                f"{['healthy', *sorted(PNEUMATIC_FAULTS)]}; combine faults with '+'"
+            )
+        out.append(code)
+    return out
+
+
+def _operating_conditions(n: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """Operating point and unlabelled parameter variation, one value per member."""
+    loads = rng.choice(_LOADS_KG, size=n)
+    supplies = rng.choice(_SUPPLIES_BAR, size=n)
+    return {
+        "mass_load": loads,
+        "p_supply": _P_AMBIENT + supplies * 1e5,
+        # nobody labels these: they make members of one class differ
+        "friction_coulomb": 10.0 * rng.uniform(0.8, 1.2, n),
+        "friction_viscous": 20.0 * rng.uniform(0.8, 1.2, n),
+        "c_a_in": 5e-6 * rng.uniform(0.92, 1.08, n),
+        "c_a_out": 5e-6 * rng.uniform(0.92, 1.08, n),
+        "c_b_in": 5e-6 * rng.uniform(0.92, 1.08, n),
+        "c_b_out": 5e-6 * rng.uniform(0.92, 1.08, n),
+        "valve_delay": 0.010 * rng.uniform(0.8, 1.2, n),
+    }
+
+
+def _fault_settings(labels: np.ndarray, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    n = len(labels)
+    values = {}
+    for code, setting in PNEUMATIC_FAULTS.items():
+        v = rng.uniform(*setting.healthy, size=n)
+        faulty = np.array([code in str(lab).split("+") for lab in labels])
+        if faulty.any():
+            ranges = np.array(setting.faulty)
+            pick = rng.integers(0, len(ranges), size=n)
+            lo, hi = ranges[pick, 0], ranges[pick, 1]
+            v = np.where(faulty, rng.uniform(0.0, 1.0, n) * (hi - lo) + lo, v)
+        values[setting.parameter] = v
+    return values
+
+
+def _slice_spec(spec, sl: slice):
+    """The members ``sl`` of a SensorSpec whose fields are per-member arrays."""
+    fields = {k: (v[sl] if np.ndim(v) else v) for k, v in dataclasses.asdict(spec).items()}
+    return type(spec)(**fields)
+
+
+def _simulate_batches(
+    params_cols, n, *, t_end, fs, signals, seed, batch_size, desc, specs=None
+):
+    """Simulate ``n`` members in batches; return {signal: (n, n_samples)}."""
+    from pdmkit.models import PneumaticParams, simulate
+
+    seeds = np.random.SeedSequence(seed).spawn((n + batch_size - 1) // batch_size)
+    out: dict[str, list[np.ndarray]] = {}
+    starts = range(0, n, batch_size)
+    for start, child in _progress(
+        zip(starts, seeds, strict=True), desc=desc, total=len(seeds)
+    ):
+        sl = slice(start, min(start + batch_size, n))
+        params = PneumaticParams(**{k: v[sl] for k, v in params_cols.items()})
+        batch_specs = None
+        if specs is not None:
+            batch_specs = {name: _slice_spec(spec, sl) for name, spec in specs.items()}
+        response = simulate(
+            params,
+            t_end=t_end,
+            fs=fs,
+            sensors=list(signals),
+            seed=child,
+            sensor_specs=batch_specs,
+        )
+        for name in signals:
+            out.setdefault(name, []).append(np.asarray(response.outputs[name]))
+    return {name: np.concatenate(parts, axis=0) for name, parts in out.items()}
+
+
+def _signal_list(signals: Sequence[str] | None) -> list[str]:
+    from pdmkit.models import SENSOR_NAMES
+
+    if signals is None:
+        return list(SENSOR_NAMES)
+    unknown = [s for s in signals if s not in SENSOR_NAMES]
+    if unknown:
+        raise DataError(
+            f"unknown sensor signal(s) {unknown}; the twin has {list(SENSOR_NAMES)}"
+        )
+    return list(signals)
+
+
+def simulate_fault_ensemble(
+    n_members: int = 600,
+    *,
+    labels: Sequence[str] | None = None,
+    max_faults: int = 1,
+    t_end: float = 10.0,
+    fs: float = 1000.0,
+    signals: Sequence[str] | None = None,
+    seed: int = 0,
+    batch_size: int = 500,
+) -> Ensemble:
+    """Simulate labelled fault recordings of the pneumatic piston.
+
+    Members are spread evenly over the fault codes. Each member draws its settings
+    from the healthy or faulty range of :data:`PNEUMATIC_FAULTS`, a load mass from
+    {0, 1.25, 5, 6.25} kg and a supply pressure from {5, 6} bar (table 3.2), and
+    random friction (±20 %), valve coefficients (±8 %) and valve delay (±20 %).
+
+    Parameters
+    ----------
+    n_members : int, default 600
+        Number of recordings.
+    labels : sequence of str, optional
+        Fault codes to simulate (default :func:`fault_labels` ``(max_faults)``).
+    max_faults : int, default 1
+        Largest number of combined faults when ``labels`` is not given.
+    t_end, fs : float
+        Recording length (s) and sampling rate (Hz); the seed's recordings are 10 s at
+        1 kHz.
+    signals : sequence of str, optional
+        Sensor signals to record (default all fifteen of seed table 3.1).
+    seed : int
+        Seed of every random choice and of the sensor noise.
+    batch_size : int
+        Members simulated at once.
+
+    Returns
+    -------
+    Ensemble
+        Condition columns ``fault`` (the code), ``load_kg``, ``supply_bar`` and the
+        true settings ``throttle_1``, ``throttle_2``, ``damper_upper``,
+        ``damper_bottom``, ``large_damper_damping``.
+
+    Examples
+    --------
+    >>> from pdmkit.ensembles import simulate_fault_ensemble
+    >>> ens = simulate_fault_ensemble(12, t_end=0.5, signals=["LeverPosition"], seed=1)
+    >>> len(ens), ens.fs["LeverPosition"], ens.conditions["fault"].nunique()
+    (12, 1000.0, 6)
+    """
+    if not isinstance(n_members, int | np.integer) or n_members < 1:
+        raise ValueError(f"n_members must be a positive integer; got {n_members!r}")
+    codes = _check_labels(labels) if labels is not None else fault_labels(max_faults)
+    signals = _signal_list(signals)
+    rng = np.random.default_rng(seed)
+    member_labels = np.array([codes[i % len(codes)] for i in range(int(n_members))])
+    rng.shuffle(member_labels)
+    cols = _operating_conditions(int(n_members), rng)
+    cols.update(_fault_settings(member_labels, rng))
+    data = _simulate_batches(
+        cols,
+        int(n_members),
+        t_end=t_end,
+        fs=fs,
+        signals=signals,
+        seed=seed,
+        batch_size=batch_size,
+        desc="simulating fault ensemble",
+    )
+    conditions = pd.DataFrame(
+        {
+            "fault": member_labels,
+            "load_kg": cols["mass_load"],
+            "supply_bar": (cols["p_supply"] - _P_AMBIENT) / 1e5,
+            "throttle_1": cols["throttle_a"],
+            "throttle_2": cols["throttle_b"],
+            "damper_upper": cols["damper_upper"],
+            "damper_bottom": cols["damper_bottom"],
+            "large_damper_damping": cols["damper_large_damping"],
+        }
+    )
+    ids = [f"sim{i:05d}" for i in range(int(n_members))]
+    return Ensemble(data, fs=fs, conditions=conditions, member_ids=ids)
+
+
+#: Sensor faults of seed 8.1.1, as SensorSpec fields relative to the signal's spread.
+_SENSOR_FAULTS = ("healthy", "noise", "offset", "drift", "loss")
+
+
+def simulate_sensor_fault_ensemble(
+    n_members: int = 200,
+    *,
+    sensor: str = "FlowExtrusion",
+    t_end: float = 10.0,
+    fs: float = 1000.0,
+    seed: int = 0,
+    batch_size: int = 500,
+) -> Ensemble:
+    """Simulate one sensor healthy and with the sensor faults of seed section 8.1.1.
+
+    Classes (condition ``sensor_fault``): ``healthy``, ``noise`` (white noise of 5-15 %
+    of the signal's typical range), ``offset`` (a bias of 5-15 % of the range),
+    ``drift`` (a bias growing to 10-30 % of the range over the recording) and ``loss``
+    (60-100 % of the samples lost, read as 0 like a dead analogue channel). The machine
+    itself is healthy, at random operating points.
+
+    Parameters
+    ----------
+    n_members : int, default 200
+    sensor : str, default "FlowExtrusion"
+        The sensor signal to corrupt (seed figure 8.1 uses the flow sensor).
+    t_end, fs, seed, batch_size
+        As :func:`simulate_fault_ensemble`.
+
+    Returns
+    -------
+    Ensemble
+        One signal, ``sensor``; conditions ``sensor_fault``, ``load_kg``, ``supply_bar``.
+
+    Examples
+    --------
+    >>> from pdmkit.ensembles import simulate_sensor_fault_ensemble
+    >>> ens = simulate_sensor_fault_ensemble(10, t_end=0.5, seed=2)
+    >>> sorted(ens.conditions["sensor_fault"].unique())
+    ['drift', 'healthy', 'loss', 'noise', 'offset']
+    """
+    from pdmkit.models import SensorSpec
+
+    signals = _signal_list([sensor])
+    rng = np.random.default_rng(seed)
+    n = int(n_members)
+    faults = np.array([_SENSOR_FAULTS[i % len(_SENSOR_FAULTS)] for i in range(n)])
+    rng.shuffle(faults)
+    cols = _operating_conditions(n, rng)
+    cols.update(_fault_settings(np.array(["healthy"] * n), rng))
+    # the typical range of the clean signal sets the size of the faults
+    clean = _simulate_batches(
+        {k: v[:1] for k, v in cols.items()},
+        1,
+        t_end=t_end,
+        fs=fs,
+        signals=signals,
+        seed=seed,
+        batch_size=1,
+        desc="",
+    )[sensor]
+    span = float(np.percentile(clean, 99) - np.percentile(clean, 1)) or 1.0
+    size = rng.uniform(0.05, 0.15, n) * span
+    spec = SensorSpec(
+        noise_std=np.where(faults == "noise", size, 0.0),
+        offset=np.where(faults == "offset", size, 0.0),
+        drift=np.where(faults == "drift", 2.0 * size / t_end, 0.0),
+        dropout=np.where(faults == "loss", rng.uniform(0.6, 1.0, n), 0.0),
+    )
+    data = _simulate_batches(
+        cols,
+        n,
+        t_end=t_end,
+        fs=fs,
+        signals=signals,
+        seed=seed + 1,
+        batch_size=batch_size,
+        desc="simulating sensor faults",
+        specs={sensor: spec},
+    )
+    conditions = pd.DataFrame(
+        {
+            "sensor_fault": faults,
+            "load_kg": cols["mass_load"],
+            "supply_bar": (cols["p_supply"] - _P_AMBIENT) / 1e5,
+        }
+    )
+    return Ensemble(
+        data, fs=fs, conditions=conditions, member_ids=[f"sf{i:05d}" for i in range(n)]
+    )
+
+
+def simulate_leak_runs(
+    n_units: int = 10,
+    *,
+    max_cycles: int = 60,
+    leak_start: float = 1e-10,
+    leak_failure: float = 1e-6,
+    chamber: str = "b",
+    t_end: float = 10.0,
+    fs: float = 1000.0,
+    signals: Sequence[str] | None = ("LeverPosition", "FlowExtrusion", "AirPressure"),
+    seed: int = 0,
+    batch_size: int = 500,
+) -> Ensemble:
+    """Simulate air-leak run-to-failure units (seed sections 8.1-8.2 and 8.4).
+
+    Each unit is a sequence of recordings ("cycles"). Its leak coefficient ``C_al``
+    grows log-linearly from ``leak_start`` with a unit-specific rate and a random walk
+    around it, and the unit fails at the first cycle whose ``C_al`` reaches
+    ``leak_failure``. Units get random operating points and parameter variation like
+    :func:`simulate_fault_ensemble`, held fixed over their life.
+
+    Parameters
+    ----------
+    n_units : int, default 10
+    max_cycles : int, default 60
+        Typical longest life: each unit's leak rate is drawn so that its expected
+        life falls between 40 % and 100 % of this (the random walk spreads it).
+    leak_start, leak_failure : float, m^2
+        ``C_al`` of a new unit and the failure threshold.
+    chamber : {"a", "b"}
+        The leaking chamber (seed figure 8.8 shows chamber B).
+    t_end, fs, signals, seed, batch_size
+        As :func:`simulate_fault_ensemble`.
+
+    Returns
+    -------
+    Ensemble
+        Members ``"u03/c0012"``; conditions ``unit``, ``cycle`` (0, 1, ...), ``c_leak``
+        (m^2), ``rul`` (cycles left until failure; 0 at the failing cycle) and
+        ``failed`` (True at the last cycle of each unit).
+
+    Examples
+    --------
+    >>> from pdmkit.ensembles import simulate_leak_runs
+    >>> runs = simulate_leak_runs(2, max_cycles=6, t_end=0.5, signals=["AirPressure"])
+    >>> runs.conditions.groupby("unit")["rul"].min().tolist()
+    [0, 0]
+    """
+    if chamber not in ("a", "b"):
+        raise ValueError(f"chamber must be 'a' or 'b'; got {chamber!r}")
+    if not 0 < leak_start < leak_failure:
+        raise ValueError(
+            f"need 0 < leak_start < leak_failure; got {leak_start!r}, {leak_failure!r}"
+        )
+    if max_cycles < 3:
+        raise ValueError(f"max_cycles must be >= 3; got {max_cycles!r}")
+    signals = _signal_list(signals)
+    rng = np.random.default_rng(seed)
+    units, cycles, leaks = [], [], []
+    log_start, log_fail = np.log(leak_start), np.log(leak_failure)
+    for u in range(int(n_units)):
+        target = int(rng.integers(int(0.4 * max_cycles), max_cycles + 1))
+        # log C_al: a drift that reaches the threshold in about `target` cycles, with
+        # gamma-distributed increments (a monotone random walk); the unit fails at the
+        # first cycle at or above the threshold
+        steps = rng.gamma(4.0, 1.0 / 4.0, size=4 * target) * (log_fail - log_start) / target
+        path = log_start + np.concatenate([[0.0], np.cumsum(steps)])
+        end = int(np.flatnonzero(path >= log_fail)[0])
+        units += [u] * (end + 1)
+        cycles += list(range(end + 1))
+        leaks += list(np.exp(path[: end + 1]))
+    n = len(units)
+    units_arr = np.asarray(units)
+    per_unit = _operating_conditions(int(n_units), rng)
+    cols = {k: v[units_arr] for k, v in per_unit.items()}
+    cols.update(_fault_settings(np.array(["healthy"] * int(n_units)), rng))
+    for k in (
+        "throttle_a",
+        "throttle_b",
+        "damper_upper",
+        "damper_bottom",
+        "damper_large_damping",
+    ):
+        cols[k] = cols[k][units_arr]
+    cols[f"c_leak_{chamber}"] = np.asarray(leaks)
+    data = _simulate_batches(
+        cols,
+        n,
+        t_end=t_end,
+        fs=fs,
+        signals=signals,
+        seed=seed,
+        batch_size=batch_size,
+        desc="simulating leak runs",
+    )
+    cycles_arr = np.asarray(cycles)
+    last = pd.Series(cycles_arr).groupby(units_arr).transform("max").to_numpy()
+    conditions = pd.DataFrame(
+        {
+            "unit": units_arr,
+            "cycle": cycles_arr,
+            "c_leak": np.asarray(leaks),
+            "rul": last - cycles_arr,
+            "failed": cycles_arr == last,
+            "load_kg": cols["mass_load"],
+            "supply_bar": (cols["p_supply"] - _P_AMBIENT) / 1e5,
+        }
+    )
+    ids = [f"u{u:02d}/c{c:04d}" for u, c in zip(units_arr, cycles_arr, strict=True)]
+    return Ensemble(data, fs=fs, conditions=conditions, member_ids=ids)
+
+
+def pneumatic_residuals(
+    ensemble: Ensemble,
+    signals: Sequence[str] = ("LeverPosition",),
+    *,
+    t_end: float | None = None,
+) -> Ensemble:
+    """Residuals of recordings against the nominal twin (seed section 8.3).
+
+    For every operating point in the ensemble (its ``load_kg`` and ``supply_bar``
+    conditions, which an operator knows) the healthy nominal model is simulated once,
+    without sensor imperfections, and subtracted from each member's recording:
+    ``e(t) = y(t) - y_nominal(t)``. The seed simulated one nominal response for all
+    members; one per operating point keeps load and supply out of the residual.
+
+    Parameters
+    ----------
+    ensemble : Ensemble
+        Recordings of the twin (or of the rig) with ``load_kg`` and ``supply_bar``
+        conditions.
+    signals : sequence of str
+        Signals to form residuals of; the result names them ``<signal>_res``.
+    t_end : float, optional
+        Length of the nominal simulation (default: the recordings' length).
+
+    Returns
+    -------
+    Ensemble
+        Residual signals, same members and conditions.
+
+    Examples
+    --------
+    >>> from pdmkit.ensembles import pneumatic_residuals, simulate_fault_ensemble
+    >>> ens = simulate_fault_ensemble(6, t_end=0.5, signals=["LeverPosition"], seed=3)
+    >>> res = pneumatic_residuals(ens)
+    >>> res.signal_names
+    ['LeverPosition_res']
+    """
+    from pdmkit.models import PneumaticParams, SensorSpec, simulate
+
+    missing = [c for c in ("load_kg", "supply_bar") if c not in ensemble.conditions]
+    if missing:
+        raise DataError(
+            f"the ensemble has no condition column(s) {missing}: residuals need each "
+            "member's load mass (kg) and supply pressure (bar gauge)"
+        )
+    arrays, fs = {}, {}
+    for name in signals:
+        if name not in ensemble.signal_names:
+            raise DataError(
+                f"signal {name!r} is not in the ensemble {ensemble.signal_names}"
+            )
+        x, has = ensemble.stack(name)
+        if not has.all():
+            raise DataError(
+                f"members {list(ensemble.member_ids[~has][:5])} lack signal {name!r}"
+            )
+        arrays[name], fs[name] = x, ensemble.fs[name]
+    conditions = ensemble.conditions
+    points = conditions[["load_kg", "supply_bar"]].drop_duplicates().reset_index(drop=True)
+    healthy = {s.parameter: float(np.mean(s.healthy)) for s in PNEUMATIC_FAULTS.values()}
+    params = PneumaticParams(
+        mass_load=points["load_kg"].to_numpy(float),
+        p_supply=_P_AMBIENT + points["supply_bar"].to_numpy(float) * 1e5,
+        **healthy,
+    )
+    rate = {fs[name] for name in signals}
+    if len(rate) != 1:
+        raise DataError(f"signals {list(signals)} have different rates {sorted(rate)}")
+    rate_hz = rate.pop()
+    n_samples = arrays[signals[0]].shape[1]
+    duration = t_end if t_end is not None else n_samples / rate_hz
+    ideal = {name: SensorSpec() for name in signals}
+    nominal = simulate(
+        params,
+        t_end=duration,
+        fs=rate_hz,
+        sensors=list(signals),
+        seed=0,
+        sensor_specs=ideal,
+    )
+    key = pd.MultiIndex.from_frame(points)
+    row = key.get_indexer(pd.MultiIndex.from_frame(conditions[["load_kg", "supply_bar"]]))
+    out = {}
+    for name in signals:
+        reference = np.asarray(nominal.outputs[name])[:, :n_samples]
+        out[f"{name}_res"] = arrays[name] - reference[row]
+    return Ensemble(
+        out,
+        fs={f"{n}_res": fs[n] for n in signals},
+        conditions=conditions,
+        member_ids=list(ensemble.member_ids),
+    )

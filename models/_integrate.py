@@ -1,0 +1,433 @@
+"""Batched fixed-step simulation of the piston model, and a solve_ivp reference.
+
+Scheme (IMEX, fixed step ``dt``, 2e-4 s by default; output decimated to ``fs``):
+
+* spool: exact exponential update of the first-order lag (the command is constant over
+  a step); the flows of the step see the spool at mid-step, so the valve opening has no
+  O(dt) lag;
+* pressures (chambers, reservoir): explicit Euler;
+* mechanics (x, v): linearly implicit trapezoidal (theta = 1/2) step, using the
+  stiffness ``k`` and damping ``c`` (per unit mass) of whatever is engaged - hard stops,
+  dampers, the steep smoothed Coulomb friction::
+
+      dv = dt (a - theta dt k v) / (1 + theta dt c + theta^2 dt^2 k)
+      x+ = x + dt (v + theta dv),   v+ = v + dv
+
+  A-stable, so the stiff stops and the friction law stay stable at the fixed step, and
+  without the artificial damping of a backward-Euler step (impacts rebound correctly).
+
+Measured against ``solve_ivp`` (LSODA, rtol 1e-6) on the same :func:`rhs`: maximum
+position error over a 10 s recording about 0.1 mm at the default step (0.05 mm at
+1e-4 s) for the healthy piston and below 0.4 mm across the table-3.2 fault settings
+(largest with the 6.25 kg load, whose end impacts rebound). Members are stepped together
+(batch on the first axis), in numpy or, when any parameter is a torch tensor, in torch
+with autograd. Between output samples the contact forces, the valve mass flow and the
+exhaust flow are averaged over the sample interval (what a sampling sensor sees).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from pdmkit._progress import progress
+from pdmkit.errors import ModelError
+from pdmkit.models._pneumatic import (
+    STATE_NAMES,
+    STATE_UNITS,
+    PneumaticParams,
+    _command_now,
+    _derivs,
+    _resolve,
+    initial_state,
+    rhs,
+    valve_command,
+)
+from pdmkit.models._response import PneumaticResponse
+from pdmkit.models._sensors import SENSOR_NAMES, SENSOR_UNITS, resolve_specs, sensor_outputs
+from pdmkit.models._xp import get_namespace, is_torch
+
+__all__ = ["simulate", "simulate_ivp"]
+
+SIGNAL_UNITS = {
+    "acceleration": "m/s^2",
+    "mass_flow_a": "kg/s",
+    "mass_flow_exhaust": "kg/s",
+    "force_top": "N",
+    "force_bottom": "N",
+    "temperature_a": "K",
+    "temperature_b": "K",
+}
+
+
+#: implicitness of the linearised mechanical step: 0.5 = trapezoidal (second order, no
+#: numerical damping of impacts), 1 = backward Euler.
+_THETA = 0.5
+
+
+def _check_timing(t_end, fs, dt):
+    for name, v in (("t_end", t_end), ("fs", fs), ("dt", dt)):
+        if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+            raise ModelError(f"simulate: {name} must be a positive number; got {v!r}.")
+    n_samples = round(t_end * fs)
+    if n_samples < 1:
+        raise ModelError(
+            "simulate: t_end * fs must give at least one sample; got "
+            f"t_end={t_end}, fs={fs}."
+        )
+    sub = 1.0 / (fs * dt)
+    n_sub = round(sub)
+    if n_sub < 1 or abs(sub - n_sub) > 1e-6 * sub:
+        raise ModelError(
+            f"simulate: the output interval 1/fs = {1 / fs:g} s must be a whole number of "
+            f"steps dt = {dt:g} s; got {sub:g} steps. Choose dt = 1/(fs * k), e.g. "
+            f"{1 / (fs * max(1, round(sub))):g}."
+        )
+    return n_samples, n_sub, 1.0 / (fs * n_sub)
+
+
+def _n_members(params: PneumaticParams, batch):
+    if batch is not None:
+        if not isinstance(batch, int | np.integer) or batch < 1:
+            raise ModelError(f"simulate: batch must be a positive integer; got {batch!r}.")
+        if params.n_members is not None and params.n_members != batch:
+            raise ModelError(
+                f"simulate: batch={batch} but the parameters hold {params.n_members} "
+                "members; leave batch=None for batched parameters."
+            )
+        return int(batch)
+    return params.n_members or 1
+
+
+def _integrate(
+    params: PneumaticParams,
+    n: int,
+    n_samples: int,
+    n_sub: int,
+    h: float,
+    show_progress: bool | None,
+):
+    fields = [getattr(params, f.name) for f in dataclasses.fields(params)]
+    xp = get_namespace(*fields)
+    r = _resolve(params, xp)
+    y0 = initial_state(params, n)
+    x, v, pa, pb, pr, s = (y0[:, i] for i in range(len(STATE_NAMES)))
+    rec = {k: [] for k in STATE_NAMES}
+    aux = {k: [] for k in ("mass_flow_a", "mass_flow_exhaust", "force_top", "force_bottom")}
+
+    def record(d_avg):
+        for k, val in zip(STATE_NAMES, (x, v, pa, pb, pr, s), strict=True):
+            rec[k].append(val)
+        for k, val in zip(aux, d_avg, strict=True):
+            aux[k].append(val)
+
+    th_h = _THETA * h
+    r.imp = th_h * r.inv_m  # _derivs returns k and c scaled by theta dt / m
+    d = _derivs(0.0, x, v, pa, pb, pr, s, r, xp, aux=True)
+    record((d.m_a, d.m_exhaust, d.f_top, d.f_bot))
+    acc0 = d.acc
+    inv = 1.0 / n_sub
+    # the spool is linear between command jumps: exact exponential update
+    if is_torch(r.t_v):
+        decay = xp.exp(-h / r.t_v)
+        half = xp.exp(-0.5 * h / r.t_v)
+    else:
+        decay = np.exp(-h / np.asarray(r.t_v))
+        half = np.exp(-0.5 * h / np.asarray(r.t_v))
+        if decay.ndim == 0:
+            decay, half = float(decay), float(half)
+    step = 0
+    for _ in progress(
+        range(1, n_samples), desc="simulate", total=n_samples - 1, enable=show_progress
+    ):
+        s_ma = s_ex = s_top = s_bot = 0.0
+        for _j in range(n_sub):
+            t = step * h
+            # the flows see the spool at mid-step (exact for the linear spool), which
+            # removes the O(dt) lag of the valve opening in the explicit pressure step
+            u = _command_now(t, r, xp)
+            s_u = s - u
+            d = _derivs(t, x, v, pa, pb, pr, u + s_u * half, r, xp, aux=True)
+            dv = h * (d.acc - d.k_eff * v) / (1.0 + d.c_eff + th_h * d.k_eff)
+            x = x + h * (v + _THETA * dv)
+            v = v + dv
+            pa = pa + h * d.dpa
+            pb = pb + h * d.dpb
+            pr = pr + h * d.dpr
+            s = u + s_u * decay
+            s_ma = s_ma + d.m_a
+            s_ex = s_ex + d.m_exhaust
+            s_top = s_top + d.f_top
+            s_bot = s_bot + d.f_bot
+            step += 1
+        record((s_ma * inv, s_ex * inv, s_top * inv, s_bot * inv))
+    states = {k: xp.stack(val, axis=1) for k, val in rec.items()}
+    signals = {k: xp.stack(val, axis=1) for k, val in aux.items()}
+    return xp, r, states, signals, acc0
+
+
+def _gas_temperatures(p_chamber, params: PneumaticParams, fs: float, xp):
+    """Adiabatic gas temperature with heat exchange to the wall, sampled at ``fs``.
+
+    ``d ln T = (k - 1)/k d ln p - (1 - T_w / T) dt / tau``: the isentropic change of the
+    pressure model (T_w = ambient) relaxed with the heat-exchange time constant.
+    """
+    e1 = (params.kappa - 1.0) / params.kappa
+    tw = params.t_ambient
+    dt_tau = (1.0 / fs) / params.temp_gas_time_constant
+    lnp = xp.log(p_chamber)
+    dlnp = lnp[:, 1:] - lnp[:, :-1]
+    lnt = xp.log(xp.asarray(tw) + 0.0 * p_chamber[:, 0])
+    out = [xp.exp(lnt)]
+    for k in range(dlnp.shape[1]):
+        temp = out[-1]
+        lnt = lnt + e1 * dlnp[:, k] - (1.0 - tw / temp) * dt_tau
+        out.append(xp.exp(lnt))
+    return xp.stack(out, axis=1)
+
+
+def simulate(
+    params: PneumaticParams | None = None,
+    t_end: float = 10.0,
+    fs: float = 1000.0,
+    batch: int | None = None,
+    sensors: bool | Sequence[str] = True,
+    seed=None,
+    dt: float = 2e-4,
+    sensor_specs: Mapping | None = None,
+    progress: bool | None = None,
+) -> PneumaticResponse:
+    """Simulate the pneumatic piston for a batch of members on a fixed step.
+
+    All members are stepped together (IMEX scheme, see the module notes): numpy by
+    default, torch with autograd when any parameter is a torch tensor. A 10 s recording
+    of 1000 members takes about 12 s of CPU time at the default step on a 2-core x86
+    machine (states only; all fifteen sensors add roughly half of that again, mostly
+    allocating the (members x samples) arrays: pick ``sensors`` to keep what you need).
+
+    Parameters
+    ----------
+    params : PneumaticParams, optional
+        Scalar or batched parameters (fields of shape ``(n_members,)``); default
+        ``PneumaticParams()``.
+    t_end : float
+        Length of the recording in s (10 s in the seed's dataset).
+    fs : float
+        Output sampling rate in Hz (1 kHz).
+    batch : int, optional
+        Number of members for scalar parameters (identical physics; sensor noise
+        differs). Must match ``params.n_members`` if given with batched parameters.
+    sensors : bool or sequence of str
+        True: all fifteen sensors of seed table 3.1 in :attr:`outputs`; a list: those
+        sensors; False: none (states and signals only).
+    seed : int, numpy SeedSequence or Generator, optional
+        Seed of the sensor noise (each sensor has its own stream, so choosing a subset
+        of ``sensors`` does not change the noise of the others).
+    dt : float
+        Integration step in s; ``1 / (fs * dt)`` must be a whole number.
+    sensor_specs : dict of str to SensorSpec, optional
+        Overrides of :func:`default_sensor_specs` (sensor faults), by sensor name.
+    progress : bool, optional
+        Show a progress bar (default: only on a terminal).
+
+    Returns
+    -------
+    PneumaticResponse
+        ``time`` (n_samples,); ``states`` position, velocity, pressure_a, pressure_b,
+        pressure_supply, spool; ``signals`` acceleration, mass_flow_a,
+        mass_flow_exhaust, force_top, force_bottom (means over each sample interval),
+        temperature_a/b; ``inputs`` valve_command; ``outputs`` the sensor readings;
+        all ``(n_members, n_samples)``.
+
+    Examples
+    --------
+    >>> from pdmkit.models import PneumaticParams, simulate, stack_params
+    >>> p = stack_params([PneumaticParams(), PneumaticParams(mass_load=6.25)])
+    >>> r = simulate(p, t_end=1.0, seed=0)
+    >>> r.states["position"].shape, sorted(r.outputs)[:2]
+    ((2, 1000), ['AccelerometerMoving_axisZ', 'AccelerometerStatic_axisZ'])
+    >>> bool(r.states["position"][0].max() > 0.159)   # the light piston reached the top
+    True
+    """
+    if params is None:
+        params = PneumaticParams()
+    if not isinstance(params, PneumaticParams):
+        raise ModelError(
+            f"simulate: params must be a PneumaticParams; got {type(params).__name__}."
+        )
+    n_samples, n_sub, h = _check_timing(t_end, fs, dt)
+    n = _n_members(params, batch)
+    if sensors is True:
+        names = list(SENSOR_NAMES)
+    elif sensors is False or sensors is None:
+        names = []
+    else:
+        names = list(sensors)
+        unknown = [s for s in names if s not in SENSOR_UNITS]
+        if unknown:
+            raise ModelError(
+                f"simulate: unknown sensors {unknown}; choose from "
+                f"{', '.join(SENSOR_NAMES)}."
+            )
+    specs = resolve_specs(sensor_specs)
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        # a diverging run is detected and reported right below
+        xp, _, states, signals, acc0 = _integrate(params, n, n_samples, n_sub, h, progress)
+    _check_finite(states, dt)
+    # mean acceleration over each sample interval (what a sampled accelerometer sees)
+    v = states["velocity"]
+    first = (acc0 + 0.0 * v[:, 0])[:, None]
+    signals["acceleration"] = xp.concat([first, (v[:, 1:] - v[:, :-1]) * fs], axis=1)
+    signals["temperature_a"] = _gas_temperatures(states["pressure_a"], params, fs, xp)
+    signals["temperature_b"] = _gas_temperatures(states["pressure_b"], params, fs, xp)
+    time = np.arange(n_samples) / fs
+    t_in = xp.asarray(time)
+    u = valve_command(t_in, params)
+    u = u + 0.0 * states["position"]  # broadcast to (n_members, n_samples)
+    outputs = {}
+    if names:
+        raw = {k: xp.to_numpy(val) for k, val in {**states, **signals}.items()}
+        p_np = params if not params.is_torch else _detached(params)
+        outputs = sensor_outputs(raw, p_np, fs, specs, names, seed)
+    units = {**STATE_UNITS, **SIGNAL_UNITS, **SENSOR_UNITS, "valve_command": "-"}
+    return PneumaticResponse(
+        time,
+        states=states,
+        outputs=outputs,
+        inputs={"valve_command": u},
+        signals=signals,
+        units=units,
+        params=params,
+        sensor_specs={k: specs[k] for k in names},
+    )
+
+
+def _detached(params: PneumaticParams) -> PneumaticParams:
+    changes = {}
+    for f in dataclasses.fields(params):
+        v = getattr(params, f.name)
+        if is_torch(v):
+            arr = v.detach().cpu().numpy()
+            changes[f.name] = float(arr) if arr.ndim == 0 else arr
+    return dataclasses.replace(params, **changes)
+
+
+def _check_finite(states, dt):
+    for k, val in states.items():
+        arr = val.detach().cpu().numpy() if is_torch(val) else val
+        bad = ~np.all(np.isfinite(arr), axis=1)
+        if k.startswith("pressure"):
+            bad |= np.any(arr <= 0, axis=1)
+        if np.any(bad):
+            members = np.flatnonzero(bad)[:10].tolist()
+            raise ModelError(
+                f"simulate: the integration diverged ({k} not finite/positive) for members "
+                f"{members}; dt = {dt:g} s is too large for these parameters (very large "
+                "valve coefficients, stiffer stops or tiny volumes). Use a smaller dt."
+            )
+
+
+def _switch_times(params: PneumaticParams, t_end: float) -> list[float]:
+    """Times at which the delayed valve command jumps (for piecewise reference runs)."""
+    start = float(params.cycle_start) + float(params.valve_delay)
+    period = float(params.cycle_period)
+    duty = float(params.cycle_duty)
+    times = []
+    k = 0
+    while start + k * period < t_end:
+        for t in (start + k * period, start + (k + duty) * period):
+            if 0.0 < t < t_end and 0.0 < duty < 1.0:
+                times.append(t)
+        k += 1
+    return sorted(times)
+
+
+def simulate_ivp(
+    params: PneumaticParams | None = None,
+    t_end: float = 10.0,
+    fs: float = 1000.0,
+    method: str = "LSODA",
+    rtol: float = 1e-6,
+    atol=None,
+) -> PneumaticResponse:
+    """Reference solution of the same :func:`rhs` with ``scipy.integrate.solve_ivp``.
+
+    The recording is integrated piecewise between the jumps of the delayed valve
+    command, so the adaptive solver never steps over a switch. One member at a time
+    (scalar parameters, or each member of batched parameters in turn); states only.
+
+    Parameters
+    ----------
+    params : PneumaticParams, optional
+        Parameters; default ``PneumaticParams()``.
+    t_end, fs : float
+        Recording length (s) and output rate (Hz), as in :func:`simulate`.
+    method : str
+        solve_ivp method ("LSODA", "Radau", "BDF", ...).
+    rtol : float
+        Relative tolerance.
+    atol : float or array_like, optional
+        Absolute tolerance; default tight per state: 1e-9 m, 1e-7 m/s, 1e-3 Pa, 1e-9.
+
+    Returns
+    -------
+    PneumaticResponse
+        With ``states`` only.
+
+    Examples
+    --------
+    >>> from pdmkit.models import simulate_ivp
+    >>> ref = simulate_ivp(t_end=0.4)
+    >>> round(float(ref.states["position"][0, -1]), 2)   # at the top after 0.4 s
+    0.16
+    """
+    from scipy.integrate import solve_ivp
+
+    if params is None:
+        params = PneumaticParams()
+    if params.is_torch:
+        params = _detached(params)
+    n_samples, _, _ = _check_timing(t_end, fs, 1.0 / fs)
+    if atol is None:
+        atol = np.array([1e-9, 1e-7, 1e-3, 1e-3, 1e-3, 1e-9])
+    t_eval = np.arange(n_samples) / fs
+    members = (
+        [params]
+        if params.n_members is None
+        else [params.member(i) for i in range(params.n_members)]
+    )
+    out = np.empty((len(members), len(STATE_NAMES), n_samples))
+    for m, p in enumerate(members):
+        edges = [0.0, *_switch_times(p, t_eval[-1]), t_eval[-1]]
+        y = np.asarray(initial_state(p), dtype=np.float64)
+        out[m, :, 0] = y
+        for a, b in itertools.pairwise(edges):
+            if b <= a:
+                continue
+            sel = (t_eval > a) & (t_eval <= b)
+            te = t_eval[sel]
+            if te.size == 0 or te[-1] != b:
+                te = np.append(te, b)
+            sol = solve_ivp(
+                rhs, (a, b), y, method=method, rtol=rtol, atol=atol, t_eval=te, args=(p,)
+            )
+            if not sol.success:
+                raise ModelError(
+                    f"simulate_ivp: {method} failed on member {m} in [{a:g}, {b:g}] s: "
+                    f"{sol.message}"
+                )
+            n_sel = int(sel.sum())
+            out[m][:, sel] = sol.y[:, :n_sel]
+            y = sol.y[:, -1]
+    states = {k: out[:, i, :] for i, k in enumerate(STATE_NAMES)}
+    return PneumaticResponse(
+        t_eval,
+        states=states,
+        units=dict(STATE_UNITS),
+        params=params,
+        name="pneumatic piston (solve_ivp)",
+    )

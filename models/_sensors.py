@@ -1,0 +1,449 @@
+"""Sensor models of the demonstration device (seed table 3.1, sections 4.6 and 8.1.1).
+
+Each sensor turns noise-free model quantities (SI) into the reading the real sensor
+reports, in its unit, then a :class:`SensorSpec` adds what can go wrong with a sensor:
+gain error, offset, drift, noise, quantisation and dropout (seed 8.1.1: "noise" and
+"offset" sensor faults, drift and complete signal loss).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy import signal as sps
+
+from pdmkit.errors import ModelError
+
+__all__ = ["SENSOR_NAMES", "SENSOR_UNITS", "SensorSpec", "default_sensor_specs"]
+
+#: Reference atmosphere for standard flow (ISO 8778 / ISO 6358 "ANR"): 20 degC, 100 kPa.
+P_STD = 1.0e5
+T_STD = 293.15
+
+SENSOR_UNITS: dict[str, str] = {
+    "LeverPosition": "m",
+    "LeverVelocity": "m/s",
+    "AccelerometerMoving_axisZ": "m/s^2",
+    "AccelerometerStatic_axisZ": "m/s^2",
+    "FlowExtrusion": "l/min",
+    "FlowContraction": "l/min",
+    "AirPressure": "bar",
+    "MIC_uBumper": "V",
+    "MIC_bBumper": "V",
+    "MIC_Ambient": "V",
+    "TempCylinder": "degC",
+    "TempAmbient": "degC",
+    "StrainGauge": "Pa",
+    "ProximitySensor_upper": "-",
+    "ProximitySensor_bottom": "-",
+}
+SENSOR_NAMES: tuple[str, ...] = tuple(SENSOR_UNITS)
+
+_DESCRIPTION = {
+    "LeverPosition": "encoder displacement (piston position, 0 = bottom)",
+    "LeverVelocity": "encoder velocity",
+    "AccelerometerMoving_axisZ": "accelerometer on the moving part (mean over a sample)",
+    "AccelerometerStatic_axisZ": "accelerometer on the static frame (frame mode response)",
+    "FlowExtrusion": "standard flow into chamber A",
+    "FlowContraction": "standard flow out of chamber A",
+    "AirPressure": "reservoir pressure, gauge",
+    "MIC_uBumper": "microphone at the upper bumper",
+    "MIC_bBumper": "microphone at the bottom bumper",
+    "MIC_Ambient": "ambient microphone",
+    "TempCylinder": "cylinder barrel temperature (slow sensor)",
+    "TempAmbient": "ambient temperature",
+    "StrainGauge": "frame stress from the force on the mount",
+    "ProximitySensor_upper": "1 within proximity_distance of the top end",
+    "ProximitySensor_bottom": "1 within proximity_distance of the bottom end",
+}
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    """Imperfections of one sensor, in the sensor's output unit.
+
+    Applied in this order to the ideal reading ``x`` at times ``t``::
+
+        y = (1 + gain_error) * x + offset + drift * t + noise_std * N(0, 1)
+        y = quantization * round(y / quantization)          (if quantization > 0)
+        y[lost] = dropout_fill   with P(lost) = dropout     (each sample independently)
+
+    Every field is a float or an array of shape ``(n_members,)`` so that each member
+    of a simulated ensemble can carry its own sensor fault.
+
+    Parameters
+    ----------
+    noise_std : float
+        Standard deviation of white measurement noise. >= 0.
+    offset : float
+        Constant bias.
+    drift : float
+        Bias growing linearly with time, per second.
+    gain_error : float
+        Relative sensitivity error (0.05 = reads 5 % high). > -1.
+    dropout : float
+        Probability in [0, 1] that a sample is lost; 1 = complete signal loss.
+    dropout_fill : float
+        Value recorded for lost samples (0, as a dead analogue channel reads; NaN allowed).
+    quantization : float
+        Resolution (LSB); 0 = none.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models import SensorSpec
+    >>> spec = SensorSpec(offset=0.5, quantization=0.25)
+    >>> spec.apply(np.array([[0.0, 0.1, 1.0]]), fs=1000.0).tolist()
+    [[0.5, 0.5, 1.5]]
+    """
+
+    noise_std: Any = 0.0
+    offset: Any = 0.0
+    drift: Any = 0.0
+    gain_error: Any = 0.0
+    dropout: Any = 0.0
+    dropout_fill: Any = 0.0
+    quantization: Any = 0.0
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            v = np.asarray(getattr(self, f.name), dtype=np.float64)
+            if v.ndim > 1:
+                raise ModelError(
+                    f"SensorSpec.{f.name} must be a number or shape (n_members,); got "
+                    f"shape {v.shape}."
+                )
+            if f.name != "dropout_fill" and not np.all(np.isfinite(v)):
+                raise ModelError(f"SensorSpec.{f.name} must be finite; got {v!r}.")
+            val = float(v) if v.ndim == 0 else v
+            object.__setattr__(self, f.name, val)
+        checks = [
+            ("noise_std", lambda v: v >= 0, ">= 0"),
+            ("quantization", lambda v: v >= 0, ">= 0"),
+            ("dropout", lambda v: (v >= 0) & (v <= 1), "in [0, 1]"),
+            ("gain_error", lambda v: v > -1, "> -1"),
+        ]
+        for name, ok, text in checks:
+            v = np.asarray(getattr(self, name))
+            if not np.all(ok(v)):
+                raise ModelError(
+                    f"SensorSpec.{name} must be {text}; got {getattr(self, name)!r}."
+                )
+
+    def replace(self, **changes: Any) -> SensorSpec:
+        """A copy with some fields changed; unknown names raise ModelError.
+
+        Examples
+        --------
+        >>> from pdmkit.models import SensorSpec
+        >>> SensorSpec().replace(offset=2.0).offset
+        2.0
+        """
+        names = [f.name for f in dataclasses.fields(self)]
+        for key in changes:
+            if key not in names:
+                close = difflib.get_close_matches(key, names, n=1)
+                hint = f"; did you mean {close[0]!r}?" if close else ""
+                raise ModelError(
+                    f"SensorSpec has no field {key!r}{hint} Fields: {', '.join(names)}."
+                )
+        return dataclasses.replace(self, **changes)
+
+    def apply(self, x, fs: float, rng: np.random.Generator | int | None = None, t0=0.0):
+        """Apply the imperfections to ideal readings ``x`` of shape (n_members, n_samples).
+
+        Parameters
+        ----------
+        x : array_like
+            Ideal readings in the sensor's unit; 1-D is one member.
+        fs : float
+            Sampling rate in Hz (for the drift).
+        rng : numpy Generator or int, optional
+            Random source for noise and dropout.
+        t0 : float
+            Time of the first sample in s.
+
+        Returns
+        -------
+        numpy.ndarray
+            Readings, shape of ``x`` (2-D for 2-D input).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from pdmkit.models import SensorSpec
+        >>> y = SensorSpec(noise_std=0.1).apply(np.zeros((1, 20000)), fs=1e3, rng=0)
+        >>> round(float(y.std()), 2)
+        0.1
+        """
+        x = np.asarray(x, dtype=np.float64)
+        one_d = x.ndim == 1
+        x2 = x[None, :] if one_d else x
+        if x2.ndim != 2:
+            raise ModelError(
+                f"SensorSpec.apply: x must be (n_members, n_samples); got shape {x.shape}."
+            )
+        n, n_samples = x2.shape
+        rng = np.random.default_rng(rng)
+
+        def col(name):
+            v = getattr(self, name)
+            if np.ndim(v) == 1:
+                if len(v) != n:
+                    raise ModelError(
+                        f"SensorSpec.{name} has {len(v)} member values but the signal has "
+                        f"{n} members."
+                    )
+                return np.asarray(v)[:, None]
+            return v
+
+        y = x2 * (1.0 + col("gain_error")) + col("offset")
+        if np.any(np.asarray(self.drift) != 0):
+            t = t0 + np.arange(n_samples) / float(fs)
+            y = y + col("drift") * t[None, :]
+        if np.any(np.asarray(self.noise_std) > 0):
+            y = y + col("noise_std") * rng.standard_normal((n, n_samples), dtype=np.float32)
+        q = col("quantization")
+        if np.any(np.asarray(q) > 0):
+            qq = np.broadcast_to(q, y.shape)
+            safe = np.where(qq > 0, qq, 1.0)
+            y = np.where(qq > 0, np.round(y / safe) * safe, y)
+        if np.any(np.asarray(self.dropout) > 0):
+            lost = rng.random((n, n_samples)) < col("dropout")
+            y = np.where(lost, np.broadcast_to(col("dropout_fill"), y.shape), y)
+        return y[0] if one_d else y
+
+
+def default_sensor_specs() -> dict[str, SensorSpec]:
+    """Healthy sensor imperfections of the fifteen sensors of seed table 3.1.
+
+    Noise levels and resolutions are typical datasheet values for such sensors
+    (assumed; the seed's ``models/sensors.pdf`` is not available), except the encoder
+    resolution of about 7 um that the seed states (section 4.6).
+
+    Returns
+    -------
+    dict of str to SensorSpec
+        Keyed by the datastore signal names of table 3.1 (see :data:`SENSOR_UNITS`).
+
+    Examples
+    --------
+    >>> from pdmkit.models import default_sensor_specs
+    >>> specs = default_sensor_specs()
+    >>> len(specs), specs["LeverPosition"].quantization
+    (15, 7e-06)
+    """
+    S = SensorSpec
+    return {
+        "LeverPosition": S(quantization=7e-6),
+        "LeverVelocity": S(noise_std=2e-3),
+        "AccelerometerMoving_axisZ": S(noise_std=0.1),
+        "AccelerometerStatic_axisZ": S(noise_std=0.05),
+        "FlowExtrusion": S(noise_std=0.5, quantization=0.1),
+        "FlowContraction": S(noise_std=0.5, quantization=0.1),
+        "AirPressure": S(noise_std=2e-3, quantization=1e-3),
+        "MIC_uBumper": S(noise_std=5e-3),
+        "MIC_bBumper": S(noise_std=5e-3),
+        "MIC_Ambient": S(noise_std=2e-2),
+        "TempCylinder": S(noise_std=0.05, quantization=0.1),
+        "TempAmbient": S(noise_std=0.05, quantization=0.1),
+        "StrainGauge": S(noise_std=2e3),
+        "ProximitySensor_upper": S(),
+        "ProximitySensor_bottom": S(),
+    }
+
+
+def resolve_specs(sensor_specs: Mapping[str, SensorSpec] | None) -> dict[str, SensorSpec]:
+    """Defaults updated by the user's specs; unknown sensor names raise ModelError."""
+    specs = default_sensor_specs()
+    for name, spec in (sensor_specs or {}).items():
+        if name not in specs:
+            close = difflib.get_close_matches(name, list(specs), n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ModelError(
+                f"sensor_specs: unknown sensor {name!r}{hint} Sensors: {', '.join(specs)}."
+            )
+        if not isinstance(spec, SensorSpec):
+            raise ModelError(
+                f"sensor_specs[{name!r}] must be a SensorSpec; got {type(spec).__name__}."
+            )
+        specs[name] = spec
+    return specs
+
+
+def _col(value, rows=slice(None)):
+    """A parameter as a column for (members, samples) arrays: (k, 1) or a float."""
+    v = np.asarray(value, dtype=np.float64)
+    return v[rows][:, None] if v.ndim == 1 else float(v)
+
+
+def _spec_rows(spec: SensorSpec, rows: slice) -> SensorSpec:
+    changes = {
+        f.name: getattr(spec, f.name)[rows]
+        for f in dataclasses.fields(spec)
+        if np.ndim(getattr(spec, f.name)) == 1
+    }
+    return dataclasses.replace(spec, **changes) if changes else spec
+
+
+def _second_order_filter(x, fs, f_n, zeta, kind):
+    """ZOH discretisation of the frame mode driven by a force; filtered along axis -1."""
+    w = 2.0 * math.pi * f_n
+    den = [1.0, 2.0 * zeta * w, w * w]
+    num = [1.0, 0.0, 0.0] if kind == "acceleration" else [w * w]
+    b, a, _ = sps.cont2discrete((num, den), 1.0 / fs, method="zoh")
+    return sps.lfilter(np.ravel(b), a, x, axis=-1)
+
+
+def _impact_resonator(x, fs, f_r, decay):
+    """Decaying resonance excited by x; an impulse of 1 peaks near 1."""
+    r = math.exp(-1.0 / (fs * decay))
+    th = 2.0 * math.pi * f_r / fs
+    return sps.lfilter([math.sin(th)], [1.0, -2.0 * r * math.cos(th), r * r], x, axis=-1)
+
+
+def _first_order_lag(x, fs, tau, x0):
+    if tau <= 0:
+        return x
+    a = math.exp(-1.0 / (fs * tau))
+    zi = (a * x0)[:, None] if np.ndim(x0) else np.full((x.shape[0], 1), a * x0)
+    y, _ = sps.lfilter([1.0 - a], [1.0, -a], x, axis=-1, zi=zi)
+    return y
+
+
+def ideal_readings(
+    raw: Mapping[str, np.ndarray], p, fs: float, names, rng, rows=slice(None)
+) -> dict:
+    """Noise-free readings in sensor units from the model's sampled quantities.
+
+    ``raw`` holds numpy arrays (n_members, n_samples): position, velocity,
+    pressure_supply, mass_flow_a, acceleration, force_top, force_bottom,
+    mass_flow_exhaust, temperature_a, temperature_b.
+    """
+    x = raw["position"]
+    out: dict[str, np.ndarray] = {}
+    want = set(names)
+    mass = _col(p.mass_piston, rows) + _col(p.mass_load, rows)
+    if "LeverPosition" in want:
+        out["LeverPosition"] = x
+    if "LeverVelocity" in want:
+        out["LeverVelocity"] = raw["velocity"]
+    if "AccelerometerMoving_axisZ" in want:
+        out["AccelerometerMoving_axisZ"] = raw["acceleration"]
+    if want & {"AccelerometerStatic_axisZ", "StrainGauge"}:
+        # force on the mount = (M + M_L)(a + g): the frame carries the moving mass
+        f_mount = mass * (raw["acceleration"] + _col(p.gravity, rows))
+        df = f_mount - f_mount[:, :1]
+        if "AccelerometerStatic_axisZ" in want:
+            acc = _second_order_filter(
+                df, fs, p.frame_frequency, p.frame_damping_ratio, "acceleration"
+            )
+            out["AccelerometerStatic_axisZ"] = acc / p.frame_mass
+        if "StrainGauge" in want:
+            f_frame = _second_order_filter(
+                df, fs, p.frame_frequency, p.frame_damping_ratio, "force"
+            )
+            out["StrainGauge"] = (f_frame + f_mount[:, :1]) / p.strain_area
+    rho_std = P_STD / (287.1 * T_STD)
+    to_lpm = 60000.0 / rho_std
+    if "FlowExtrusion" in want:
+        out["FlowExtrusion"] = np.maximum(raw["mass_flow_a"], 0.0) * to_lpm
+    if "FlowContraction" in want:
+        out["FlowContraction"] = np.maximum(-raw["mass_flow_a"], 0.0) * to_lpm
+    if "AirPressure" in want:
+        out["AirPressure"] = (raw["pressure_supply"] - _col(p.p_ambient, rows)) / 1e5
+    mics = [m for m in ("MIC_uBumper", "MIC_bBumper", "MIC_Ambient") if m in want]
+    if mics:
+
+        def sound(force):
+            d = np.diff(force, axis=-1, prepend=force[:, :1])
+            return _impact_resonator(d, fs, p.mic_frequency, p.mic_decay)
+
+        s_top = sound(raw["force_top"])
+        s_bot = sound(raw["force_bottom"])
+        gain = _col(p.mic_gain, rows)
+        far = _col(p.mic_far_gain, rows)
+        hiss_amp = _col(p.mic_hiss_gain, rows) * np.abs(raw["mass_flow_exhaust"])
+        mix = {
+            "MIC_uBumper": gain * (s_top + far * s_bot),
+            "MIC_bBumper": gain * (s_bot + far * s_top),
+            "MIC_Ambient": gain * _col(p.mic_ambient_gain, rows) * (s_top + s_bot),
+        }
+        for m in mics:
+            out[m] = mix[m] + hiss_amp * rng.standard_normal(x.shape, dtype=np.float32)
+    t_amb = _col(p.t_ambient, rows)
+    if "TempCylinder" in want:
+        # the barrel follows the mean gas temperature weakly (temp_wall_gain); the
+        # sensor lags the barrel, starting from steady operation (the recording mean)
+        gas = 0.5 * (raw["temperature_a"] + raw["temperature_b"])
+        wall = t_amb + _col(p.temp_wall_gain, rows) * (gas - t_amb)
+        lag = _first_order_lag(
+            wall, fs, float(p.temp_sensor_time_constant), wall.mean(axis=-1)
+        )
+        out["TempCylinder"] = lag - 273.15
+    if "TempAmbient" in want:
+        out["TempAmbient"] = np.broadcast_to(t_amb - 273.15, x.shape).copy()
+    return out
+
+
+def _seed_sequence(seed) -> np.random.SeedSequence:
+    """int / None / SeedSequence / Generator -> SeedSequence."""
+    if isinstance(seed, np.random.SeedSequence):
+        return seed
+    if isinstance(seed, np.random.Generator):
+        return np.random.SeedSequence(int(seed.integers(2**63)))
+    try:
+        return np.random.SeedSequence(seed)
+    except TypeError as exc:
+        raise ModelError(
+            f"seed must be an int, None, a numpy SeedSequence or Generator; got {seed!r}."
+        ) from exc
+
+
+def sensor_outputs(
+    raw, p, fs, specs: Mapping[str, SensorSpec], names, seed, chunk: int = 64
+) -> dict:
+    """Readings with imperfections, one independent random stream per sensor.
+
+    Members are processed in chunks (smaller temporaries, much faster for big batches).
+    """
+    names = list(names)
+    n, n_samples = raw["position"].shape
+    seeds = _seed_sequence(seed).spawn(len(SENSOR_NAMES) + 1)
+    stream = {
+        name: np.random.default_rng(s)
+        for name, s in zip(SENSOR_NAMES, seeds[1:], strict=True)
+    }
+    physics_rng = np.random.default_rng(seeds[0])
+    out = {name: np.empty((n, n_samples)) for name in names}
+    for start in range(0, n, chunk):
+        rows = slice(start, min(start + chunk, n))
+        part = {k: v[rows] for k, v in raw.items()}
+        ideal = ideal_readings(part, p, fs, names, physics_rng, rows)
+        stroke = _col(p.stroke, rows)
+        dist = _col(p.proximity_distance, rows)
+        for name in names:
+            spec = _spec_rows(specs[name], rows)
+            if name.startswith("ProximitySensor"):
+                # the spec acts on the sensed position (m); the switch thresholds it
+                sensed = spec.replace(dropout=0.0, quantization=0.0).apply(
+                    part["position"], fs, stream[name]
+                )
+                if name.endswith("upper"):
+                    on = (sensed >= stroke - dist).astype(np.float64)
+                else:
+                    on = (sensed <= dist).astype(np.float64)
+                if np.any(np.asarray(spec.dropout) > 0):
+                    on = SensorSpec(
+                        dropout=spec.dropout, dropout_fill=spec.dropout_fill
+                    ).apply(on, fs, stream[name])
+                out[name][rows] = on
+            else:
+                out[name][rows] = spec.apply(ideal[name], fs, stream[name])
+    return out

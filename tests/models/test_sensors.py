@@ -1,0 +1,212 @@
+"""Sensor models (seed table 3.1) and sensor imperfections (seed 8.1.1).
+
+Statistics are checked against scipy.stats intervals; unit conversions against the
+definitions (ISO 8778 standard air, gauge pressure, Celsius).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import signal, stats
+
+from pdmkit.errors import ModelError
+from pdmkit.models import (
+    SENSOR_NAMES,
+    SENSOR_UNITS,
+    PneumaticParams,
+    SensorSpec,
+    default_sensor_specs,
+    simulate,
+)
+
+FS = 1000.0
+
+
+# ------------------------------------------------------------------ SensorSpec
+def test_offset_gain_and_drift_are_exact_without_noise() -> None:
+    x = np.linspace(-2.0, 3.0, 5000)[None, :]
+    t = np.arange(x.shape[1]) / FS
+    y = SensorSpec(offset=0.7, gain_error=-0.04, drift=0.01).apply(x, fs=FS)
+    np.testing.assert_allclose(y, 0.96 * x + 0.7 + 0.01 * t, rtol=0, atol=1e-12)
+
+
+def test_noise_has_the_requested_standard_deviation() -> None:
+    n = 50_000
+    y = SensorSpec(noise_std=0.3).apply(np.zeros(n), fs=FS, rng=1)
+    # 99.9 % chi-square interval for the sample variance
+    lo, hi = stats.chi2.ppf([0.0005, 0.9995], n - 1) / (n - 1)
+    assert lo < (y.std(ddof=1) / 0.3) ** 2 < hi
+    assert abs(y.mean()) < 4 * 0.3 / np.sqrt(n)
+    assert stats.normaltest(y).pvalue > 1e-3
+
+
+def test_quantisation_rounds_to_the_resolution() -> None:
+    q = 0.05
+    x = np.linspace(0.0, 10.0, 40_001)
+    y = SensorSpec(quantization=q).apply(x, fs=FS)
+    assert np.allclose(y / q, np.round(y / q), atol=1e-9)
+    err = y - x
+    assert np.abs(err).max() <= q / 2 + 1e-12
+    # rounding error of a slow ramp is uniform on [-q/2, q/2]
+    assert stats.kstest(err, stats.uniform(loc=-q / 2, scale=q).cdf).pvalue > 1e-3
+
+
+def test_dropout_loses_the_requested_fraction() -> None:
+    n, p = 100_000, 0.03
+    y = SensorSpec(dropout=p, dropout_fill=-99.0).apply(np.ones(n), fs=FS, rng=2)
+    lost = int(np.sum(y == -99.0))
+    assert stats.binomtest(lost, n, p).pvalue > 1e-3
+    assert np.all(y[y != -99.0] == 1.0)
+    dead = SensorSpec(dropout=1.0, dropout_fill=np.nan).apply(np.ones(10), fs=FS)
+    assert np.all(np.isnan(dead))  # complete signal loss
+
+
+def test_member_arrays_give_each_member_its_own_fault() -> None:
+    x = np.zeros((3, 100))
+    y = SensorSpec(offset=np.array([0.0, 1.0, -2.0])).apply(x, fs=FS)
+    assert y[:, 0].tolist() == [0.0, 1.0, -2.0]
+    with pytest.raises(ModelError, match="2 member values"):
+        SensorSpec(offset=np.array([0.0, 1.0])).apply(x, fs=FS)
+
+
+def test_spec_validation() -> None:
+    with pytest.raises(ModelError, match="dropout"):
+        SensorSpec(dropout=1.5)
+    with pytest.raises(ModelError, match="noise_std"):
+        SensorSpec(noise_std=-1.0)
+    with pytest.raises(ModelError, match="did you mean 'offset'"):
+        SensorSpec().replace(ofset=1.0)
+
+
+# ------------------------------------------------------------------ sensors in a simulation
+@pytest.fixture(scope="module")
+def clean():
+    """Two cycles, every sensor noise-free (only the physics of the sensors)."""
+    specs = {name: SensorSpec() for name in SENSOR_NAMES}
+    p = PneumaticParams(mic_hiss_gain=0.0)
+    return simulate(p, t_end=4.0, sensor_specs=specs, seed=0)
+
+
+def test_all_fifteen_sensors_of_table_3_1(clean) -> None:
+    assert set(clean.outputs) == set(SENSOR_NAMES) and len(SENSOR_NAMES) == 15
+    for name, y in clean.outputs.items():
+        assert y.shape == (1, 4000) and np.all(np.isfinite(y)), name
+    assert SENSOR_UNITS["FlowExtrusion"] == "l/min" and SENSOR_UNITS["AirPressure"] == "bar"
+
+
+def test_unit_conversions(clean) -> None:
+    p = clean.params
+    out, st, sig = clean.outputs, clean.states, clean.signals
+    np.testing.assert_allclose(out["LeverPosition"], st["position"])
+    # standard litres per minute at 20 degC, 100 kPa (ISO 8778)
+    rho_n = 1.0e5 / (287.1 * 293.15)
+    lpm = sig["mass_flow_a"] / rho_n * 60_000
+    np.testing.assert_allclose(out["FlowExtrusion"], np.maximum(lpm, 0), atol=1e-9)
+    np.testing.assert_allclose(out["FlowContraction"], np.maximum(-lpm, 0), atol=1e-9)
+    np.testing.assert_allclose(out["AirPressure"], (st["pressure_supply"] - 101325) / 1e5)
+    np.testing.assert_allclose(out["TempAmbient"], p.t_ambient - 273.15)
+    x = st["position"]
+    np.testing.assert_array_equal(
+        out["ProximitySensor_upper"], (x >= p.stroke - p.proximity_distance).astype(float)
+    )
+    np.testing.assert_array_equal(
+        out["ProximitySensor_bottom"], (x <= p.proximity_distance).astype(float)
+    )
+
+
+def test_flow_sensor_volume_matches_the_chamber_fill(clean) -> None:
+    # energy balance of the adiabatic chamber (seed 4.20): kappa R T m_in
+    # = d(pV) + (kappa - 1) p dV, so the metered air follows from the chamber states
+    p = clean.params
+    t = clean.time
+    up = (t > 0.1) & (t <= 1.1)
+    litres = clean.outputs["FlowExtrusion"][0, up].sum() / FS / 60  # standard litres
+    s_a = np.pi / 4 * p.bore**2
+    x, v = clean.states["position"][0], clean.states["velocity"][0]
+    pa = clean.states["pressure_a"][0]
+    vol = s_a * x + p.v_dead_a
+    i0, i1 = np.flatnonzero(up)[[0, -1]]
+    work = np.trapezoid((pa * s_a * v)[i0 - 1 : i1 + 1], dx=1 / FS)
+    mass = (pa[i1] * vol[i1] - pa[i0 - 1] * vol[i0 - 1] + 0.4 * work) / (
+        1.4 * 287.1 * 293.15
+    )
+    assert litres == pytest.approx(mass / (1.0e5 / (287.1 * 293.15)) * 1e3, rel=0.02)
+
+
+def test_strain_gauge_reads_the_static_weight_at_rest(clean) -> None:
+    p = clean.params
+    strain = clean.outputs["StrainGauge"][0]
+    rest = (clean.time > 1.9) & (clean.time < 2.1)  # at rest on the bottom stop
+    weight = (p.mass_piston + p.mass_load) * p.gravity
+    assert strain[rest].mean() == pytest.approx(weight / p.strain_area, rel=0.01)
+
+
+def test_static_accelerometer_rings_at_the_frame_mode(clean) -> None:
+    p = clean.params
+    acc = clean.outputs["AccelerometerStatic_axisZ"][0]
+    f, pxx = signal.welch(acc, fs=FS, nperseg=1024)
+    assert f[np.argmax(pxx)] == pytest.approx(p.frame_frequency, abs=3.0)
+    rest = (clean.time > 1.9) & (clean.time < 2.1)
+    assert np.abs(acc[rest]).max() < 0.01 * np.abs(acc).max()  # quiet between impacts
+
+
+def test_microphones_hear_impacts_at_their_bumper(clean) -> None:
+    p = clean.params
+    t = clean.time
+    upper = clean.outputs["MIC_uBumper"][0]
+    bottom = clean.outputs["MIC_bBumper"][0]
+    f, pxx = signal.welch(upper, fs=FS, nperseg=1024)
+    half_bandwidth = 1 / (2 * np.pi * p.mic_decay)  # of the decaying resonance, Hz
+    assert f[np.argmax(pxx)] == pytest.approx(p.mic_frequency, abs=half_bandwidth)
+    top_hit = (t > 0.25) & (t < 0.6)  # arrival at the top
+    bottom_hit = (t > 1.25) & (t < 1.6)  # arrival at the bottom
+    assert np.abs(upper[top_hit]).max() > 3 * np.abs(bottom[top_hit]).max()
+    assert np.abs(bottom[bottom_hit]).max() > 3 * np.abs(upper[bottom_hit]).max()
+    quiet = (t > 0.9) & (t < 1.1)
+    assert np.abs(upper[quiet]).max() < 1e-3
+
+
+def test_cylinder_temperature_is_slow_and_near_ambient(clean) -> None:
+    temp = clean.outputs["TempCylinder"][0]
+    assert abs(temp.mean() - 20.0) < 5.0
+    assert np.abs(np.diff(temp)).max() < 0.05  # K per ms: a slow first-order sensor
+
+
+def test_sensor_faults_reach_the_outputs() -> None:
+    faults = {
+        "FlowExtrusion": SensorSpec(offset=5.0),
+        "AirPressure": SensorSpec(dropout=1.0),
+        "LeverVelocity": SensorSpec(noise_std=0.05),
+    }
+    names = [*faults, "LeverPosition"]
+    base = simulate(
+        t_end=0.5, sensors=names, seed=4, sensor_specs={k: SensorSpec() for k in names}
+    )
+    faulty = simulate(t_end=0.5, sensors=names, seed=4, sensor_specs=faults)
+    diff = faulty.outputs["FlowExtrusion"] - base.outputs["FlowExtrusion"]
+    np.testing.assert_allclose(diff, 5.0)
+    assert np.all(faulty.outputs["AirPressure"] == 0.0)
+    noise = faulty.outputs["LeverVelocity"] - base.outputs["LeverVelocity"]
+    assert noise.std() == pytest.approx(0.05, rel=0.1)
+    assert set(faulty.outputs) == set(names)
+    with pytest.raises(ModelError, match="unknown sensor 'Flow'"):
+        simulate(t_end=0.1, sensor_specs={"Flow": SensorSpec()})
+
+
+def test_default_noise_is_reproducible_by_seed() -> None:
+    a = simulate(t_end=0.2, seed=7).outputs["MIC_Ambient"]
+    b = simulate(t_end=0.2, seed=7).outputs["MIC_Ambient"]
+    c = simulate(t_end=0.2, seed=8).outputs["MIC_Ambient"]
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+    assert default_sensor_specs()["LeverPosition"].quantization == 7e-6  # seed 4.6
+
+
+def test_seed_accepts_seed_sequences_and_generators() -> None:
+    ss = np.random.SeedSequence(5)
+    a = simulate(t_end=0.05, sensors=["MIC_Ambient"], seed=ss).outputs["MIC_Ambient"]
+    b = simulate(t_end=0.05, sensors=["MIC_Ambient"], seed=np.random.SeedSequence(5))
+    assert np.array_equal(a, b.outputs["MIC_Ambient"])
+    simulate(t_end=0.05, sensors=["MIC_Ambient"], seed=np.random.default_rng(1))
+    with pytest.raises(ModelError, match="seed must be"):
+        simulate(t_end=0.05, sensors=["MIC_Ambient"], seed="abc")
