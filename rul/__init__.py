@@ -1,7 +1,84 @@
-"""Remaining-useful-life models and prognostic metrics (see the RUL issue; not yet built).
+"""pdmkit.rul: remaining-useful-life models and prognostic metrics.
 
-The prognostic indicator rankings (monotonicity, trendability, prognosability) already
-live in :mod:`pdmkit.features`.
+Every model is an estimator on a long run-to-failure table (``unit``, ``time`` or
+``cycle``, indicator columns, optional ``failed``): ``fit(table)`` returns the model,
+``predict(table)`` returns a :class:`RULPrediction` (estimate, interval, ``to_pandas``,
+``plot``) for each unit at its last time, and ``predict_trajectory(table)`` the RUL at
+every point of each unit's history.
+
+- Health indicators: :class:`RegimeNormalizer`, :func:`smooth_indicators`,
+  :func:`prognostic_ranking`, :class:`HealthIndicator`.
+- Degradation models (Bayesian updating, threshold crossing):
+  :class:`LinearDegradationModel`, :class:`ExponentialDegradationModel`.
+- Similarity models: :class:`ResidualSimilarityModel`, :class:`PairwiseSimilarityModel`,
+  :class:`HashSimilarityModel`.
+- Survival models: :class:`ReliabilitySurvivalModel` (Weibull and friends, censoring),
+  :class:`CovariateSurvivalModel` (proportional hazards with time-varying covariates).
+- A learned model: :class:`NeuralRULModel` (small torch LSTM / 1-D CNN over windows).
+- Metrics: :func:`rmse`, :func:`mae`, :func:`phm08_score`, :func:`interval_coverage`,
+  :func:`alpha_lambda_accuracy`, :func:`relative_accuracy`, :func:`prognostic_horizon`,
+  :func:`rul_metrics`.
+
+Examples
+--------
+>>> import numpy as np, pandas as pd
+>>> from pdmkit.rul import ResidualSimilarityModel
+>>> rows = [pd.DataFrame({"unit": u, "time": np.arange(life), "hi": np.arange(life) / life})
+...         for u, life in enumerate([50, 70, 90])]
+>>> train = pd.concat(rows, ignore_index=True)
+>>> model = ResidualSimilarityModel(k=1, degree=1).fit(train)
+>>> test = pd.DataFrame({"unit": "new", "time": np.arange(30), "hi": np.arange(30) / 70})
+>>> model.predict(test).to_pandas()[["unit", "time", "rul"]]
+  unit  time   rul
+0  new  29.0  40.0
 """
 
-__all__: list[str] = []
+from pdmkit.rul._degradation import ExponentialDegradationModel, LinearDegradationModel
+from pdmkit.rul._indicators import (
+    HealthIndicator,
+    RegimeNormalizer,
+    prognostic_ranking,
+    smooth_indicators,
+)
+from pdmkit.rul._metrics import (
+    alpha_lambda_accuracy,
+    interval_coverage,
+    mae,
+    phm08_score,
+    prognostic_horizon,
+    relative_accuracy,
+    rmse,
+    rul_metrics,
+)
+from pdmkit.rul._neural import NeuralRULModel
+from pdmkit.rul._result import RULPrediction
+from pdmkit.rul._similarity import (
+    HashSimilarityModel,
+    PairwiseSimilarityModel,
+    ResidualSimilarityModel,
+)
+from pdmkit.rul._survival import CovariateSurvivalModel, ReliabilitySurvivalModel
+
+__all__ = [
+    "CovariateSurvivalModel",
+    "ExponentialDegradationModel",
+    "HashSimilarityModel",
+    "HealthIndicator",
+    "LinearDegradationModel",
+    "NeuralRULModel",
+    "PairwiseSimilarityModel",
+    "RULPrediction",
+    "RegimeNormalizer",
+    "ReliabilitySurvivalModel",
+    "ResidualSimilarityModel",
+    "alpha_lambda_accuracy",
+    "interval_coverage",
+    "mae",
+    "phm08_score",
+    "prognostic_horizon",
+    "prognostic_ranking",
+    "relative_accuracy",
+    "rmse",
+    "rul_metrics",
+    "smooth_indicators",
+]

@@ -186,3 +186,28 @@ def test_unreadable_feature_file_keeps_earlier_results(tmp_path, rng, capsys):
     assert main(args) == 2
     assert "bad.parquet" in capsys.readouterr().err
     assert (tmp_path / "out" / "classify.json").read_text() == before
+
+
+@pytest.mark.real_data
+def test_rul_cmapss_similarity_meets_the_issue_bound(require_data, tmp_path):
+    require_data("cmapss_fd001")
+    path = tmp_path / "rul.json"
+    assert (
+        main(
+            [
+                "rul",
+                "--model",
+                "pairwise",
+                "--json",
+                str(path),
+                "--out",
+                str(tmp_path / "rul"),
+            ]
+        )
+        == 0
+    )
+    summary = json.loads(path.read_text())
+    for key in ("model", "rmse", "mae", "phm08_score", "n_units", "coverage"):
+        assert key in summary
+    assert summary["n_units"] == 100
+    assert summary["rmse"] <= 20.0  # issue 6: best similarity model on FD001

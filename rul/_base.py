@@ -1,0 +1,296 @@
+"""Shared plumbing of the RUL estimators: run-to-failure tables split into units.
+
+A run-to-failure table is a long :class:`pandas.DataFrame` with one row per unit and
+time: a ``unit`` column telling the units apart, a ``time`` column (``"time"`` or
+``"cycle"`` when not named) ordering each unit's rows, indicator columns and an
+optional ``failed`` column (``False`` for units taken out of service before they
+failed, i.e. right-censored lifetimes). Units are kept in order of first appearance.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from pdmkit.errors import DataError, NotFittedError
+
+# columns that are labels, never indicators
+LABEL_COLUMNS = ("rul", "rul_true_final", "failed")
+
+
+@dataclass
+class Unit:
+    """One unit's history: its id, times (1-D, increasing) and values ``(n, p)``."""
+
+    name: object
+    t: np.ndarray
+    x: np.ndarray
+    failed: bool = True
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def head(self, n: int) -> Unit:
+        """The first ``n`` samples (a history cut at its ``n``-th sample)."""
+        return Unit(self.name, self.t[:n], self.x[:n], self.failed)
+
+
+def check_table(table, what: str = "table") -> pd.DataFrame:
+    if not isinstance(table, pd.DataFrame):
+        raise DataError(
+            f"{what} must be a pandas DataFrame in long form (one row per unit and time), "
+            f"got {type(table).__name__}"
+        )
+    if len(table) == 0:
+        raise DataError(f"{what} has 0 rows; pass at least one unit's history")
+    return table
+
+
+def resolve_keys(table: pd.DataFrame, unit: str, time: str | None) -> tuple[str, str]:
+    """Return the unit and time column names, checking that they exist."""
+    if unit not in table.columns:
+        raise DataError(
+            f"unit column {unit!r} is not in the table (columns: "
+            f"{list(table.columns)[:12]}); "
+            "pass unit=<column telling the units apart>"
+        )
+    if time is None:
+        time = next((c for c in ("time", "cycle") if c in table.columns), None)
+        if time is None:
+            raise DataError(
+                "the table has neither a 'time' nor a 'cycle' column; pass time=<column "
+                "ordering each unit's rows>"
+            )
+    elif time not in table.columns:
+        raise DataError(
+            f"time column {time!r} is not in the table (columns: "
+            f"{list(table.columns)[:12]})"
+        )
+    return unit, time
+
+
+def as_columns(columns) -> list[str]:
+    if isinstance(columns, str):
+        return [columns]
+    return list(columns)
+
+
+def check_columns(table: pd.DataFrame, columns: Sequence[str], param: str) -> None:
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        raise DataError(
+            f"{param}={missing if len(missing) > 1 else missing[0]!r} is not a column of "
+            f"the table; columns: {list(table.columns)[:15]}"
+        )
+    bad = [c for c in columns if not pd.api.types.is_numeric_dtype(table[c])]
+    if bad:
+        raise DataError(f"{param} columns {bad} are not numeric")
+
+
+def failed_column(table: pd.DataFrame, failed: str | None) -> str | None:
+    if failed is None:
+        return "failed" if "failed" in table.columns else None
+    if failed not in table.columns:
+        raise DataError(
+            f"failed={failed!r} is not a column of the table; it should hold True for "
+            "units that ran to failure and False for censored ones"
+        )
+    return failed
+
+
+def split_units(
+    table: pd.DataFrame,
+    columns: Sequence[str],
+    *,
+    unit: str,
+    time: str | None,
+    failed: str | None = None,
+    what: str = "table",
+) -> list[Unit]:
+    """Split a long table into :class:`Unit` objects (sorted by time, values checked)."""
+    table = check_table(table, what)
+    unit, time = resolve_keys(table, unit, time)
+    columns = as_columns(columns)
+    check_columns(table, columns, "indicator")
+    if what != "training table" and failed is not None and failed not in table.columns:
+        failed = None  # histories to predict need no failure flag
+    failed = failed_column(table, failed)
+    if table[unit].isna().any():
+        raise DataError(f"unit column {unit!r} has missing values; every row needs a unit")
+    units = []
+    for name, part in table.groupby(unit, sort=False):
+        part = part.sort_values(time, kind="stable")
+        t = part[time].to_numpy(dtype=float)
+        x = part[columns].to_numpy(dtype=float)
+        if not np.isfinite(t).all():
+            raise DataError(f"unit {name!r}: time column {time!r} has NaN or inf values")
+        if len(t) > 1 and (np.diff(t) <= 0).any():
+            raise DataError(
+                f"unit {name!r}: time {time!r} repeats a value; each unit needs one row "
+                "per time (aggregate duplicates first)"
+            )
+        bad = ~np.isfinite(x)
+        if bad.any():
+            row, col = np.argwhere(bad)[0]
+            raise DataError(
+                f"unit {name!r}: indicator {columns[col]!r} is NaN or inf at {time}="
+                f"{t[row]:g} ({int(bad.sum())} such values); fill or drop them first"
+            )
+        flag = True
+        if failed is not None:
+            flag = bool(part[failed].astype(bool).to_numpy()[-1])
+        units.append(Unit(name, t, x, flag))
+    return units
+
+
+def require_failures(units: Sequence[Unit], model: str) -> None:
+    """Raise when a training unit is censored (the model needs run-to-failure units)."""
+    censored = [u.name for u in units if not u.failed]
+    if censored:
+        raise DataError(
+            f"{model} needs run-to-failure training units, but {len(censored)} unit(s) "
+            f"are censored (failed=False): {censored[:8]}; drop them, or use "
+            "ReliabilitySurvivalModel / CovariateSurvivalModel, which use censored "
+            "lifetimes"
+        )
+
+
+def check_fitted(estimator, attribute: str) -> None:
+    if not hasattr(estimator, attribute):
+        raise NotFittedError(
+            f"this {type(estimator).__name__} is not fitted yet; call fit(table) first"
+        )
+
+
+def check_level(level) -> float:
+    if isinstance(level, bool) or not isinstance(level, int | float | np.number):
+        raise ValueError(f"level must be a number in (0, 1), got {level!r}")
+    if not 0.0 < float(level) < 1.0:
+        raise ValueError(
+            f"level must lie in (0, 1) (e.g. 0.9 for 90 % intervals), got {level}"
+        )
+    return float(level)
+
+
+def check_positive_int(value, name: str, minimum: int = 1) -> int:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | np.integer)
+        or value < minimum
+    ):
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def check_max_rul(value) -> float | None:
+    if value is None:
+        return None
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float | np.number)
+        or value <= 0
+    ):
+        raise ValueError(f"max_rul must be a positive number or None, got {value!r}")
+    return float(value)
+
+
+def time_unit_cuts(units: Sequence[Unit], every: int, min_length: int) -> list[Unit]:
+    """Histories cut after samples ``min_length, min_length + every, ..., n``."""
+    out = []
+    for u in units:
+        n = len(u)
+        cuts = list(range(min(min_length, n), n + 1, every))
+        if not cuts or cuts[-1] != n:
+            cuts.append(n)
+        out.extend(u.head(c) for c in cuts)
+    return out
+
+
+class TrajectoryMixin:
+    """``predict_trajectory``: the RUL a model gives at each point of a unit's history."""
+
+    _min_history = 1
+
+    def predict_trajectory(self, table, *, every: int = 1, min_length: int | None = None):
+        """RUL predicted at every ``every``-th sample of each unit's history.
+
+        The unit's history is cut after its ``min_length``-th sample, then every
+        ``every`` samples up to its last one, and each cut is predicted as if it were
+        all the data there was (the online use of a RUL model).
+
+        Parameters
+        ----------
+        table : pandas.DataFrame
+            Long table of the units to follow.
+        every : int, default 1
+            Step between cuts, in samples.
+        min_length : int, optional
+            Length of the first cut; default the shortest history the model accepts.
+
+        Returns
+        -------
+        RULPrediction
+            Several rows per unit, one per cut (``time`` = last time of the cut).
+
+        Examples
+        --------
+        >>> import numpy as np, pandas as pd
+        >>> from pdmkit.rul import ReliabilitySurvivalModel
+        >>> train = pd.DataFrame({"unit": np.repeat([1, 2, 3], 3),
+        ...                       "time": [1, 2, 9, 1, 2, 11, 1, 2, 10]})
+        >>> model = ReliabilitySurvivalModel().fit(train)
+        >>> path = model.predict_trajectory(train[train.unit == 1], every=1)
+        >>> path.time.tolist()
+        [1.0, 2.0, 9.0]
+        """
+        check_fitted(self, "n_units_")
+        every = check_positive_int(every, "every")
+        first = (
+            self._min_history
+            if min_length is None
+            else check_positive_int(min_length, "min_length")
+        )
+        units = self._split(table, what="table")
+        return self._predict_units(time_unit_cuts(units, every, first))
+
+    def predict(self, table):
+        """Predict the RUL of each unit at the last time of its history.
+
+        Parameters
+        ----------
+        table : pandas.DataFrame
+            Long table (``unit``, ``time``, indicator columns) of the units' histories
+            so far.
+
+        Returns
+        -------
+        RULPrediction
+            One row per unit: estimate and interval at the unit's last time.
+
+        Examples
+        --------
+        >>> import numpy as np, pandas as pd
+        >>> from pdmkit.rul import ReliabilitySurvivalModel
+        >>> train = pd.DataFrame({"unit": [1, 2, 3], "time": [9.0, 11.0, 10.0]})
+        >>> rul = ReliabilitySurvivalModel().fit(train).predict(train.head(1))
+        >>> len(rul)
+        1
+        """
+        check_fitted(self, "n_units_")
+        return self._predict_units(self._split(table, what="table"))
+
+    def fit_predict(self, table):
+        """Fit on ``table`` and predict its units (in-sample; for a quick look only).
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> from pdmkit.rul import ReliabilitySurvivalModel
+        >>> t = pd.DataFrame({"unit": [1, 2, 3], "time": [9.0, 11.0, 10.0]})
+        >>> len(ReliabilitySurvivalModel().fit_predict(t))
+        3
+        """
+        return self.fit(table).predict(table)

@@ -1,0 +1,492 @@
+"""A learned RUL model: a small torch LSTM or 1-D CNN over windows of indicators.
+
+The network reads the last ``window`` samples of the standardised indicators (and,
+by default, the unit's age) and regresses the RUL, capped at ``max_rul`` as is usual
+on C-MAPSS (a piecewise-linear target: constant early in life, falling to 0 at
+failure). Training units are split into ``n_folds`` groups; one network is trained per
+fold on the other groups, the networks' mean is the estimate, and the out-of-fold
+residuals, binned by the predicted RUL, give the intervals (cross-conformal, so the
+intervals are calibrated on units the networks did not see).
+
+Training is seeded (``random_state``) and runs on the CPU with ``n_threads`` threads.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from sklearn.base import BaseEstimator
+
+from pdmkit.errors import DataError
+from pdmkit.rul._base import (
+    LABEL_COLUMNS,
+    TrajectoryMixin,
+    Unit,
+    as_columns,
+    check_columns,
+    check_fitted,
+    check_level,
+    check_max_rul,
+    check_positive_int,
+    check_table,
+    failed_column,
+    require_failures,
+    resolve_keys,
+    split_units,
+)
+from pdmkit.rul._result import RULPrediction
+
+
+def _network(arch: str, n_inputs: int, window: int, hidden: int):
+    import torch
+    from torch import nn
+
+    class LSTMNet(nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.lstm = nn.LSTM(n_inputs, hidden, batch_first=True)
+            self.head = nn.Sequential(nn.Linear(hidden, 32), nn.ReLU(), nn.Linear(32, 1))
+
+        def forward(self, x):
+            out, _ = self.lstm(x)
+            return self.head(out[:, -1]).squeeze(-1)
+
+    class CNNNet(nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.conv = nn.Sequential(
+                nn.Conv1d(n_inputs, hidden, 5, padding=2),
+                nn.ReLU(),
+                nn.Conv1d(hidden, hidden, 5, padding=2),
+                nn.ReLU(),
+                nn.Conv1d(hidden, hidden, 5, padding=2),
+                nn.ReLU(),
+            )
+            self.head = nn.Sequential(
+                nn.Flatten(),
+                nn.Dropout(0.2),
+                nn.Linear(hidden * window, 64),
+                nn.ReLU(),
+                nn.Linear(64, 1),
+            )
+
+        def forward(self, x):
+            return self.head(self.conv(torch.transpose(x, 1, 2))).squeeze(-1)
+
+    return LSTMNet() if arch == "lstm" else CNNNet()
+
+
+class _Threads:
+    """Set torch's intra-op thread count for a block, then restore it."""
+
+    def __init__(self, n: int):
+        self.n = n
+
+    def __enter__(self):
+        import torch
+
+        self.old = torch.get_num_threads()
+        torch.set_num_threads(self.n)
+
+    def __exit__(self, *exc):
+        import torch
+
+        torch.set_num_threads(self.old)
+
+
+class NeuralRULModel(TrajectoryMixin, BaseEstimator):
+    """RUL regression by a small LSTM or 1-D CNN over windows of indicators.
+
+    Parameters
+    ----------
+    features : sequence of str, optional
+        Input columns; default every numeric column but the key and label columns
+        (``rul``, ``rul_true_final``, ``failed``), constant ones dropped.
+    window : int, default 30
+        Samples per input window.
+    arch : {"lstm", "cnn"}, default "lstm"
+    hidden : int, default 64
+        LSTM hidden size / CNN channels.
+    epochs : int, default 15
+    batch_size : int, default 256
+    lr : float, default 1e-3
+        Adam learning rate (cosine-annealed to 0 over the epochs).
+    max_rul : float or None, default 125
+        Training targets are ``min(RUL, max_rul)``; predictions lie in ``[0, max_rul]``.
+    n_folds : int, default 3
+        Networks trained (each without one fold of units); their mean is the estimate
+        and their out-of-fold residuals set the intervals. With 1, one network on all
+        units and in-sample residuals (too narrow intervals).
+    time_feature : bool, default True
+        Add the time column (standardised) as an input: useful when every unit's clock
+        starts when it is new, as in C-MAPSS.
+    level : float, default 0.9
+    pad : {"error", "edge"}, default "error"
+        A history shorter than ``window`` raises a DataError, or is padded at its start
+        with its first row.
+    random_state : int, default 0
+        Seed of the fold split, the weights and the batches.
+    n_threads : int, default 1
+        torch threads during ``fit`` and ``predict``.
+    unit, time, failed : str
+        Key columns.
+
+    Attributes
+    ----------
+    features_ : list of str
+    dropped_ : dict
+        Constant features left out.
+    models_ : list of torch.nn.Module
+    mean_, scale_ : numpy.ndarray
+        Input standardisation (time last when ``time_feature``).
+    residual_bins_ : pandas.DataFrame
+        Per bin of predicted RUL: the edges and the residual quantiles of the intervals.
+    history_ : pandas.DataFrame
+        Training loss per fold and epoch.
+    n_units_ : int
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> from pdmkit.rul import NeuralRULModel
+    >>> rng = np.random.default_rng(0)
+    >>> rows = []
+    >>> for u in range(12):
+    ...     life = int(rng.integers(60, 100))
+    ...     t = np.arange(1, life + 1)
+    ...     rows.append(pd.DataFrame({"unit": u, "time": t,
+    ...         "x": (t / life) ** 2 + rng.normal(0, 0.05, life)}))
+    >>> train = pd.concat(rows, ignore_index=True)
+    >>> model = NeuralRULModel(window=10, hidden=8, epochs=3, n_folds=2,
+    ...                        max_rul=50).fit(train)
+    >>> p = model.predict(train[train.unit == 0])
+    >>> bool(0 <= p.estimate[0] <= 50 and p.lower[0] <= p.estimate[0] <= p.upper[0])
+    True
+    """
+
+    def __init__(
+        self,
+        features=None,
+        *,
+        window: int = 30,
+        arch: str = "lstm",
+        hidden: int = 64,
+        epochs: int = 15,
+        batch_size: int = 256,
+        lr: float = 1e-3,
+        max_rul: float | None = 125.0,
+        n_folds: int = 3,
+        time_feature: bool = True,
+        level: float = 0.9,
+        pad: str = "error",
+        random_state: int = 0,
+        n_threads: int = 1,
+        unit: str = "unit",
+        time: str | None = None,
+        failed: str | None = None,
+    ):
+        self.features = features
+        self.window = window
+        self.arch = arch
+        self.hidden = hidden
+        self.epochs = epochs
+        self.batch_size = batch_size
+        self.lr = lr
+        self.max_rul = max_rul
+        self.n_folds = n_folds
+        self.time_feature = time_feature
+        self.level = level
+        self.pad = pad
+        self.random_state = random_state
+        self.n_threads = n_threads
+        self.unit = unit
+        self.time = time
+        self.failed = failed
+
+    @property
+    def _min_history(self):
+        return int(self.window) if self.pad == "error" else 1
+
+    # ------------------------------------------------------------------ data
+    def _split(self, table, what="table"):
+        return split_units(
+            table,
+            self.features_,
+            unit=self._keys[0],
+            time=self._keys[1],
+            failed=self._failed,
+            what=what,
+        )
+
+    def _inputs(self, u: Unit) -> np.ndarray:
+        x = u.x
+        if self.time_feature:
+            x = np.column_stack([x, u.t])
+        return ((x - self.mean_) / self.scale_).astype(np.float32)
+
+    def _pad(self, u: Unit, z: np.ndarray, what: str) -> np.ndarray:
+        w = int(self.window)
+        if len(z) >= w:
+            return z
+        if self.pad == "error":
+            raise DataError(
+                f"{what} unit {u.name!r} has {len(z)} samples; NeuralRULModel(window={w}) "
+                f"needs at least {w} - pass pad='edge' (repeat the first row) or a smaller "
+                "window"
+            )
+        return np.concatenate([np.repeat(z[:1], w - len(z), axis=0), z])
+
+    def _windows(self, u: Unit, what="training"):
+        """All windows of a unit and the (capped, scaled) RUL at their last samples."""
+        w = int(self.window)
+        z = self._pad(u, self._inputs(u), what)
+        view = np.lib.stride_tricks.sliding_window_view(z, w, axis=0)  # (N, F, w)
+        wins = np.ascontiguousarray(np.transpose(view, (0, 2, 1)))
+        t_end = np.concatenate([np.full(len(z) - len(u), u.t[0]), u.t])[w - 1 :]
+        rul = u.t[-1] - t_end
+        return wins, np.minimum(rul, self._cap) / self._cap
+
+    # ------------------------------------------------------------------ training
+    def _train(self, X, y, seed):
+        import torch
+
+        torch.manual_seed(seed)
+        net = _network(self.arch, X.shape[2], int(self.window), int(self.hidden))
+        opt = torch.optim.Adam(net.parameters(), lr=float(self.lr))
+        epochs = int(self.epochs)
+        sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs)
+        Xt = torch.from_numpy(X)
+        yt = torch.from_numpy(y.astype(np.float32))
+        gen = torch.Generator().manual_seed(seed)
+        losses = []
+        bs = int(self.batch_size)
+        for _ in range(epochs):
+            net.train()
+            perm = torch.randperm(len(Xt), generator=gen)
+            total = 0.0
+            for i in range(0, len(Xt), bs):
+                idx = perm[i : i + bs]
+                opt.zero_grad()
+                loss = torch.nn.functional.mse_loss(net(Xt[idx]), yt[idx])
+                loss.backward()
+                opt.step()
+                total += float(loss.detach()) * len(idx)
+            sched.step()
+            losses.append(total / len(Xt))
+        net.eval()
+        return net, losses
+
+    @staticmethod
+    def _run(nets, X):
+        import torch
+
+        out = np.zeros(len(X))
+        with torch.no_grad():
+            Xt = torch.from_numpy(X)
+            for net in nets:
+                parts = [net(Xt[i : i + 4096]).numpy() for i in range(0, len(Xt), 4096)]
+                out += np.concatenate(parts) if parts else np.zeros(0)
+        return out / len(nets)
+
+    def fit(self, table: pd.DataFrame, y=None):
+        """Train the networks on run-to-failure units and calibrate the intervals.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        pdmkit.errors.DataError
+            Censored training units; units shorter than ``window`` with
+            ``pad="error"``; every feature constant; NaN values.
+
+        Examples
+        --------
+        >>> import numpy as np, pandas as pd
+        >>> from pdmkit.rul import NeuralRULModel
+        >>> t = pd.DataFrame({"unit": np.repeat([1, 2], 20),
+        ...                   "time": np.tile(np.arange(20), 2),
+        ...                   "x": np.r_[np.arange(20) / 20, np.arange(20) / 15]})
+        >>> NeuralRULModel(window=5, hidden=4, epochs=1, n_folds=2).fit(t).n_units_
+        2
+        """
+        table = check_table(table)
+        self._keys = resolve_keys(table, self.unit, self.time)
+        self._failed = failed_column(table, self.failed)
+        if self.arch not in ("lstm", "cnn"):
+            raise ValueError(f"arch must be 'lstm' or 'cnn', got {self.arch!r}")
+        if self.pad not in ("error", "edge"):
+            raise ValueError(f"pad must be 'error' or 'edge', got {self.pad!r}")
+        for name, low in (
+            ("window", 2),
+            ("hidden", 1),
+            ("epochs", 1),
+            ("batch_size", 1),
+            ("n_folds", 1),
+            ("n_threads", 1),
+        ):
+            check_positive_int(getattr(self, name), name, low)
+        level = check_level(self.level)
+        check_max_rul(self.max_rul)
+        keys = {*self._keys, *([self._failed] if self._failed else [])}
+        if self.features is None:
+            cols = [
+                c
+                for c in table.columns
+                if c not in keys
+                and c not in LABEL_COLUMNS
+                and pd.api.types.is_numeric_dtype(table[c])
+                and not pd.api.types.is_bool_dtype(table[c])
+            ]
+        else:
+            cols = as_columns(self.features)
+        check_columns(table, cols, "features")
+        self.dropped_ = {}
+        spread = table[cols].std() if cols else pd.Series(dtype=float)
+        self.features_ = [c for c in cols if spread[c] > 0]
+        self.dropped_ = {
+            c: "constant over the training table" for c in cols if c not in self.features_
+        }
+        if not self.features_:
+            raise DataError(
+                f"every feature is constant over the training table ({cols}); the network "
+                "has nothing to learn from"
+            )
+        units = self._split(table, "training table")
+        require_failures(units, "NeuralRULModel")
+        n_folds = min(int(self.n_folds), len(units))
+        if int(self.n_folds) > 1 and n_folds < 2:
+            raise DataError("cross-conformal intervals need at least 2 training units")
+        stacked = np.concatenate(
+            [np.column_stack([u.x, u.t]) if self.time_feature else u.x for u in units]
+        )
+        self.mean_ = stacked.mean(axis=0)
+        scale = stacked.std(axis=0)
+        self.scale_ = np.where(scale > 0, scale, 1.0)
+        self._cap = (
+            float(self.max_rul)
+            if self.max_rul is not None
+            else float(max(u.t[-1] - u.t[0] for u in units))
+        )
+        per_unit = [self._windows(u) for u in units]
+        rng = np.random.default_rng(self.random_state)
+        fold_of = rng.permutation(len(units)) % n_folds
+        models, history = [], []
+        oof_pred, oof_true = [], []
+        with _Threads(int(self.n_threads)):
+            for f in range(n_folds):
+                train_idx = [
+                    i for i in range(len(units)) if fold_of[i] != f or n_folds == 1
+                ]
+                X = np.concatenate([per_unit[i][0] for i in train_idx])
+                y = np.concatenate([per_unit[i][1] for i in train_idx])
+                net, losses = self._train(X, y, int(self.random_state) * 1000 + f)
+                models.append(net)
+                history.extend(
+                    {"fold": f, "epoch": e + 1, "loss": v} for e, v in enumerate(losses)
+                )
+                held = [i for i in range(len(units)) if fold_of[i] == f]
+                Xh = np.concatenate([per_unit[i][0] for i in held])
+                oof_pred.append(self._run([net], Xh))
+                oof_true.append(np.concatenate([per_unit[i][1] for i in held]))
+        self.models_ = models
+        self.history_ = pd.DataFrame(history)
+        pred = np.clip(np.concatenate(oof_pred), 0, 1) * self._cap
+        true = np.concatenate(oof_true) * self._cap
+        self._calibrate(pred, true, level)
+        self.n_units_ = len(units)
+        return self
+
+    def _calibrate(self, pred, true, level, n_bins: int = 4):
+        resid = true - pred
+        edges = np.unique(np.quantile(pred, np.linspace(0, 1, n_bins + 1)))
+        if len(edges) < 2:
+            edges = np.array([pred.min(), pred.max() + 1e-9])
+        edges[0], edges[-1] = -np.inf, np.inf
+        bins = np.clip(np.searchsorted(edges, pred, side="right") - 1, 0, len(edges) - 2)
+        rows = []
+        for b in range(len(edges) - 1):
+            r = resid[bins == b]
+            if r.size == 0:
+                r = resid
+            lo, hi = np.quantile(r, [(1 - level) / 2, (1 + level) / 2])
+            rows.append(
+                {
+                    "low": edges[b],
+                    "high": edges[b + 1],
+                    "n": int((bins == b).sum()),
+                    "lower_offset": float(lo),
+                    "upper_offset": float(hi),
+                }
+            )
+        self.residual_bins_ = pd.DataFrame(rows)
+
+    # ------------------------------------------------------------------ pickling
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        if "models_" in state:  # the network classes are built lazily: keep weights
+            state["models_"] = [
+                {k: v.detach().clone() for k, v in net.state_dict().items()}
+                for net in state["models_"]
+            ]
+        return state
+
+    def __setstate__(self, state):
+        weights = state.get("models_")
+        self.__dict__.update(state)
+        if weights is not None:
+            n_inputs = len(self.features_) + int(bool(self.time_feature))
+            nets = []
+            for w in weights:
+                net = _network(self.arch, n_inputs, int(self.window), int(self.hidden))
+                net.load_state_dict(w)
+                net.eval()
+                nets.append(net)
+            self.models_ = nets
+
+    # ------------------------------------------------------------------ prediction
+    def _predict_units(self, units):
+        X = np.stack(
+            [self._pad(u, self._inputs(u), "the")[-int(self.window) :] for u in units]
+        )
+        with _Threads(int(self.n_threads)):
+            est = np.clip(self._run(self.models_, X), 0, 1) * self._cap
+        bins = self.residual_bins_
+        b = np.clip(
+            np.searchsorted(bins["low"].to_numpy(), est, side="right") - 1, 0, len(bins) - 1
+        )
+        lower = np.clip(est + bins["lower_offset"].to_numpy()[b], 0, self._cap)
+        upper = np.clip(est + bins["upper_offset"].to_numpy()[b], 0, self._cap)
+        lower = np.minimum(lower, est)
+        upper = np.maximum(upper, est)
+        return RULPrediction(
+            [u.name for u in units],
+            [float(u.t[-1]) for u in units],
+            est,
+            lower,
+            upper,
+            level=float(self.level),
+            model="NeuralRULModel",
+        )
+
+    def predict(self, table):
+        """Predict the RUL of each unit from its last ``window`` samples.
+
+        Returns
+        -------
+        RULPrediction
+
+        Examples
+        --------
+        >>> import numpy as np, pandas as pd
+        >>> from pdmkit.rul import NeuralRULModel
+        >>> t = pd.DataFrame({"unit": np.repeat([1, 2], 20),
+        ...                   "time": np.tile(np.arange(20), 2),
+        ...                   "x": np.r_[np.arange(20) / 20, np.arange(20) / 15]})
+        >>> m = NeuralRULModel(window=5, hidden=4, epochs=1, n_folds=2).fit(t)
+        >>> len(m.predict(t))
+        2
+        """
+        check_fitted(self, "models_")
+        return self._predict_units(self._split(table))
