@@ -15,6 +15,7 @@ Examples
 0.16
 """
 
+from pdmkit.models._estimate import EstimationResult, estimate_parameters
 from pdmkit.models._integrate import simulate, simulate_ivp
 from pdmkit.models._pneumatic import (
     STATE_NAMES,
@@ -38,11 +39,13 @@ __all__ = [
     "SENSOR_NAMES",
     "SENSOR_UNITS",
     "STATE_NAMES",
+    "EstimationResult",
     "PneumaticParams",
     "PneumaticResponse",
     "ResponseData",
     "SensorSpec",
     "default_sensor_specs",
+    "estimate_parameters",
     "initial_state",
     "orifice_mass_flow",
     "outflow_function",
