@@ -12,7 +12,11 @@ __all__ = ["progress"]
 
 
 def progress(
-    iterable: Iterable[T], *, desc: str = "", total: int | None = None, enable: bool | None = None
+    iterable: Iterable[T],
+    *,
+    desc: str = "",
+    total: int | None = None,
+    enable: bool | None = None,
 ) -> Iterator[T]:
     """Wrap ``iterable`` in a tqdm bar when stderr is a terminal.
 

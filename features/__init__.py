@@ -7,7 +7,9 @@ Signal functions take an array with the samples along ``axis`` (1-D for one memb
 - :func:`harmonic` - SINAD, SNR, THD as MATLAB computes them (group ``"harmonic"``);
 - :func:`spectral` - Welch-PSD peaks, band powers and spectral shape (group ``"spectral"``);
 - :func:`envelope_spectrum`, :func:`envelope_features`, :func:`bearing_frequencies` -
-  bearing envelope analysis (group ``"envelope"``).
+  bearing envelope analysis (group ``"envelope"``);
+- :func:`cycle_features`, :func:`cycle_average` - per-stroke and phase-window indicators
+  of cyclic machines, and the cycle-synchronous average (group ``"cycle"``).
 
 :func:`extract` turns an array into a feature table (columns ``<group>/<Feature>``) and
 :func:`extract_ensemble` an ensemble into one (``<signal>/<group>/<Feature>`` beside the
@@ -27,6 +29,13 @@ Examples
 np.True_
 """
 
+from pdmkit.features._cycle import (
+    CYCLE_LEVELS,
+    EVENT_WINDOWS,
+    cycle_average,
+    cycle_feature_names,
+    cycle_features,
+)
 from pdmkit.features._envelope import (
     CWRU_DRIVE_END,
     CWRU_FAN_END,
@@ -44,6 +53,8 @@ from pdmkit.features._stats import harmonic, stats
 __all__ = [
     "CWRU_DRIVE_END",
     "CWRU_FAN_END",
+    "CYCLE_LEVELS",
+    "EVENT_WINDOWS",
     "GROUPS",
     "METHODS",
     "BearingGeometry",
@@ -51,6 +62,9 @@ __all__ = [
     "FeatureRanking",
     "SelectTopRanked",
     "bearing_frequencies",
+    "cycle_average",
+    "cycle_feature_names",
+    "cycle_features",
     "envelope_features",
     "envelope_spectrum",
     "extract",

@@ -19,6 +19,13 @@ from pdmkit.features._common import (
     nonfinite_rows,
     raise_nonfinite,
 )
+from pdmkit.features._cycle import (
+    CYCLE_LEVELS,
+    EVENT_WINDOWS,
+    _cycle_feature_rows,
+    cycle_feature_names,
+    resolve_cycle_options,
+)
 from pdmkit.features._envelope import (
     _envelope_feature_rows,
     envelope_feature_names,
@@ -56,6 +63,14 @@ GROUP_OPTIONS: dict[str, dict[str, object]] = {
         "envelope_band": None,
         "tolerance": 0.02,
         "envelope_harmonics": 3,
+    },
+    "cycle": {
+        "cycle_period": None,
+        "cycle_start": 0.0,
+        "cycle_phases": (0.0, 0.5),
+        "cycle_levels": CYCLE_LEVELS,
+        "cycle_windows": 8,
+        "event_windows": EVENT_WINDOWS,
     },
 }
 GROUPS = tuple(GROUP_OPTIONS)
@@ -183,6 +198,24 @@ def _resolve(groups, options: dict, n_samples: int, n_members: int, fs: float) -
                     "members; pass one speed, or one per member"
                 )
             plan[group] = resolved
+        elif group == "cycle":
+            resolved = resolve_cycle_options(
+                fs,
+                period=given.get("cycle_period"),
+                start=given.get("cycle_start", 0.0),
+                phases=given.get("cycle_phases", (0.0, 0.5)),
+                levels=given.get("cycle_levels", CYCLE_LEVELS),
+                n_windows=given.get("cycle_windows", 8),
+                event_windows=given.get("event_windows", EVENT_WINDOWS),
+                prefix="cycle_",
+            )
+            for name in ("period", "start"):
+                if resolved[name].ndim == 1 and resolved[name].size != n_members:
+                    raise ValueError(
+                        f"cycle_{name} has {resolved[name].size} values but signals has "
+                        f"{n_members} members; pass one value, or one per member"
+                    )
+            plan[group] = resolved
     return plan
 
 
@@ -193,6 +226,13 @@ def _feature_names(group: str, settings: dict) -> list[str]:
         return list(HARMONIC_FEATURES)
     if group == "spectral":
         return spectral_feature_names(settings["n_peaks"], settings["bands"])
+    if group == "cycle":
+        return cycle_feature_names(
+            settings["phases"],
+            settings["levels"],
+            settings["n_windows"],
+            settings["event_windows"],
+        )
     return envelope_feature_names(settings["n_harmonics"])
 
 
@@ -203,6 +243,12 @@ def _compute(group: str, x: np.ndarray, fs: float, settings: dict, rows: slice):
         return _harmonic_rows(x, fs, settings["n_harmonics"])
     if group == "spectral":
         return _spectral_rows(x, fs, settings)
+    if group == "cycle":
+        per_member = {
+            name: settings[name][rows] if settings[name].ndim == 1 else settings[name]
+            for name in ("period", "start")
+        }
+        return _cycle_feature_rows(x, fs, {**settings, **per_member})
     if settings["shaft_hz"].ndim == 1:
         settings = {**settings, "shaft_hz": settings["shaft_hz"][rows]}
     return _envelope_feature_rows(x, fs, settings)
@@ -285,6 +331,9 @@ def extract(
         ``"envelope"``
             Envelope-spectrum amplitude at the bearing defect frequencies and their
             harmonics (see :func:`envelope_features`); needs ``bearing`` and ``shaft_hz``.
+        ``"cycle"``
+            Per-stroke transition and event indicators and phase-window statistics of
+            a cyclic machine (see :func:`cycle_features`); needs ``cycle_period``.
     axis : int, default -1
         Axis of ``signals`` holding the samples (0 for a ``(samples, members)`` array).
     batch_size : int, optional

@@ -10,7 +10,7 @@ import pytest
 
 matplotlib.use("Agg")
 
-from pdmkit._config import data_dir  # noqa: E402
+from pdmkit._config import data_dir
 
 
 @pytest.fixture
@@ -26,8 +26,10 @@ def require_data():
         path = data_dir(name)
         if not path.is_dir():
             where = os.environ.get("PDMKIT_DATA", "../shared/data")
-            pytest.skip(f"real dataset '{name}' not found in {where} ({path}); "
-                        "set PDMKIT_DATA to the folder holding the shared datasets")
+            pytest.skip(
+                f"real dataset '{name}' not found in {where} ({path}); "
+                "set PDMKIT_DATA to the folder holding the shared datasets"
+            )
         return path
 
     return _require

@@ -25,7 +25,10 @@ def test_subpackage_imports_under_pdmkit(name: str) -> None:
 
 def test_bare_folder_names_are_not_importable() -> None:
     # `import models` must not silently pick up pdmkit's folder in users' code.
-    code = "import importlib.util, sys; sys.exit(importlib.util.find_spec('features') is not None)"
+    code = (
+        "import importlib.util, sys; "
+        "sys.exit(importlib.util.find_spec('features') is not None)"
+    )
     assert subprocess.run([sys.executable, "-c", code], cwd="/").returncode == 0
 
 
@@ -41,9 +44,20 @@ def test_errors_subclass_builtins() -> None:
 def test_wheel_holds_the_same_modules_as_the_checkout(tmp_path: Path) -> None:
     """`pip install .` must ship the same pdmkit.* modules an editable install sees."""
     proc = subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
-         "-q", "-w", str(tmp_path), str(ROOT)],
-        capture_output=True, text=True,
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--no-deps",
+            "--no-build-isolation",
+            "-q",
+            "-w",
+            str(tmp_path),
+            str(ROOT),
+        ],
+        capture_output=True,
+        text=True,
     )
     if proc.returncode != 0:
         pytest.skip(f"could not build a wheel here: {proc.stderr[-300:]}")

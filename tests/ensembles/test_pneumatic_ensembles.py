@@ -50,10 +50,56 @@ def test_fault_settings_fall_in_their_ranges():
         .all()
     )
     combo = cond[cond.fault == "damper_upper+large_dampers"]
-    assert (~combo["damper_upper"].between(2.0, 9.0)).all()
-    assert (combo["large_damper_damping"] <= 120.0).all()
+    (soft_lo, soft_hi), (hard_lo, hard_hi) = PNEUMATIC_FAULTS["damper_upper"].faulty
+    upper = combo["damper_upper"]
+    assert (upper.between(soft_lo, soft_hi) | upper.between(hard_lo, hard_hi)).all()
+    assert (
+        combo["large_damper_damping"] <= PNEUMATIC_FAULTS["large_dampers"].faulty[0][1]
+    ).all()
     assert set(cond["load_kg"]) <= {0.0, 1.25, 5.0, 6.25}
     assert set(cond["supply_bar"]) <= {5.0, 6.0}
+
+
+def test_healthy_and_faulty_ranges_are_apart():
+    # a fault is a setting clearly off the healthy one (no shared values), and the
+    # faulty damping coefficients differ from the healthy ones by a factor of 1.5 or
+    # more (small dampers map 1..10 log-linearly onto damper_small_min..max)
+    from pdmkit.models import PneumaticParams
+
+    p = PneumaticParams()
+
+    def damping(setting):
+        ratio = p.damper_small_max / p.damper_small_min
+        return p.damper_small_min * ratio ** ((setting - 1.0) / 9.0)
+
+    for code, setting in PNEUMATIC_FAULTS.items():
+        lo, hi = setting.healthy
+        for f_lo, f_hi in setting.faulty:
+            assert f_hi < lo or f_lo > hi, code
+            if code.startswith("damper_"):
+                gap = max(damping(lo) / damping(f_hi), damping(f_lo) / damping(hi))
+                assert gap >= 1.5, code
+
+
+def test_operating_points_can_be_given():
+    points = {"load_kg": [0.0, 6.25], "supply_bar": [5.0, 6.0]}
+    ens = simulate_fault_ensemble(
+        6,
+        labels=["healthy"],
+        t_end=0.2,
+        signals=["AirPressure"],
+        seed=2,
+        operating_points=points,
+    )
+    pairs = sorted(map(tuple, ens.conditions[["load_kg", "supply_bar"]].to_numpy()))
+    assert pairs == [(0.0, 5.0)] * 3 + [(6.25, 6.0)] * 3
+    # the reservoir sensor reads the supply it was given (bar gauge), before the stroke
+    x, _ = ens.stack("AirPressure")
+    np.testing.assert_allclose(
+        x[:, :50].mean(axis=1), ens.conditions["supply_bar"], atol=0.02
+    )
+    with pytest.raises(DataError, match="supply_bar"):
+        simulate_fault_ensemble(2, t_end=0.2, operating_points={"load_kg": [1.0]})
 
 
 def test_unknown_fault_code_is_named():

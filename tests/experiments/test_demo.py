@@ -19,7 +19,7 @@ def test_demo_writes_summary_and_report(tmp_path):
                 "--out",
                 str(out),
                 "--members",
-                "36",
+                "64",
                 "--seed",
                 "2",
                 "--recording-s",
@@ -29,8 +29,10 @@ def test_demo_writes_summary_and_report(tmp_path):
         == 0
     )
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["members"] == 36
-    assert len(summary["labels"]) == 6
+    # 16 fault codes (healthy, five single faults, ten pairs), four members each
+    assert summary["members"] == 64
+    assert len(summary["labels"]) == 16
+    assert "cycle" in summary["feature_groups"]
     assert {row["sensor"] for row in summary["sensors"]} == {
         "Acc",
         "Encoder",
@@ -44,7 +46,14 @@ def test_demo_writes_summary_and_report(tmp_path):
     for model in ("knn", "bagged_trees"):
         result = summary["classification"][model]
         assert 0.0 <= result["accuracy"] <= 1.0 and len(result["features"]) == 5
-    assert 0.0 <= summary["residuals"]["accuracy_residual"] <= 1.0
+    residuals = summary["residuals"]
+    for key in ("accuracy_residual", "accuracy_signal", "accuracy_residual_signal"):
+        assert 0.0 <= residuals[key] <= 1.0
+        assert 0.0 <= residuals["per_point_standardised"][key] <= 1.0
+    best = summary["best_sensor"]
+    assert best["heldout_accuracy"] == max(
+        row["heldout_accuracy"] for row in summary["sensors"]
+    )
     html = (out / "report.html").read_text()
-    assert html.count("data:image/png;base64,") >= 6
+    assert html.count("data:image/png;base64,") >= 7
     assert (out / "features.parquet").stat().st_size > 0
