@@ -20,6 +20,7 @@ from pdmkit.experiments._classify import (
     compare_models,
     make_classifier,
 )
+from pdmkit.experiments._mismatch import run_mismatch
 from pdmkit.experiments._report import Report
 from pdmkit.experiments._sensors import (
     SensorComparison,
@@ -40,4 +41,5 @@ __all__ = [
     "compare_sensors",
     "load_sensor_costs",
     "make_classifier",
+    "run_mismatch",
 ]

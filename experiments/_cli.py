@@ -333,6 +333,31 @@ def _cmd_rul(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_mismatch(args: argparse.Namespace) -> int:
+    from pdmkit.experiments._mismatch import run_mismatch
+
+    effects = None
+    if args.effects:
+        effects = [e.strip() for e in args.effects.split(",") if e.strip()]
+    summary = run_mismatch(
+        args.model_file,
+        args.data,
+        validation_path=args.validation,
+        out_dir=args.out,
+        json_path=args.json,
+        effects=effects,
+    )
+    verdict = summary["verdict"]
+    fit = summary["fit"]
+    target = f" on {verdict['target']}" if verdict["target"] else ""
+    _say(
+        f"verdict: {verdict['effect']}{target}; validation RMSE "
+        f"{fit['rmse_nominal']:.4g} -> {fit['rmse_augmented']:.4g}. "
+        f"{verdict['physics']} See {args.out}/report.html"
+    )
+    return 0
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     from pdmkit.experiments._demo import run_demo
 
@@ -420,10 +445,30 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", type=Path)
     p.set_defaults(func=_cmd_rul)
 
+    p = sub.add_parser(
+        "mismatch",
+        help="locate and explain where a model file and a recording differ",
+        description="Fit MODEL_FILE to DATA, locate the residual, try the candidate "
+        "physics and name the effect the model left out.",
+    )
+    p.add_argument("model_file", type=Path, metavar="MODEL_FILE", help="model file (.py)")
+    p.add_argument("data", type=Path, metavar="DATA", help="CSV or Parquet recording")
+    p.add_argument(
+        "--validation",
+        type=Path,
+        help="second recording for validation (default: the last third of DATA)",
+    )
+    p.add_argument(
+        "--effects", help="comma-separated candidate effect ids to try (default: all)"
+    )
+    p.add_argument("--out", type=Path, default=Path("results/mismatch"))
+    p.add_argument("--json", type=Path)
+    p.set_defaults(func=_cmd_mismatch)
+
     p = sub.add_parser("demo", help="the whole workbench on the simulated pneumatic piston")
     p.add_argument("--out", type=Path, default=Path("results/demo"))
     p.add_argument("--json", type=Path)
-    p.add_argument("--members", type=int, default=None, help="ensemble size (480)")
+    p.add_argument("--members", type=int, default=None, help="ensemble size (640)")
     p.add_argument(
         "--recording-s", type=float, default=10.0, help="seconds per recording (10)"
     )

@@ -1,4 +1,4 @@
-"""pdmkit.models: dynamic models, starting with the pneumatic-piston digital twin.
+"""pdmkit.models: dynamic models: the pneumatic-piston digital twin and user ODE models.
 
 The double-acting pneumatic piston of the seed thesis (chapters 3-4, 8): valve mass flows
 with the outflow function, 5/2 solenoid valve, adiabatic chambers, a supply reservoir,
@@ -6,6 +6,14 @@ gravity, friction, hard stops, end dampers and chamber air leaks, plus models of
 fifteen sensors of the demonstration device. One right-hand side (:func:`rhs`) drives a
 batched fixed-step integrator (:func:`simulate`; numpy, or torch with autograd) and a
 ``solve_ivp`` reference (:func:`simulate_ivp`).
+
+User models are plain Python files (the model-file contract of ``docs/mismatch.md``)
+loaded by :func:`load_model_file` and simulated batched by :func:`simulate_ode`.
+:func:`discover_mismatch` explains where such a model and a recording differ: it fits the
+nominal model, locates the residual in time, state space and frequency
+(:func:`residual_windows`, :func:`region_statistics`, :func:`residual_spectrum`,
+:func:`whiteness_test`), fits the candidate physics of :func:`candidate_library` and
+names the effect that was left out.
 
 Examples
 --------
@@ -15,8 +23,39 @@ Examples
 0.16
 """
 
+from pdmkit.models._candidates import (
+    CANDIDATE_IDS,
+    Candidate,
+    Effect,
+    attach_candidates,
+    candidate_library,
+)
 from pdmkit.models._estimate import EstimationResult, estimate_parameters
 from pdmkit.models._integrate import simulate, simulate_ivp
+from pdmkit.models._mismatch import MismatchResult, discover_mismatch, dm_test
+from pdmkit.models._mismatch_cases import (
+    SHOWCASE_NAMES,
+    ConcealedCase,
+    generate_concealed_case,
+    score_concealed_cases,
+    showcase_model,
+    showcase_source,
+)
+from pdmkit.models._mismatch_fit import (
+    FitResult,
+    Recording,
+    fit_model,
+    make_recording,
+    nominal_scales,
+)
+from pdmkit.models._mismatch_locate import (
+    region_statistics,
+    residual_spectrum,
+    residual_windows,
+    whiteness_test,
+)
+from pdmkit.models._odefile import KINDS, OdeModel, load_model_file
+from pdmkit.models._odesim import simulate_ode
 from pdmkit.models._pneumatic import (
     STATE_NAMES,
     PneumaticParams,
@@ -36,22 +75,49 @@ from pdmkit.models._sensors import (
 )
 
 __all__ = [
+    "CANDIDATE_IDS",
+    "KINDS",
     "SENSOR_NAMES",
     "SENSOR_UNITS",
+    "SHOWCASE_NAMES",
     "STATE_NAMES",
+    "Candidate",
+    "ConcealedCase",
+    "Effect",
     "EstimationResult",
+    "FitResult",
+    "MismatchResult",
+    "OdeModel",
     "PneumaticParams",
     "PneumaticResponse",
+    "Recording",
     "ResponseData",
     "SensorSpec",
+    "attach_candidates",
+    "candidate_library",
     "default_sensor_specs",
+    "discover_mismatch",
+    "dm_test",
     "estimate_parameters",
+    "fit_model",
+    "generate_concealed_case",
     "initial_state",
+    "load_model_file",
+    "make_recording",
+    "nominal_scales",
     "orifice_mass_flow",
     "outflow_function",
+    "region_statistics",
+    "residual_spectrum",
+    "residual_windows",
     "rhs",
+    "score_concealed_cases",
+    "showcase_model",
+    "showcase_source",
     "simulate",
     "simulate_ivp",
+    "simulate_ode",
     "stack_params",
     "valve_command",
+    "whiteness_test",
 ]

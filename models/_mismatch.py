@@ -1,0 +1,789 @@
+"""Mismatch discovery: locate what a model gets wrong, name the missing physics, fit it.
+
+:func:`discover_mismatch` runs the loop an engineer runs by hand:
+
+1. fit the nominal model (free parameters + initial state) by simulation error on the
+   training part (the first two thirds, or all of ``data`` when a separate validation
+   recording is given);
+2. locate the residual in time, in the state / input space and in frequency, and test
+   it for whiteness (:mod:`pdmkit.models._mismatch_locate`);
+3. attach every candidate of the library (:mod:`pdmkit.models._candidates`) that the
+   model admits and screen them all cheaply (a few batched Levenberg-Marquardt
+   iterations each, from several starting points), then refit the best ones to
+   convergence (their parameters + the free ones + the initial state);
+4. rank by validation RMSE (ties within ``tie_tolerance`` go to the lower BIC), and
+   accept the best only when its gain is significant against the noise (a
+   Diebold-Mariano test on the validation errors with a HAC variance, a minimum
+   relative improvement, and a lower BIC); otherwise the verdict is ``none``;
+5. when one effect is accepted, try it together with each runner-up and keep the pair
+   when it improves significantly again.
+
+References: Ljung, *System Identification*, 2nd ed., 1999 (residual tests); Diebold &
+Mariano, *Comparing predictive accuracy*, JBES 1995.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from pdmkit.errors import ModelError
+from pdmkit.models._candidates import Effect, Scales, attach_candidates
+from pdmkit.models._mismatch_fit import (
+    Recording,
+    _choose_n_sub,
+    _effect_starts,
+    _initial_values,
+    _Job,
+    _lm,
+    _make_jobs,
+    _nominal_scales,
+    _Problem,
+    make_recording,
+)
+from pdmkit.models._mismatch_locate import (
+    region_statistics,
+    residual_spectrum,
+    residual_windows,
+    whiteness_test,
+)
+from pdmkit.models._odesim import _NP, _run
+
+__all__ = ["MismatchResult", "discover_mismatch", "dm_test"]
+
+_NONE_PHYSICS = (
+    "No candidate effect improves the validation fit significantly beyond the noise: "
+    "the model explains these data as well as they allow."
+)
+
+
+# ---------------------------------------------------------------------------- statistics
+def dm_test(e_ref: np.ndarray, e_new: np.ndarray) -> tuple[float, float]:
+    """One-sided Diebold-Mariano test that ``e_new`` has smaller squared errors.
+
+    ``d_t = sum(e_ref**2) - sum(e_new**2)`` (over outputs); the variance of its mean is
+    a Bartlett (Newey-West) HAC estimate with the plug-in bandwidth
+    ``floor(4 (N/100)^(2/9))``.
+
+    Returns
+    -------
+    (statistic, p_value)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models._mismatch import dm_test
+    >>> rng = np.random.default_rng(0)
+    >>> noise = rng.normal(size=500)
+    >>> round(dm_test(noise + 1.0, noise)[1], 6)
+    0.0
+    >>> bool(dm_test(noise, noise + 0.01 * rng.normal(size=500))[1] > 0.01)
+    True
+    """
+    from scipy import stats
+
+    a = np.asarray(e_ref, dtype=float)
+    b = np.asarray(e_new, dtype=float)
+    a = a[:, None] if a.ndim == 1 else a
+    b = b[:, None] if b.ndim == 1 else b
+    d = np.sum(a**2, axis=1) - np.sum(b**2, axis=1)
+    n = d.size
+    dc = d - d.mean()
+    g0 = float(np.dot(dc, dc) / n)
+    if g0 <= 0:
+        return (math.inf if d.mean() > 0 else 0.0), (0.0 if d.mean() > 0 else 1.0)
+    var = g0
+    # Newey-West (1994) plug-in bandwidth
+    L = int(min(max(1, math.floor(4.0 * (n / 100.0) ** (2.0 / 9.0))), n - 1))
+    for k in range(1, L + 1):
+        gk = float(np.dot(dc[k:], dc[: n - k]) / n)
+        var += 2.0 * (1.0 - k / (L + 1)) * gk
+    var = max(var, g0 / n)
+    stat = float(d.mean() / math.sqrt(var / n))
+    return stat, float(stats.norm.sf(stat))
+
+
+# ---------------------------------------------------------------------------- result
+@dataclasses.dataclass
+class MismatchResult:
+    """What :func:`discover_mismatch` found.
+
+    Attributes
+    ----------
+    verdict : dict
+        ``effect`` (id or ``"none"``), ``target``, ``physics`` (one sentence),
+        ``params``; ``also`` lists a second effect when a pair was accepted.
+    candidates : pandas.DataFrame
+        Every candidate (best variant per effect and target), best first: ``effect``,
+        ``target``, ``variant``, ``rmse_validation``, ``improvement`` (relative to the
+        nominal), ``criterion`` (BIC on the training part), ``p_value``,
+        ``n_params``, ``refit`` (fully refitted, or only screened).
+    located : list of dict
+        Time windows of the nominal residual, ``{"start", "end", "share"}``.
+    regions : pandas.DataFrame
+        Residual energy over regions of the state / input space.
+    fit : dict
+        ``rmse_nominal``, ``rmse_augmented`` (validation part), and training RMSEs.
+    whiteness : dict
+        ``{"before": ..., "after": ...}`` per output (:func:`whiteness_test`).
+    spectrum : pandas.DataFrame
+        Spectrum of the nominal residual and its coherence with the inputs.
+    signals : dict
+        Arrays for plots: ``time``, ``measured``, ``nominal``, ``augmented`` (train
+        recording), and the same with ``val_`` prefixes for a separate validation
+        recording; ``split`` is the time where validation starts (or None).
+    nominal_values, augmented_values : dict
+        Fitted values (``"p:<param>"``, ``"x0:<state>"``, ``"<effect key>.<param>"``).
+    augmented_effects : tuple of Effect
+        The accepted effects (empty for the verdict ``none``); with
+        ``augmented_values`` they re-simulate the augmented model
+        (:func:`~pdmkit.models._odesim.simulate_ode`).
+
+    Examples
+    --------
+    >>> from pdmkit.models._mismatch_cases import generate_concealed_case
+    >>> from pdmkit.models._mismatch import discover_mismatch
+    >>> case = generate_concealed_case("none", 0.2, seed=1, n_samples=300)
+    >>> res = discover_mismatch(case.model, case.data, effects=["sensor_offset"])
+    >>> res.verdict["effect"], res.augmented_effects
+    ('none', ())
+    """
+
+    verdict: dict
+    candidates: Any
+    located: list
+    regions: Any
+    fit: dict
+    whiteness: dict
+    spectrum: Any
+    signals: dict
+    outputs: list
+    nominal_values: dict
+    augmented_values: dict | None
+    augmented_effects: tuple
+    timings: dict
+
+    def to_dict(self) -> dict:
+        """The JSON summary (verdict, located, candidates, fit, plus diagnostics).
+
+        Examples
+        --------
+        >>> from pdmkit.models._mismatch_cases import generate_concealed_case
+        >>> from pdmkit.models._mismatch import discover_mismatch
+        >>> case = generate_concealed_case("none", 0.2, seed=1, n_samples=300)
+        >>> res = discover_mismatch(case.model, case.data, effects=["sensor_offset"])
+        >>> sorted(res.to_dict())[:4]
+        ['candidates', 'fit', 'located', 'regions']
+        """
+        cands = [
+            {
+                "effect": r["effect"],
+                "target": r["target"],
+                "variant": r["variant"],
+                "rmse_validation": _f(r["rmse_validation"]),
+                "improvement": _f(r["improvement"]),
+                "criterion": _f(r["criterion"]),
+                "p_value": _f(r["p_value"]),
+            }
+            for r in self.candidates.to_dict("records")
+        ]
+        return {
+            "verdict": self.verdict,
+            "located": self.located,
+            "candidates": cands,
+            "fit": self.fit,
+            "regions": self.regions.head(8).to_dict("records") if len(self.regions) else [],
+            "whiteness": self.whiteness,
+            "timings": self.timings,
+        }
+
+    def to_pandas(self):
+        """The ranked candidate table (a copy).
+
+        Examples
+        --------
+        >>> from pdmkit.models._mismatch_cases import generate_concealed_case
+        >>> from pdmkit.models._mismatch import discover_mismatch
+        >>> case = generate_concealed_case("none", 0.2, seed=1, n_samples=300)
+        >>> res = discover_mismatch(case.model, case.data, effects=["sensor_offset"])
+        >>> list(res.to_pandas().columns)[:3]
+        ['effect', 'target', 'variant']
+        """
+        return self.candidates.copy()
+
+    def plot(self, ax=None, output: str | None = None):
+        """Measured vs nominal vs augmented (top) and the residuals (bottom).
+
+        Located windows are shaded; the validation split is a dashed line.
+
+        Examples
+        --------
+        >>> from pdmkit.models._mismatch_cases import generate_concealed_case
+        >>> from pdmkit.models._mismatch import discover_mismatch
+        >>> case = generate_concealed_case("none", 0.2, seed=1, n_samples=300)
+        >>> res = discover_mismatch(case.model, case.data, effects=["sensor_offset"])
+        >>> res.plot().shape
+        (2,)
+        """
+        import matplotlib.pyplot as plt
+
+        output = self.outputs[0] if output is None else output
+        if output not in self.outputs:
+            raise ModelError(f"plot: unknown output {output!r}; outputs: {self.outputs}.")
+        j = self.outputs.index(output)
+        s = self.signals
+        if ax is None:
+            _, ax = plt.subplots(2, 1, sharex=True, figsize=(10, 6))
+        ax = np.asarray(ax, dtype=object).ravel()
+        t = s["time"]
+        ax[0].plot(t, s["measured"][:, j], color="k", lw=0.8, label="measured")
+        ax[0].plot(t, s["nominal"][:, j], color="C0", lw=1.0, label="nominal model")
+        if s.get("augmented") is not None:
+            ax[0].plot(t, s["augmented"][:, j], color="C3", lw=1.0, label="augmented model")
+        ax[0].set_ylabel(output)
+        ax[0].legend(loc="best", fontsize="small")
+        ax[1].plot(
+            t,
+            s["measured"][:, j] - s["nominal"][:, j],
+            color="C0",
+            lw=0.8,
+            label="residual, nominal",
+        )
+        if s.get("augmented") is not None:
+            ax[1].plot(
+                t,
+                s["measured"][:, j] - s["augmented"][:, j],
+                color="C3",
+                lw=0.8,
+                label="residual, augmented",
+            )
+        ax[1].set_ylabel(f"{output} residual")
+        ax[1].set_xlabel("time [s]")
+        ax[1].legend(loc="best", fontsize="small")
+        for w in self.located:
+            for a in ax[:2]:
+                a.axvspan(w["start"], w["end"], color="orange", alpha=0.15, lw=0)
+        if s.get("split") is not None:
+            for a in ax[:2]:
+                a.axvline(s["split"], color="gray", ls="--", lw=0.8)
+        return ax
+
+
+def _f(x) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+# ---------------------------------------------------------------------------- helpers
+@dataclasses.dataclass
+class _Scored:
+    job: _Job
+    key: str
+    effects: tuple
+    rmse_val: float = math.inf
+    e_val: np.ndarray | None = None  # weighted validation errors (Nv, n_out)
+    y_val: np.ndarray | None = None
+    y_train: np.ndarray | None = None
+    bic: float = math.inf
+    p_value: float = 1.0
+    refit: bool = True
+    n_sub: int = 0  # RK4 steps per sample it was fitted with
+
+
+def _bic(cost: float, m: int, k: int) -> float:
+    if not math.isfinite(cost):
+        return math.inf
+    return m * math.log(max(2.0 * cost / m, 1e-300)) + k * math.log(m)
+
+
+def _rmse(err: np.ndarray, weights: np.ndarray) -> float:
+    if err.shape[1] == 1:
+        return float(np.sqrt(np.mean(err**2)))
+    return float(np.sqrt(np.mean((err * weights) ** 2)))
+
+
+def _validate(
+    model,
+    problems: Mapping[int, _Problem],
+    rec_val: Recording | None,
+    scored: list[_Scored],
+    x_scale,
+    max_iter: int,
+) -> None:
+    """Validation outputs and errors for every scored structure (batched per step)."""
+    for n_sub, problem in problems.items():
+        group = [s for s in scored if s.n_sub == n_sub]
+        if group:
+            _validate_one(model, problem, rec_val, group, x_scale, max_iter)
+
+
+def _validate_one(model, problem, rec_val, scored, x_scale, max_iter) -> None:
+    rec = problem.rec
+    w = problem.weights
+    if rec_val is None:
+        rows = [(s.job, s.job.values()) for s in scored]
+        Y = problem.simulate(rows, n=rec.n)
+        y = rec.y(model)
+        for s, Yi in zip(scored, Y, strict=True):
+            s.y_train = Yi
+            s.y_val = Yi[problem.n_fit :]
+            err = Yi[problem.n_fit :] - y[problem.n_fit :]
+            s.e_val = np.where(np.isfinite(err * w), err * w, 1e3)
+            s.rmse_val = _rmse(np.where(np.isfinite(err), err, np.inf), w)
+        return
+    rows = [(s.job, s.job.values()) for s in scored]
+    Ytr = problem.simulate(rows, n=rec.n)
+    pv = _Problem(model, rec_val, rec_val.n, w, problem.n_sub)
+    jobs = []
+    for s in scored:
+        vals = s.job.values()
+        for o in model.outputs:
+            vals[f"x0:{o}"] = float(np.mean(rec_val.outputs[o][:3]))
+        jobs += _make_jobs(
+            model, s.effects, None, [{}], vals, x_scale, fit_free=False, fit_effects=False
+        )
+    _lm(pv, jobs, max_iter)
+    Y = pv.simulate([(j, j.values()) for j in jobs])
+    y = rec_val.y(model)
+    for s, Yi, Yt in zip(scored, Y, Ytr, strict=True):
+        s.y_train = Yt
+        s.y_val = Yi
+        err = Yi - y
+        s.e_val = np.where(np.isfinite(err * w), err * w, 1e3)
+        s.rmse_val = _rmse(np.where(np.isfinite(err), err, np.inf), w)
+
+
+def _friction_step(job: _Job, ts: float, n_sub: int) -> int:
+    """RK4 steps per sample at which a fitted friction's smoothing is not step-limited.
+
+    The smoothing width of Coulomb / Stribeck friction is widened to ``a h / 2`` so the
+    explicit step stays stable (:func:`pdmkit.models._candidates._eps`); when that
+    dominates the intended width, the term is much smoother than real friction and the
+    refit needs finer steps (at most twice as many: the cost grows with them).
+    """
+    vals = job.values()
+    need = n_sub
+    for e in job.effects:
+        if e.id == "coulomb_friction":
+            a = vals[f"{e.key}.a"]
+        elif e.id == "stribeck_friction":
+            a = vals[f"{e.key}.a_c"] + vals[f"{e.key}.a_s"]
+        else:
+            continue
+        eps0 = e.opt("eps")
+        n = n_sub
+        while 0.5 * a * ts / n > 2.0 * eps0 and n < 2 * n_sub:
+            n *= 2
+        need = max(need, n)
+    return need
+
+
+#: a hypothesis that contains another one (with a parameter at zero) -> the simpler one
+_NESTED = {"stribeck_friction": "coulomb_friction", "sensor_drift": "sensor_offset"}
+
+
+def _choose(scored: list[_Scored], tol: float, min_gain: float) -> _Scored:
+    """Lowest validation RMSE; within ``tol`` of it, the lowest BIC.
+
+    A hypothesis that nests a simpler one on the same target (Stribeck friction
+    contains Coulomb friction, drift contains offset) must beat it by ``min_gain``.
+    """
+    best = min(scored, key=lambda s: s.rmse_val)
+    close = [s for s in scored if s.rmse_val <= best.rmse_val * (1.0 + tol)]
+    chosen = min(close, key=lambda s: (s.bic, s.rmse_val))
+    e = chosen.effects[0]
+    simpler = _NESTED.get(e.id)
+    if simpler is not None:
+        for s in scored:
+            f = s.effects[0]
+            if f.id == simpler and f.target == e.target:
+                if chosen.rmse_val > s.rmse_val * (1.0 - min_gain):
+                    return s
+    return chosen
+
+
+def _variant(e: Effect) -> str:
+    if e.candidate.id == "overflow":
+        return f"into {e.partner}" if e.partner else "lost"
+    if e.partner:
+        return f"with {e.partner}"
+    return ""
+
+
+def _verdict_params(s: _Scored) -> dict:
+    vals = s.job.values()
+    out = {}
+    for e in s.effects:
+        for p in e.param_names:
+            out[p if len(s.effects) == 1 else f"{e.id}.{p}"] = vals[f"{e.key}.{p}"]
+        if e.partner and e.candidate.id == "overflow":
+            out["into_state"] = e.partner
+    return out
+
+
+def _explain(e: Effect, vals: Mapping[str, float]) -> str:
+    return e.candidate.explain(e, {p: vals[f"{e.key}.{p}"] for p in e.param_names})
+
+
+# ---------------------------------------------------------------------------- public
+def discover_mismatch(
+    model,
+    data: Any,
+    validation: Any = None,
+    *,
+    effects: Sequence[str] | None = None,
+    min_improvement: float = 0.1,
+    alpha: float = 0.01,
+    tie_tolerance: float = 0.02,
+    keep: int = 6,
+    screen_iter: int = 8,
+    max_iter: int = 30,
+    pairs: bool = True,
+    pair_candidates: int = 3,
+    data_name: str = "data",
+    validation_name: str = "validation",
+) -> MismatchResult:
+    """Find the physics a model leaves out, from a recording.
+
+    Parameters
+    ----------
+    model : OdeModel
+        The nominal model (e.g. from :func:`load_model_file`).
+    data : DataFrame, mapping or Recording
+        ``time``, the model's inputs and outputs. Without ``validation``, its last
+        third is the validation part.
+    validation : DataFrame, mapping or Recording, optional
+        A second recording used only for validation (its initial state is
+        re-estimated).
+    effects : sequence of str, optional
+        Restrict the candidate ids (default: the whole library).
+    min_improvement : float
+        Smallest relative validation-RMSE improvement that can count as a finding.
+    alpha : float
+        Significance level of the Diebold-Mariano test against the nominal model.
+    tie_tolerance : float
+        Candidates within this relative validation RMSE of the best are ranked by BIC
+        (the simpler explanation wins a tie).
+    keep : int
+        How many screened candidates are refitted to convergence.
+    screen_iter, max_iter : int
+        Levenberg-Marquardt iterations for screening and for the full refit.
+    pairs : bool
+        Try pairs of effects when one is accepted.
+    pair_candidates : int
+        How many runner-up effects (distinct effect and target) are paired with it.
+    data_name, validation_name : str
+        Names used in error messages (e.g. the file names).
+
+    Returns
+    -------
+    MismatchResult
+
+    Examples
+    --------
+    >>> from pdmkit.models._mismatch_cases import generate_concealed_case
+    >>> from pdmkit.models._mismatch import discover_mismatch
+    >>> case = generate_concealed_case("coulomb_friction", 0.2, seed=0, n_samples=600)
+    >>> res = discover_mismatch(case.model, case.data, pairs=False,
+    ...                         effects=["coulomb_friction", "viscous_friction"])
+    >>> res.verdict["effect"], res.verdict["target"]
+    ('coulomb_friction', 'v')
+    >>> res.fit["rmse_augmented"] < 0.5 * res.fit["rmse_nominal"]
+    True
+    """
+    import time as _time
+
+    t_start = _time.perf_counter()
+    for name, v in (
+        ("min_improvement", min_improvement),
+        ("alpha", alpha),
+        ("tie_tolerance", tie_tolerance),
+    ):
+        if not (isinstance(v, int | float) and 0 <= v < 1):
+            raise ModelError(f"discover_mismatch: {name} must be in [0, 1); got {v!r}.")
+    rec = data if isinstance(data, Recording) else make_recording(model, data, data_name)
+    rec_val = None
+    if validation is not None:
+        rec_val = (
+            validation
+            if isinstance(validation, Recording)
+            else make_recording(model, validation, validation_name)
+        )
+        if abs(rec_val.ts - rec.ts) > 1e-6 * rec.ts:
+            raise ModelError(
+                f"discover_mismatch: {validation_name} is sampled every {rec_val.ts:g} s, "
+                f"{data_name} every {rec.ts:g} s; resample them to the same step."
+            )
+    n_fit = rec.n if rec_val is not None else round(rec.n * 2 / 3)
+    y_all = rec.y(model)
+    w = 1.0 / np.maximum(np.std(y_all[:n_fit], axis=0), 1e-12)
+    values0 = _initial_values(model, rec)
+    n_sub = _choose_n_sub(model, rec, values0)
+    x_scale = {s: 1.0 for s in model.states}
+    for o in model.outputs:
+        x_scale[o] = float(np.std(rec.outputs[o])) or 1.0
+
+    # ------------------------------------------------------------ 1. nominal fit
+    problem = _Problem(model, rec, n_fit, w, n_sub)
+    nom = _make_jobs(model, (), None, [{}], values0, x_scale, tag="nominal")
+    _lm(problem, nom, 80)
+    n_sub2 = _choose_n_sub(model, rec, nom[0].values())
+    if any(k in ("velocity", "angular_velocity") for k in model.states.values()):
+        # friction switches sign at zero speed: at least two RK4 steps per sample keep
+        # the smoothed stick-slip close to the real one (Coulomb is otherwise mistaken
+        # for Stribeck, whose low-speed peak mimics a sharper transition)
+        n_sub2 = max(n_sub2, 2)
+    if n_sub2 > n_sub:
+        problem = _Problem(model, rec, n_fit, w, n_sub2)
+        nom = _make_jobs(model, (), None, [{}], nom[0].values(), x_scale, tag="nominal")
+        _lm(problem, nom, 80)
+    nominal = nom[0]
+    if not math.isfinite(nominal.cost):
+        raise ModelError(
+            f"{model.name}: the nominal model cannot be simulated on {data_name} (the "
+            "simulation diverges or gives NaN); check PARAMS, INITIAL and the units."
+        )
+    t_nominal = _time.perf_counter() - t_start
+    sc: Scales = _nominal_scales(model, rec, nominal.values(), problem.n_sub)
+    x_scale = {s: sc.x_scale(s) for s in model.states}
+
+    # ------------------------------------------------------------ 2. candidates
+    cands = attach_candidates(model, sc, effects)
+    jobs: list[_Job] = []
+    for e in cands:
+        jobs += _make_jobs(
+            model, (e,), sc, _effect_starts((e,), sc), nominal.values(), x_scale, tag=e.key
+        )
+    _lm(problem, jobs, screen_iter)
+    best_by_key: dict[str, _Job] = {}
+    for j in jobs:
+        if j.tag not in best_by_key or j.cost < best_by_key[j.tag].cost:
+            best_by_key[j.tag] = j
+    ranked = sorted(best_by_key.values(), key=lambda j: j.cost)
+    kept = ranked[:keep]
+    _lm(problem, kept, max_iter)
+    # friction whose smoothing is limited by the step: refit on finer steps
+    problems = {problem.n_sub: problem}
+    n_sub_of = {id(j): problem.n_sub for j in ranked}
+    for i, j in enumerate(kept):
+        n_f = _friction_step(j, rec.ts, problem.n_sub)
+        if n_f > problem.n_sub:
+            if n_f not in problems:
+                problems[n_f] = _Problem(model, rec, n_fit, w, n_f)
+            fine = _make_jobs(model, j.effects, sc, [{}], j.values(), x_scale, tag=j.tag)[0]
+            _lm(problems[n_f], [fine], max(5, max_iter // 2))
+            if fine.cost <= j.cost:
+                ranked[ranked.index(j)] = fine
+                kept[i] = fine
+                n_sub_of[id(fine)] = n_f
+    t_screen = _time.perf_counter() - t_start - t_nominal
+
+    # ------------------------------------------------------------ 3. validation, scores
+    m = problem.n_fit * len(model.outputs)
+    scored = [_Scored(nominal, "nominal", (), n_sub=problem.n_sub)]
+    for j in ranked:
+        scored.append(_Scored(j, j.tag, j.effects, refit=j in kept, n_sub=n_sub_of[id(j)]))
+    _validate(model, problems, rec_val, scored, x_scale, 30)
+    for s in scored:
+        s.bic = _bic(s.job.cost, m, s.job.layout.n)
+    base = scored[0]
+    for s in scored[1:]:
+        s.p_value = dm_test(base.e_val, s.e_val)[1]
+    singles = scored[1:]
+
+    def significant(s: _Scored, ref: _Scored) -> bool:
+        gain = 1.0 - s.rmse_val / ref.rmse_val if ref.rmse_val > 0 else 0.0
+        p = dm_test(ref.e_val, s.e_val)[1]
+        return gain >= min_improvement and p < alpha and s.bic < ref.bic
+
+    chosen = (
+        _choose([s for s in singles if s.refit], tie_tolerance, min_improvement)
+        if singles
+        else None
+    )
+    accepted = chosen if chosen is not None and significant(chosen, base) else None
+
+    # ------------------------------------------------------------ 4. pairs
+    pair = None
+    if accepted is not None and pairs:
+        e0 = accepted.effects[0]
+        seen = {(e0.id, e0.target)}
+        # a hypothesis and one it nests (Stribeck and Coulomb on one velocity) are no pair
+        for big, small in _NESTED.items():
+            if e0.id == big:
+                seen.add((small, e0.target))
+            if e0.id == small:
+                seen.add((big, e0.target))
+        others = []
+        for s in sorted(singles, key=lambda s: s.rmse_val):
+            k = (s.effects[0].id, s.effects[0].target)
+            if s.refit and k not in seen and len(others) < pair_candidates:
+                seen.add(k)
+                others.append(s)
+        pjobs = []
+        for o in others:
+            vals = {**o.job.values(), **accepted.job.values()}
+            eff = (*accepted.effects, *o.effects)
+            pjobs += _make_jobs(
+                model, eff, sc, [{}], vals, x_scale, tag="+".join(e.key for e in eff)
+            )
+        if pjobs:
+            pp = problem  # the base step: pairs are the costliest fits
+            _lm(pp, pjobs, max_iter, ftol=1e-7)
+            pscored = [_Scored(j, j.tag, j.effects, n_sub=pp.n_sub) for j in pjobs]
+            _validate(model, problems, rec_val, pscored, x_scale, 30)
+            for s in pscored:
+                s.bic = _bic(s.job.cost, m, s.job.layout.n)
+            best_pair = min(pscored, key=lambda s: s.rmse_val)
+            if significant(best_pair, accepted):
+                pair = best_pair
+    t_total = _time.perf_counter() - t_start
+
+    # ------------------------------------------------------------ 5. summary
+    import pandas as pd
+
+    by_target: dict[tuple[str, str], _Scored] = {}
+    for s in singles:
+        e = s.effects[0]
+        k = (e.id, e.target)
+        if k not in by_target or s.rmse_val < by_target[k].rmse_val:
+            by_target[k] = s
+    rows = []
+    for s in by_target.values():
+        e = s.effects[0]
+        rows.append(
+            {
+                "effect": e.id,
+                "target": e.target,
+                "variant": _variant(e),
+                "rmse_validation": s.rmse_val,
+                "improvement": 1.0 - s.rmse_val / base.rmse_val
+                if base.rmse_val > 0
+                else 0.0,
+                "criterion": s.bic - base.bic,
+                "p_value": s.p_value,
+                "n_params": s.job.layout.n,
+                "refit": s.refit,
+                "_s": s,
+            }
+        )
+    table = pd.DataFrame(rows)
+    if len(table):
+        table = table.sort_values(["rmse_validation", "criterion"], ignore_index=True)
+        if chosen is not None:
+            # the chosen candidate (BIC tie-break) first
+            first = table.index[table["_s"].map(lambda s: s is chosen)]
+            if len(first):
+                table = pd.concat([table.loc[first], table.drop(first)], ignore_index=True)
+        table = table.drop(columns="_s")
+
+    final = pair or accepted
+    if accepted is None:
+        verdict = {"effect": "none", "target": None, "physics": _NONE_PHYSICS, "params": {}}
+    else:
+        e = accepted.effects[0]
+        vals = accepted.job.values()
+        verdict = {
+            "effect": e.id,
+            "target": e.target,
+            "physics": _explain(e, vals),
+            "params": _verdict_params(accepted),
+        }
+        if pair is not None:
+            pv = pair.job.values()
+            verdict["params"] = {p: pv[f"{e.key}.{p}"] for p in e.param_names}
+            if e.partner and e.id == "overflow":
+                verdict["params"]["into_state"] = e.partner
+            e2 = pair.effects[1]
+            verdict["also"] = [
+                {
+                    "effect": e2.id,
+                    "target": e2.target,
+                    "physics": _explain(e2, pv),
+                    "params": {p: pv[f"{e2.key}.{p}"] for p in e2.param_names},
+                }
+            ]
+            verdict["physics"] = _explain(e, pv)
+    train_err_nom = y_all[:n_fit] - base.y_train[:n_fit]
+    fit = {
+        "rmse_nominal": base.rmse_val,
+        "rmse_augmented": final.rmse_val if final is not None else base.rmse_val,
+        "rmse_train_nominal": _rmse(train_err_nom, w),
+        "rmse_train_augmented": (
+            _rmse(y_all[:n_fit] - final.y_train[:n_fit], w)
+            if final is not None
+            else _rmse(train_err_nom, w)
+        ),
+        "free_nominal": {p: nominal.values()[f"p:{p}"] for p in model.free},
+        "free_augmented": (
+            {p: final.job.values()[f"p:{p}"] for p in model.free}
+            if final is not None
+            else None
+        ),
+        "validation": "separate recording" if rec_val is not None else "last third",
+        "n_sub": problem.n_sub,
+        "n_sub_augmented": final.n_sub if final is not None else None,
+    }
+
+    # ------------------------------------------------------------ 6. localisation
+    P = {k: nominal.values()[f"p:{k}"] for k in model.params}
+    X0 = np.array([[nominal.values()[f"x0:{s}"] for s in model.states]])
+    with np.errstate(all="ignore"):
+        _, Xt = _run(
+            model, [], [], [], rec.time, rec.inputs, P, X0, problem.n_sub, _NP, True
+        )
+    xs = {s: Xt[0, :, j] for j, s in enumerate(model.states)}
+    res_nom = (y_all - base.y_train) * w  # weighted residual, whole training recording
+    located = residual_windows(rec.time, res_nom)
+    regions = region_statistics(model, xs, rec.inputs, res_nom)
+    spectrum = residual_spectrum(res_nom.sum(axis=1), rec.inputs, 1.0 / rec.ts)
+    if rec_val is None:
+        uval = {k: v[n_fit:] for k, v in rec.inputs.items()}
+        yval = y_all[n_fit:]
+    else:
+        uval = rec_val.inputs
+        yval = rec_val.y(model)
+    white = {"before": {}, "after": {}}
+    for j, o in enumerate(model.outputs):
+        white["before"][o] = whiteness_test(yval[:, j] - base.y_val[:, j], uval)
+        if final is not None:
+            white["after"][o] = whiteness_test(yval[:, j] - final.y_val[:, j], uval)
+    signals = {
+        "time": rec.time,
+        "measured": y_all,
+        "nominal": base.y_train,
+        "augmented": final.y_train if final is not None else None,
+        "split": float(rec.time[n_fit]) if rec_val is None else None,
+    }
+    if rec_val is not None:
+        signals.update(
+            val_time=rec_val.time,
+            val_measured=yval,
+            val_nominal=base.y_val,
+            val_augmented=final.y_val if final is not None else None,
+        )
+    return MismatchResult(
+        verdict=verdict,
+        candidates=table,
+        located=located,
+        regions=regions,
+        fit=fit,
+        whiteness=white,
+        spectrum=spectrum,
+        signals=signals,
+        outputs=list(model.outputs),
+        nominal_values=nominal.values(),
+        augmented_values=final.job.values() if final is not None else None,
+        augmented_effects=final.effects if final is not None else (),
+        timings={
+            "nominal_s": t_nominal,
+            "screen_refit_s": t_screen,
+            "total_s": t_total,
+            "n_candidates": len(cands),
+            "n_jobs": len(jobs),
+        },
+    )
