@@ -11,12 +11,16 @@ Examples
 True
 """
 
+import difflib
+from collections.abc import Iterable
+
 __all__ = [
     "ConvergenceWarning",
     "DataError",
     "DataNotFoundError",
     "ModelError",
     "NotFittedError",
+    "did_you_mean",
 ]
 
 
@@ -38,3 +42,29 @@ class NotFittedError(ValueError, AttributeError):
 
 class ConvergenceWarning(RuntimeWarning):
     """An iterative fit stopped before meeting its tolerance."""
+
+
+def did_you_mean(name: object, choices: Iterable[object]) -> str:
+    """The "; did you mean 'x'?" hint for an unknown name, or ``""`` when none is close.
+
+    Parameters
+    ----------
+    name : object
+        The name the user gave (converted with ``str``).
+    choices : iterable
+        The names that would have been accepted.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from pdmkit.errors import did_you_mean
+    >>> "unknown signal 'Flwo'" + did_you_mean("Flwo", ["Flow", "Position"])
+    "unknown signal 'Flwo'; did you mean 'Flow'?"
+    >>> did_you_mean("zzz", ["Flow"])
+    ''
+    """
+    close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
+    return f"; did you mean {close[0]!r}?" if close else ""

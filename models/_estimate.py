@@ -41,7 +41,6 @@ Method
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 import time as _time
 import types
@@ -52,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from pdmkit._progress import progress
-from pdmkit.errors import ConvergenceWarning, DataError, ModelError
+from pdmkit.errors import ConvergenceWarning, DataError, ModelError, did_you_mean
 from pdmkit.models._integrate import _THETA, _switch_times, simulate
 from pdmkit.models._pneumatic import PneumaticParams, _command, _derivs, _resolve
 from pdmkit.models._response import ResponseData
@@ -556,12 +555,10 @@ def _check_free(free, known: PneumaticParams) -> list[str]:
     out: list[str] = []
     for k in free:
         if not isinstance(k, str) or k not in names:
-            close = difflib.get_close_matches(str(k), names, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
             raise ModelError(
                 f"estimate_parameters: free parameter {k!r} is not a PneumaticParams "
-                f"field{hint} Choose from the fields of PneumaticParams (see "
-                "PneumaticParams.describe())."
+                f"field{did_you_mean(k, names)} Choose from the fields of "
+                "PneumaticParams (see PneumaticParams.describe())."
             )
         if k in _SENSOR_ONLY:
             raise ModelError(
@@ -687,10 +684,9 @@ def _check_recording(recording, signals: list[str], member: int):
         if s not in pool:
             if s not in signals:
                 continue
-            close = difflib.get_close_matches(s, list(pool), n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise DataError(
-                f"estimate_parameters: signal {s!r} is missing from {where}{hint}; it has "
+                f"estimate_parameters: signal {s!r} is missing from {where}"
+                f"{did_you_mean(s, pool)} It has "
                 f"{', '.join(map(str, pool)) or 'no signals'}. Record it or drop it from "
                 "`signals`."
             )
@@ -1068,10 +1064,9 @@ def _setup_problem(
         raise ModelError("estimate_parameters: `signals` is empty; name a sensor to fit.")
     for s in signals:
         if s not in FITTABLE_SIGNALS:
-            close = difflib.get_close_matches(str(s), list(FITTABLE_SIGNALS), n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
             raise ModelError(
-                f"estimate_parameters: cannot fit signal {s!r}{hint} Fittable signals: "
+                f"estimate_parameters: cannot fit signal {s!r}"
+                f"{did_you_mean(s, FITTABLE_SIGNALS)} Fittable signals: "
                 f"{', '.join(FITTABLE_SIGNALS)}."
             )
     if len(set(signals)) != len(signals):

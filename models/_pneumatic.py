@@ -39,14 +39,13 @@ Simplifications kept from the seed: the gas in the flow laws is at ambient tempe
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from pdmkit.errors import ModelError
+from pdmkit.errors import ModelError, did_you_mean
 from pdmkit.models._xp import get_namespace, is_torch
 
 __all__ = [
@@ -470,11 +469,9 @@ class PneumaticParams:
         names = [f.name for f in dataclasses.fields(self)]
         for key in changes:
             if key not in names:
-                close = difflib.get_close_matches(key, names, n=1)
-                hint = f"; did you mean {close[0]!r}?" if close else ""
                 raise ModelError(
-                    f"PneumaticParams has no parameter {key!r}{hint} Known parameters: "
-                    f"{', '.join(names)}."
+                    f"PneumaticParams has no parameter {key!r}{did_you_mean(key, names)} "
+                    f"Known parameters: {', '.join(names)}."
                 )
         return dataclasses.replace(self, **changes)
 

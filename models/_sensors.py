@@ -9,7 +9,6 @@ gain error, offset, drift, noise, quantisation and dropout (seed 8.1.1: "noise" 
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -18,7 +17,7 @@ from typing import Any
 import numpy as np
 from scipy import signal as sps
 
-from pdmkit.errors import ModelError
+from pdmkit.errors import ModelError, did_you_mean
 
 __all__ = ["SENSOR_NAMES", "SENSOR_UNITS", "SensorSpec", "default_sensor_specs"]
 
@@ -148,10 +147,9 @@ class SensorSpec:
         names = [f.name for f in dataclasses.fields(self)]
         for key in changes:
             if key not in names:
-                close = difflib.get_close_matches(key, names, n=1)
-                hint = f"; did you mean {close[0]!r}?" if close else ""
                 raise ModelError(
-                    f"SensorSpec has no field {key!r}{hint} Fields: {', '.join(names)}."
+                    f"SensorSpec has no field {key!r}{did_you_mean(key, names)} "
+                    f"Fields: {', '.join(names)}."
                 )
         return dataclasses.replace(self, **changes)
 
@@ -264,10 +262,9 @@ def resolve_specs(sensor_specs: Mapping[str, SensorSpec] | None) -> dict[str, Se
     specs = default_sensor_specs()
     for name, spec in (sensor_specs or {}).items():
         if name not in specs:
-            close = difflib.get_close_matches(name, list(specs), n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
             raise ModelError(
-                f"sensor_specs: unknown sensor {name!r}{hint} Sensors: {', '.join(specs)}."
+                f"sensor_specs: unknown sensor {name!r}{did_you_mean(name, specs)} "
+                f"Sensors: {', '.join(specs)}."
             )
         if not isinstance(spec, SensorSpec):
             raise ModelError(
