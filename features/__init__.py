@@ -29,6 +29,7 @@ Examples
 np.True_
 """
 
+from pdmkit.features._ar import ar_feature_names, ar_features
 from pdmkit.features._cycle import (
     CYCLE_LEVELS,
     EVENT_WINDOWS,
@@ -61,6 +62,8 @@ __all__ = [
     "EnvelopeSpectrum",
     "FeatureRanking",
     "SelectTopRanked",
+    "ar_feature_names",
+    "ar_features",
     "bearing_frequencies",
     "cycle_average",
     "cycle_feature_names",

@@ -15,6 +15,13 @@ nominal model, locates the residual in time, state space and frequency
 :func:`whiteness_test`), fits the candidate physics of :func:`candidate_library` and
 names the effect that was left out.
 
+System identification (``docs/identification.md``): :func:`identify` dispatches to
+:func:`ar`, :func:`arx`, :func:`armax`, :func:`oe`, :func:`bj` (prediction-error
+methods) and :func:`n4sid` (subspace), with :func:`select_order` by AIC/BIC/MDL; an
+:class:`IdentifiedModel` gives poles, natural frequencies, damping and simulation.
+:class:`RecursiveARX` and :func:`track_poles` follow poles over time;
+:class:`DiagnosticMask` and :class:`DiagnosticMatrix` turn tracks into alarms and faults.
+
 Examples
 --------
 >>> from pdmkit.models import PneumaticParams, simulate
@@ -30,7 +37,21 @@ from pdmkit.models._candidates import (
     attach_candidates,
     candidate_library,
 )
+from pdmkit.models._diagnosis import DiagnosticMask, DiagnosticMatrix, MaskResult
 from pdmkit.models._estimate import EstimationResult, estimate_parameters
+from pdmkit.models._ident import (
+    CRITERIA,
+    STRUCTURES,
+    IdentifiedModel,
+    OrderSelection,
+    ar,
+    arx,
+    fit_percent,
+    identify,
+    modes_from_poles,
+    select_order,
+)
+from pdmkit.models._ident_pem import armax, bj, oe
 from pdmkit.models._integrate import simulate, simulate_ivp
 from pdmkit.models._mismatch import MismatchResult, discover_mismatch, dm_test
 from pdmkit.models._mismatch_cases import (
@@ -66,6 +87,7 @@ from pdmkit.models._pneumatic import (
     stack_params,
     valve_command,
 )
+from pdmkit.models._recursive import PoleTracks, RecursiveARX, smooth_tracks, track_poles
 from pdmkit.models._response import PneumaticResponse, ResponseData
 from pdmkit.models._sensors import (
     SENSOR_NAMES,
@@ -73,38 +95,57 @@ from pdmkit.models._sensors import (
     SensorSpec,
     default_sensor_specs,
 )
+from pdmkit.models._subspace import n4sid, ss_predict, ss_simulate
 
 __all__ = [
     "CANDIDATE_IDS",
+    "CRITERIA",
     "KINDS",
     "SENSOR_NAMES",
     "SENSOR_UNITS",
     "SHOWCASE_NAMES",
     "STATE_NAMES",
+    "STRUCTURES",
     "Candidate",
     "ConcealedCase",
+    "DiagnosticMask",
+    "DiagnosticMatrix",
     "Effect",
     "EstimationResult",
     "FitResult",
+    "IdentifiedModel",
+    "MaskResult",
     "MismatchResult",
     "OdeModel",
+    "OrderSelection",
     "PneumaticParams",
     "PneumaticResponse",
+    "PoleTracks",
     "Recording",
+    "RecursiveARX",
     "ResponseData",
     "SensorSpec",
+    "ar",
+    "armax",
+    "arx",
     "attach_candidates",
+    "bj",
     "candidate_library",
     "default_sensor_specs",
     "discover_mismatch",
     "dm_test",
     "estimate_parameters",
     "fit_model",
+    "fit_percent",
     "generate_concealed_case",
+    "identify",
     "initial_state",
     "load_model_file",
     "make_recording",
+    "modes_from_poles",
+    "n4sid",
     "nominal_scales",
+    "oe",
     "orifice_mass_flow",
     "outflow_function",
     "region_statistics",
@@ -112,12 +153,17 @@ __all__ = [
     "residual_windows",
     "rhs",
     "score_concealed_cases",
+    "select_order",
     "showcase_model",
     "showcase_source",
     "simulate",
     "simulate_ivp",
     "simulate_ode",
+    "smooth_tracks",
+    "ss_predict",
+    "ss_simulate",
     "stack_params",
+    "track_poles",
     "valve_command",
     "whiteness_test",
 ]

@@ -1,0 +1,334 @@
+"""The identification workflow: recording -> linear model -> JSON summary + HTML report.
+
+``pdmkit identify DATA.csv --input COL --output COL --structure arx --json OUT.json
+--out DIR`` calls :func:`run_identify`. The data are a CSV or Parquet table with one
+column for the input and one for the output, and either a ``time`` column (s, uniform)
+or a sampling rate given as ``fs``.
+
+New model structures plug in through :data:`IDENTIFY_STRUCTURES`: a function
+``(u, y, fs, order, criterion) -> model`` whose model has ``simulate(u)`` and
+``to_dict()`` (with at least ``structure``, ``order``, ``poles``,
+``natural_frequencies_hz``, ``damping``, ``fit_percent``), and optionally
+``frequency_response(f)`` and ``plot(ax)`` (pole map) for the report.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pdmkit._atomic import atomic_dir, atomic_path
+from pdmkit.ensembles import read_table
+from pdmkit.errors import DataError, ModelError
+from pdmkit.experiments._report import Report, _to_jsonable
+from pdmkit.models._ident import STRUCTURES, fit_percent, identify
+
+__all__ = [
+    "IDENTIFY_STRUCTURES",
+    "build_identify_report",
+    "identify_summary",
+    "parse_order",
+    "run_identify",
+]
+
+
+def _linear(structure: str) -> Callable[..., Any]:
+    def fit(u, y, fs, order, criterion):
+        return identify(u, y, fs, structure, order, criterion)
+
+    fit.__name__ = f"identify_{structure}"
+    return fit
+
+
+#: Structure name -> ``fit(u, y, fs, order, criterion)``; extend to add structures.
+IDENTIFY_STRUCTURES: dict[str, Callable[..., Any]] = {s: _linear(s) for s in STRUCTURES}
+
+
+def parse_order(text: str | int | dict | None) -> int | dict | None:
+    """Read an order as given on the command line.
+
+    ``"4"`` -> 4 (every polynomial order); ``"na=4,nb=3,nk=1"`` -> a dict; None or
+    ``""`` -> None (select by the criterion).
+
+    Examples
+    --------
+    >>> parse_order("4"), parse_order("na=4, nb=2"), parse_order(None)
+    (4, {'na': 4, 'nb': 2}, None)
+    """
+    if text is None or isinstance(text, int | dict):
+        return text
+    text = str(text).strip()
+    if not text:
+        return None
+    if "=" not in text:
+        try:
+            return int(text)
+        except ValueError:
+            raise ModelError(
+                f"--order must be an integer or key=value pairs like 'na=4,nb=3,nk=1'; "
+                f"got {text!r}."
+            ) from None
+    out = {}
+    for part in text.split(","):
+        key, sep, val = part.partition("=")
+        try:
+            out[key.strip()] = int(val)
+        except ValueError:
+            raise ModelError(
+                f"--order entry {part.strip()!r} is not key=integer (e.g. 'na=4')."
+            ) from None
+        if not sep or not key.strip():
+            raise ModelError(f"--order entry {part.strip()!r} is not key=integer.")
+    return out
+
+
+def _column(table: pd.DataFrame, name: str, path, role: str) -> np.ndarray:
+    if name not in table.columns:
+        raise DataError(
+            f"{path}: no {role} column {name!r}; the table has {list(table.columns)}."
+        )
+    x = pd.to_numeric(table[name], errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.isfinite(x))
+    if bad.size:
+        raise DataError(
+            f"{path}: column {name!r} has {bad.size} missing or non-numeric value(s), the "
+            f"first in row {int(bad[0])}; clean or interpolate them."
+        )
+    return x
+
+
+def _sampling_rate(table: pd.DataFrame, fs, path) -> float:
+    if fs is not None:
+        fs = float(fs)
+        if not fs > 0:
+            raise DataError(f"fs must be positive; got {fs}.")
+        return fs
+    if "time" not in table.columns:
+        raise DataError(
+            f"{path}: no 'time' column to take the sampling rate from; add one (s) or "
+            "pass fs (--fs)."
+        )
+    t = _column(table, "time", path, "time")
+    dt = np.diff(t)
+    if dt.size == 0 or not np.all(dt > 0):
+        raise DataError(f"{path}: 'time' must increase strictly.")
+    if np.max(np.abs(dt - dt.mean())) > 1e-3 * dt.mean():
+        i = int(np.argmax(np.abs(dt - dt.mean())))
+        raise DataError(
+            f"{path}: 'time' is not uniform (step {dt[i]:.6g} s at row {i + 1} vs mean "
+            f"{dt.mean():.6g} s); resample the data first."
+        )
+    return 1.0 / float(dt.mean())
+
+
+def identify_summary(model, **sources: Any) -> dict:
+    """JSON summary of an identified model (the keys the CLI promises first).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy import signal
+    >>> from pdmkit.models._ident import arx
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.normal(size=2000)
+    >>> y = signal.lfilter([0, 1.0], [1, -0.9], u)
+    >>> list(identify_summary(arx(u, y, 1, 1)))[:6]
+    ['structure', 'order', 'poles', 'natural_frequencies_hz', 'damping', 'fit_percent']
+    """
+    d = model.to_dict()
+    keys = (
+        "structure",
+        "order",
+        "poles",
+        "natural_frequencies_hz",
+        "damping",
+        "fit_percent",
+    )
+    out = {k: d.get(k) for k in keys}
+    out.update({k: v for k, v in d.items() if k not in out})
+    out["sources"] = {
+        k: (os.fspath(v) if v is not None else None) for k, v in sources.items()
+    }
+    return _to_jsonable(out)
+
+
+def _h1(u: np.ndarray, y: np.ndarray, fs: float):
+    from scipy import signal
+
+    nper = int(min(4096, max(64, 2 ** int(np.log2(max(len(u) // 8, 64))))))
+    f, puy = signal.csd(u - u.mean(), y - y.mean(), fs=fs, nperseg=nper)
+    _, puu = signal.welch(u - u.mean(), fs=fs, nperseg=nper)
+    _, pyy = signal.welch(y - y.mean(), fs=fs, nperseg=nper)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h1 = puy / puu
+        coh = np.abs(puy) ** 2 / (puu * pyy)
+    return f, h1, coh
+
+
+def build_identify_report(model, summary: dict, u, y, fs: float, title: str) -> Report:
+    """HTML report: summary, modes, pole map, FRF vs H1 estimate, simulation vs data.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy import signal
+    >>> from pdmkit.models._ident import arx
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.normal(size=1000)
+    >>> y = signal.lfilter([0, 0.1], [1, -1.6, 0.9], u)
+    >>> m = arx(u, y, 2, 1, fs=100.0)
+    >>> rep = build_identify_report(m, identify_summary(m), u, y, 100.0, "demo")
+    >>> rep.to_html().count("data:image/png")
+    3
+    """
+    import matplotlib.pyplot as plt
+
+    rep = Report(title)
+    rep.add_heading("Summary")
+    fn = ", ".join(f"{v:.4g} Hz" for v in summary.get("natural_frequencies_hz") or [])
+    rep.add_text(
+        f"Structure {summary['structure']} with order {summary['order']}: simulation fit "
+        f"{summary['fit_percent']:.2f} % on the estimation data; modes at {fn or 'none'}."
+    )
+    if hasattr(model, "to_pandas"):
+        rep.add_table(model.to_pandas(), caption="Modes", float_format="{:.5g}")
+    if hasattr(model, "plot"):
+        rep.add_heading("Pole map")
+        ax = model.plot()
+        rep.add_figure(ax, caption="Poles (x) and zeros (o) in the z-plane")
+    if hasattr(model, "frequency_response"):
+        rep.add_heading("Frequency response")
+        f, h1, _ = _h1(u, y, fs)
+        f = f[1:]
+        g = model.frequency_response(f)
+        fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+        a1.semilogy(f, np.abs(h1[1:]), color="0.6", lw=0.8, label="H1 estimate (data)")
+        a1.semilogy(f, np.abs(g), color="C0", label="model")
+        a1.set_ylabel("|G|")
+        a1.legend(loc="best", fontsize="small")
+        a2.plot(f, np.degrees(np.unwrap(np.angle(h1[1:]))), color="0.6", lw=0.8)
+        a2.plot(f, np.degrees(np.unwrap(np.angle(g))), color="C0")
+        a2.set_ylabel("phase [deg]")
+        a2.set_xlabel("frequency [Hz]")
+        rep.add_figure(
+            fig,
+            caption="Model frequency response over the H1 estimate "
+            "(scipy.signal.csd / welch)",
+        )
+    rep.add_heading("Simulation")
+    y_sim = model.simulate(u)
+    t = np.arange(len(y)) / fs
+    fig, ax = plt.subplots(figsize=(7, 3))
+    ax.plot(t, y, color="0.5", lw=0.8, label="measured")
+    ax.plot(
+        t, y_sim, color="C1", lw=0.8, label=f"simulated (fit {fit_percent(y, y_sim):.1f} %)"
+    )
+    ax.set_xlabel("time [s]")
+    ax.legend(loc="best", fontsize="small")
+    rep.add_figure(fig, caption="Simulated vs measured output")
+    if hasattr(model, "residual_test"):
+        res = model.residual_test(u, y)
+        rep.add_json(
+            _to_jsonable(res),
+            caption="Residual tests (Ljung-Box whiteness, input cross-correlation)",
+        )
+    rep.add_json(summary, caption="summary.json")
+    return rep
+
+
+def run_identify(
+    data_path: str | os.PathLike,
+    *,
+    input: str,
+    output: str,
+    structure: str = "arx",
+    order: int | dict | str | None = None,
+    out_dir: str | os.PathLike,
+    json_path: str | os.PathLike | None = None,
+    fs: float | None = None,
+    criterion: str = "aic",
+) -> dict:
+    """Identify a model from a recording; write ``summary.json`` and ``report.html``.
+
+    Parameters
+    ----------
+    data_path : path
+        CSV or Parquet with the ``input`` and ``output`` columns and a ``time`` column
+        (or pass ``fs``).
+    input, output : str
+        Column names.
+    structure : str, default "arx"
+        A key of :data:`IDENTIFY_STRUCTURES` (``ar``, ``arx``, ``armax``, ``oe``,
+        ``bj``, ``n4sid``).
+    order : int, dict, str or None
+        See :func:`parse_order`; None selects it by ``criterion``.
+    out_dir : path
+        Receives ``summary.json`` and ``report.html``; replaced as a whole, only when
+        everything succeeded.
+    json_path : path, optional
+        Also write the summary here.
+    fs : float, optional
+        Sampling rate in Hz when the table has no ``time`` column.
+    criterion : {"aic", "bic", "mdl"}, default "aic"
+
+    Returns
+    -------
+    dict
+        The summary: ``structure``, ``order``, ``poles`` (``[re, im]`` pairs),
+        ``natural_frequencies_hz``, ``damping``, ``fit_percent`` and more.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import numpy as np, pandas as pd
+    >>> from scipy import signal
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.normal(size=2000)
+    >>> y = signal.lfilter([0, 0.1], [1, -1.6, 0.9], u)
+    >>> pd.DataFrame({"time": np.arange(2000) / 100.0, "force": u, "acc": y}).to_csv(
+    ...     folder / "run.csv", index=False)
+    >>> s = run_identify(folder / "run.csv", input="force", output="acc", structure="arx",
+    ...                  order="na=2,nb=1", out_dir=folder / "out")
+    >>> round(s["natural_frequencies_hz"][0], 2)
+    9.07
+    >>> sorted(p.name for p in (folder / "out").iterdir())
+    ['report.html', 'summary.json']
+    """
+    if structure not in IDENTIFY_STRUCTURES:
+        raise ModelError(
+            f"structure must be one of {sorted(IDENTIFY_STRUCTURES)}; got {structure!r}."
+        )
+    table = read_table(data_path)
+    if len(table) == 0:
+        raise DataError(f"{data_path}: the table has no rows.")
+    rate = _sampling_rate(table, fs, data_path)
+    y = _column(table, output, data_path, "output")
+    u = None if structure == "ar" else _column(table, input, data_path, "input")
+    model = IDENTIFY_STRUCTURES[structure](u, y, rate, parse_order(order), criterion)
+    summary = identify_summary(model, data=data_path)
+    summary.update({"input": input, "output": output, "fs": rate})
+    title = f"Identification: {structure} model of {output} from {Path(data_path).name}"
+    u_rep = u if u is not None else np.zeros_like(y)
+    if u is None:
+        rep = Report(title)
+        rep.add_table(model.to_pandas(), caption="Modes", float_format="{:.5g}")
+        rep.add_figure(model.plot(), caption="Poles of the AR model")
+        rep.add_json(summary, caption="summary.json")
+    else:
+        rep = build_identify_report(model, summary, u_rep, y, rate, title)
+    html = rep.to_html()
+    text = json.dumps(summary, indent=2, allow_nan=False)
+    with atomic_dir(out_dir) as tmp:
+        (tmp / "report.html").write_text(html, encoding="utf-8")
+        (tmp / "summary.json").write_text(text, encoding="utf-8")
+        if json_path is not None:
+            with atomic_path(json_path) as jtmp:
+                jtmp.write_text(text, encoding="utf-8")
+    return summary

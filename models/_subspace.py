@@ -1,0 +1,275 @@
+"""Subspace identification of state-space models (N4SID family, PO-MOESP variant).
+
+:func:`n4sid` estimates ``x(t+1) = A x + B u + K e``, ``y = C x + D u + e`` for any
+number of inputs and outputs. The column space of the extended observability matrix
+comes from the SVD of the past-output-instrumented projection (PO-MOESP, Verhaegen
+1994; Verhaegen & Verdult, *Filtering and System Identification*, 2007, sec. 9.6),
+computed with one RQ factorisation of the block-Hankel data matrix. ``A`` and ``C``
+follow by the shift invariance of that matrix; ``B``, ``D`` and the initial state by
+linear least squares on the simulated output; the Kalman gain ``K`` (optional) by
+minimising the one-step prediction error.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from scipy import linalg, optimize, signal
+
+from pdmkit.errors import ConvergenceWarning, DataError
+from pdmkit.models._ident import IdentifiedModel, _as_signal, _check_fs, _check_order
+
+__all__ = ["n4sid", "ss_predict", "ss_simulate"]
+
+
+def _states(A: np.ndarray, B: np.ndarray, u: np.ndarray, x0=None) -> np.ndarray:
+    """States x(0..N-1) of x(t+1) = A x(t) + B u(t); modal filtering, loop fallback."""
+    n = A.shape[0]
+    N = u.shape[0]
+    x0 = np.zeros(n) if x0 is None else np.asarray(x0, dtype=float).ravel()
+    if n == 0:
+        return np.zeros((N, 0))
+    lam, V = linalg.eig(A)
+    if np.linalg.cond(V) < 1e8:
+        Vi = np.linalg.inv(V)
+        w = u @ (Vi @ B).T  # modal inputs (N, n)
+        z0 = Vi @ x0
+        Z = np.empty((N, n), dtype=complex)
+        for i in range(n):
+            # z(t+1) = lam z(t) + w(t), z(0) = z0  ->  z = filter of w delayed by one
+            drive = np.r_[0.0, w[:-1, i]]
+            zi = np.array([lam[i] * z0[i]])
+            Z[:, i] = signal.lfilter([1.0], [1.0, -lam[i]], drive, zi=zi)[0]
+            Z[0, i] = z0[i]
+        return np.real(Z @ V.T)
+    X = np.empty((N, n))
+    x = x0.copy()
+    Bu = u @ B.T
+    for t in range(N):
+        X[t] = x
+        x = A @ x + Bu[t]
+    return X
+
+
+def ss_simulate(A, B, C, D, u, x0=None) -> np.ndarray:
+    """Output of a discrete state-space model for the input ``u`` (N, m).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy import signal
+    >>> A, B = np.array([[0.9]]), np.array([[1.0]])
+    >>> C, D = np.array([[2.0]]), np.zeros((1, 1))
+    >>> u = np.ones((5, 1))
+    >>> ref = signal.dlsim((A, B, C, D, 1.0), u)[1]
+    >>> np.allclose(ss_simulate(A, B, C, D, u), ref)
+    True
+    """
+    u = np.asarray(u, dtype=float).reshape(len(u), -1)
+    X = _states(np.asarray(A), np.asarray(B), u, x0)
+    return X @ np.asarray(C).T + u @ np.asarray(D).T
+
+
+def ss_predict(A, B, C, D, K, u, y, horizon: int = 1) -> np.ndarray:
+    """``horizon``-step-ahead prediction of the innovation-form model.
+
+    ``x(t+1|t) = (A - K C) x + (B - K D) u + K y``; further steps propagate the
+    deterministic part. ``K = None`` gives the simulation.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A, B, C, D = (np.array([[0.8]]), np.array([[0.0]]), np.array([[1.0]]),
+    ...               np.zeros((1, 1)))
+    >>> y = np.array([[1.0], [0.5], [2.0]])
+    >>> ss_predict(A, B, C, D, np.array([[0.8]]), np.zeros((3, 1)), y, 1).ravel()
+    array([0. , 0.8, 0.4])
+    """
+    A, B, C, D = (np.asarray(m, dtype=float) for m in (A, B, C, D))
+    u = np.asarray(u, dtype=float).reshape(len(u), -1)
+    y = np.asarray(y, dtype=float).reshape(len(y), -1)
+    if K is None:
+        return ss_simulate(A, B, C, D, u)
+    K = np.asarray(K, dtype=float)
+    Ap = A - K @ C
+    Bp = np.hstack([B - K @ D, K])
+    X = _states(Ap, Bp, np.hstack([u, y]))  # x(t | t-1)
+    for _ in range(horizon - 1):
+        Xn = np.zeros_like(X)
+        Xn[1:] = X[:-1] @ A.T + u[:-1] @ B.T
+        X = Xn
+    return X @ C.T + u @ D.T
+
+
+def _hankel(x: np.ndarray, rows: int, cols: int) -> np.ndarray:
+    """Block Hankel: block row r holds x[r : r + cols].T."""
+    return np.vstack([x[r : r + cols].T for r in range(rows)])
+
+
+def _bd_x0(A, C, u, y):
+    """Least squares for B, D, x0 given A, C (output linear in them)."""
+    n, l, m = A.shape[0], C.shape[0], u.shape[1]
+    N = y.shape[0]
+    cols = []
+    eye = np.eye(n)
+    zero_u = np.zeros((N, 1))
+    for a in range(n):  # x0
+        cols.append(_states(A, np.zeros((n, 1)), zero_u, eye[a]) @ C.T)
+    for k in range(m):  # B[:, k]
+        for a in range(n):
+            cols.append(_states(A, eye[:, a : a + 1], u[:, k : k + 1]) @ C.T)
+    for k in range(m):  # D[:, k]
+        for i in range(l):
+            c = np.zeros((N, l))
+            c[:, i] = u[:, k]
+            cols.append(c)
+    phi = np.stack([c.reshape(-1) for c in cols], axis=1)  # (N*l, p), row-major (t, out)
+    theta = np.linalg.lstsq(phi, y.reshape(-1), rcond=None)[0]
+    x0 = theta[:n]
+    B = theta[n : n + n * m].reshape(m, n).T
+    D = theta[n + n * m :].reshape(m, l).T
+    return B, D, x0
+
+
+def n4sid(
+    u,
+    y,
+    nx: int,
+    *,
+    fs: float = 1.0,
+    horizon: int | None = None,
+    noise_model: bool = True,
+    max_nfev: int = 20,
+    max_samples_k: int = 20_000,
+) -> IdentifiedModel:
+    """State-space model of order ``nx`` by subspace identification (PO-MOESP).
+
+    Parameters
+    ----------
+    u : array_like, shape (N,) or (N, n_inputs)
+    y : array_like, shape (N,) or (N, n_outputs)
+        Means are removed and every channel scaled to unit variance internally.
+    nx : int
+        State dimension (two per vibration mode).
+    fs : float, default 1.0
+        Sampling rate in Hz.
+    horizon : int, optional
+        Past and future block rows of the Hankel matrices (default
+        ``max(2 * nx, 10)``); must exceed ``nx / n_outputs``.
+    noise_model : bool, default True
+        Also fit the Kalman gain ``K`` (one-step prediction-error fit); without it
+        the model is output-error type (``K = None``).
+    max_nfev : int, default 20
+        Cap on Levenberg-Marquardt iterations for ``K`` (times ``nx * n_outputs + 1``
+        evaluations).
+    max_samples_k : int, default 20000
+        ``K`` is fitted on the last this many samples.
+
+    Returns
+    -------
+    IdentifiedModel
+        With ``ss = (A, B, C, D)``, ``K``, and ``info["singular_values"]`` (their
+        gap shows the order).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy import signal
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.normal(size=4000)
+    >>> y = signal.lfilter([0, 0.5, 0.2], [1, -1.5, 0.8], u) + 0.01 * rng.normal(size=4000)
+    >>> m = n4sid(u, y, 2, noise_model=False)
+    >>> np.round(np.sort_complex(m.poles), 3)
+    array([0.75-0.487j, 0.75+0.487j])
+    """
+    fs = _check_fs(fs)
+    nx = _check_order(nx, "nx", 1)
+    u = _as_signal(u, "u", allow_2d=True)
+    y = _as_signal(y, "y", allow_2d=True)
+    u2 = u.reshape(u.shape[0], -1)
+    y2 = y.reshape(y.shape[0], -1)
+    if u2.shape[0] != y2.shape[0]:
+        raise DataError(f"u has {u2.shape[0]} samples but y has {y2.shape[0]}.")
+    N, m = u2.shape
+    l = y2.shape[1]
+    s = max(2 * nx, 10) if horizon is None else _check_order(horizon, "horizon", 1)
+    s = max(s, nx // l + 1)
+    j = N - 2 * s + 1
+    if j < 2 * s * (m + l):
+        raise DataError(
+            f"y has {N} samples; n4sid with horizon {s} needs at least "
+            f"{2 * s * (m + l) + 2 * s} (lower horizon or nx)."
+        )
+    uo, yo = u2.mean(axis=0), y2.mean(axis=0)
+    su = np.where(u2.std(axis=0) > 0, u2.std(axis=0), 1.0)
+    sy = np.where(y2.std(axis=0) > 0, y2.std(axis=0), 1.0)
+    us, ys = (u2 - uo) / su, (y2 - yo) / sy
+
+    U = _hankel(us, 2 * s, j)
+    Y = _hankel(ys, 2 * s, j)
+    Up, Uf = U[: s * m], U[s * m :]
+    Yp, Yf = Y[: s * l], Y[s * l :]
+    H = np.vstack([Uf, Up, Yp, Yf]) / np.sqrt(j)
+    R = linalg.qr(H.T, mode="r", overwrite_a=True)[0]
+    L = R[: H.shape[0]].T
+    r1, r2 = s * m, s * (m + l)
+    L32 = L[r1 + r2 :, r1 : r1 + r2]
+    Uo, S, _ = linalg.svd(L32, full_matrices=False)
+    gamma = Uo[:, :nx] * np.sqrt(S[:nx])
+    C = gamma[:l]
+    A = np.linalg.lstsq(gamma[:-l], gamma[l:], rcond=None)[0]
+    B, D, _ = _bd_x0(A, C, us, ys)
+
+    K = None
+    info = {"singular_values": S.tolist(), "horizon": s}
+    if noise_model:
+        # the gain is fitted on at most the last `max_samples_k` samples: plenty for
+        # n * l numbers, and it keeps long records fast
+        uk, yk = us[-max_samples_k:], ys[-max_samples_k:]
+
+        def resid(k):
+            Km = k.reshape(nx, l)
+            if np.max(np.abs(linalg.eigvals(A - Km @ C))) >= 1.0:
+                return np.full(yk.size, 1e3)
+            return (yk - ss_predict(A, B, C, D, Km, uk, yk, 1)).ravel()
+
+        res = optimize.least_squares(
+            resid, np.zeros(nx * l), method="lm", max_nfev=max_nfev * (nx * l + 1)
+        )
+        if res.status == 0:
+            warnings.warn(
+                "n4sid: the Kalman-gain fit did not converge; K may be poor "
+                "(simulation is unaffected).",
+                ConvergenceWarning,
+                stacklevel=2,
+            )
+        K = res.x.reshape(nx, l)
+        info["nfev_K"] = res.nfev
+
+    # undo the scaling: u_s = (u - uo)/su, y = sy * y_s + yo
+    B_r = B / su[None, :]
+    C_r = C * sy[:, None]
+    D_r = (D * sy[:, None]) / su[None, :]
+    K_r = None if K is None else K / sy[None, :]
+    squeeze_u = u.ndim == 1
+    squeeze_y = y.ndim == 1
+    n_par = nx * (m + l) + l * m + (nx * l if noise_model else 0)
+    model = IdentifiedModel(
+        "n4sid",
+        fs,
+        {"nx": nx},
+        ss=(A, B_r, C_r, D_r),
+        K=K_r,
+        n_params=n_par,
+        n_samples=N,
+        u_offset=float(uo[0]) if squeeze_u else uo,
+        y_offset=float(yo[0]) if squeeze_y else yo,
+        info=info,
+    )
+    e = model.prediction_errors(u, y)
+    model.residuals = e
+    skip = min(N // 10, 3 * s)
+    model.noise_variance = float(np.mean(np.asarray(e)[skip:] ** 2))
+    model.fit_percent = model.compare(u, y, None)
+    return model
