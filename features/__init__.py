@@ -47,6 +47,14 @@ from pdmkit.features._envelope import (
     envelope_spectrum,
 )
 from pdmkit.features._extract import GROUPS, extract, extract_ensemble
+from pdmkit.features._model_features import (
+    FRACTIONAL_FEATURES,
+    FRF_FEATURES,
+    fractional_features,
+    frf_features,
+    hw_feature_names,
+    hw_features,
+)
 from pdmkit.features._ranking import METHODS, FeatureRanking, SelectTopRanked, rank_features
 from pdmkit.features._spectral import spectral
 from pdmkit.features._stats import harmonic, stats
@@ -56,6 +64,8 @@ __all__ = [
     "CWRU_FAN_END",
     "CYCLE_LEVELS",
     "EVENT_WINDOWS",
+    "FRACTIONAL_FEATURES",
+    "FRF_FEATURES",
     "GROUPS",
     "METHODS",
     "BearingGeometry",
@@ -72,7 +82,11 @@ __all__ = [
     "envelope_spectrum",
     "extract",
     "extract_ensemble",
+    "fractional_features",
+    "frf_features",
     "harmonic",
+    "hw_feature_names",
+    "hw_features",
     "rank_features",
     "spectral",
     "stats",

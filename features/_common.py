@@ -11,6 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from pdmkit._checks import check_fs
 from pdmkit.errors import DataError
 
 __all__ = [
@@ -48,21 +49,6 @@ def list_rows(rows: Sequence[int]) -> str:
     if len(rows) > _MAX_LISTED:
         shown += f" and {len(rows) - _MAX_LISTED} more"
     return shown
-
-
-def check_fs(fs: float, name: str = "fs") -> float:
-    """Return ``fs`` as a float after checking it is a positive finite number."""
-    try:
-        value = float(fs)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"{name} must be the sampling rate in Hz (a positive number), got {fs!r}"
-        ) from None
-    if not np.isfinite(value) or value <= 0:
-        raise ValueError(
-            f"{name} must be a positive finite sampling rate in Hz, got {fs!r}"
-        )
-    return value
 
 
 def to_rows(x, axis: int = -1, name: str = "x") -> tuple[np.ndarray, tuple[int, ...]]:

@@ -22,6 +22,14 @@ methods) and :func:`n4sid` (subspace), with :func:`select_order` by AIC/BIC/MDL;
 :class:`RecursiveARX` and :func:`track_poles` follow poles over time;
 :class:`DiagnosticMask` and :class:`DiagnosticMatrix` turn tracks into alarms and faults.
 
+Frequency domain and nonlinear structures (``docs/model_indicators.md``):
+:func:`frf_estimate` (H1 with coherence), :func:`fit_tf` (Sanathanan-Koerner rational
+fits in s or z), :func:`fit_frf_params` (coherence-weighted grey-box fits),
+:func:`balanced_truncation`; :func:`linearize` (Jacobians by autograd);
+:class:`HammersteinWiener`; fractional-order models (:func:`fit_fractional_tf`,
+:func:`gl_simulate`, :func:`oustaloup`); the symbolic-dynamics
+:class:`SymbolicAnomaly`; and the mass-beam rig of seed 002 (:class:`MassBeamRig`).
+
 Examples
 --------
 >>> from pdmkit.models import PneumaticParams, simulate
@@ -39,6 +47,37 @@ from pdmkit.models._candidates import (
 )
 from pdmkit.models._diagnosis import DiagnosticMask, DiagnosticMatrix, MaskResult
 from pdmkit.models._estimate import EstimationResult, estimate_parameters
+from pdmkit.models._fractional import (
+    FractionalConditionClassifier,
+    FractionalFit,
+    FractionalTF,
+    fit_fractional_frf,
+    fit_fractional_tf,
+    gl_simulate,
+    gl_weights,
+    model_distance,
+    oustaloup,
+)
+from pdmkit.models._frf import (
+    FRF,
+    AmplitudeDependence,
+    GreyBoxFit,
+    ReducedModel,
+    TFFit,
+    amplitude_dependence,
+    balanced_truncation,
+    fit_frf_params,
+    fit_tf,
+    frf_estimate,
+    hankel_singular_values,
+)
+from pdmkit.models._hammerstein import (
+    DeadZone,
+    HammersteinWiener,
+    PiecewiseLinear,
+    Polynomial,
+    Saturation,
+)
 from pdmkit.models._ident import (
     CRITERIA,
     STRUCTURES,
@@ -53,6 +92,8 @@ from pdmkit.models._ident import (
 )
 from pdmkit.models._ident_pem import armax, bj, oe
 from pdmkit.models._integrate import simulate, simulate_ivp
+from pdmkit.models._linearize import LinearModel, linearize
+from pdmkit.models._massbeam import MassBeamRig
 from pdmkit.models._mismatch import MismatchResult, discover_mismatch, dm_test
 from pdmkit.models._mismatch_cases import (
     SHOWCASE_NAMES,
@@ -96,57 +137,93 @@ from pdmkit.models._sensors import (
     default_sensor_specs,
 )
 from pdmkit.models._subspace import n4sid, ss_predict, ss_simulate
+from pdmkit.models._symbolic import (
+    SymbolicAnomaly,
+    max_entropy_partition,
+    state_probabilities,
+    symbolize,
+)
 
 __all__ = [
     "CANDIDATE_IDS",
     "CRITERIA",
+    "FRF",
     "KINDS",
     "SENSOR_NAMES",
     "SENSOR_UNITS",
     "SHOWCASE_NAMES",
     "STATE_NAMES",
     "STRUCTURES",
+    "AmplitudeDependence",
     "Candidate",
     "ConcealedCase",
+    "DeadZone",
     "DiagnosticMask",
     "DiagnosticMatrix",
     "Effect",
     "EstimationResult",
     "FitResult",
+    "FractionalConditionClassifier",
+    "FractionalFit",
+    "FractionalTF",
+    "GreyBoxFit",
+    "HammersteinWiener",
     "IdentifiedModel",
+    "LinearModel",
     "MaskResult",
+    "MassBeamRig",
     "MismatchResult",
     "OdeModel",
     "OrderSelection",
+    "PiecewiseLinear",
     "PneumaticParams",
     "PneumaticResponse",
     "PoleTracks",
+    "Polynomial",
     "Recording",
     "RecursiveARX",
+    "ReducedModel",
     "ResponseData",
+    "Saturation",
     "SensorSpec",
+    "SymbolicAnomaly",
+    "TFFit",
+    "amplitude_dependence",
     "ar",
     "armax",
     "arx",
     "attach_candidates",
+    "balanced_truncation",
     "bj",
     "candidate_library",
     "default_sensor_specs",
     "discover_mismatch",
     "dm_test",
     "estimate_parameters",
+    "fit_fractional_frf",
+    "fit_fractional_tf",
+    "fit_frf_params",
     "fit_model",
     "fit_percent",
+    "fit_tf",
+    "frf_estimate",
     "generate_concealed_case",
+    "gl_simulate",
+    "gl_weights",
+    "hankel_singular_values",
     "identify",
     "initial_state",
+    "linearize",
     "load_model_file",
     "make_recording",
+    "max_entropy_partition",
+    "model_distance",
     "modes_from_poles",
     "n4sid",
     "nominal_scales",
     "oe",
     "orifice_mass_flow",
+    "oustaloup",
     "outflow_function",
     "region_statistics",
     "residual_spectrum",
@@ -163,6 +240,8 @@ __all__ = [
     "ss_predict",
     "ss_simulate",
     "stack_params",
+    "state_probabilities",
+    "symbolize",
     "track_poles",
     "valve_command",
     "whiteness_test",

@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 from scipy import linalg, signal
 
+from pdmkit._checks import check_fs as _check_fs
 from pdmkit.errors import DataError, ModelError
 
 __all__ = [
@@ -125,16 +126,6 @@ def _as_signal(x, name: str, *, allow_2d: bool = False) -> np.ndarray:
             "remove or interpolate them before identification."
         )
     return arr
-
-
-def _check_fs(fs) -> float:
-    try:
-        val = float(fs)
-    except (TypeError, ValueError):
-        raise DataError(f"fs must be a positive sampling rate in Hz; got {fs!r}.") from None
-    if not (math.isfinite(val) and val > 0):
-        raise DataError(f"fs must be a positive sampling rate in Hz; got {fs!r}.")
-    return val
 
 
 def _check_order(value, name: str, minimum: int = 0) -> int:
