@@ -449,6 +449,22 @@ def simulate_sensor_fault_ensemble(
     )
 
 
+def _leak_path(rng, max_cycles, leak_start, leak_failure, shape) -> np.ndarray:
+    """One unit's ``C_al`` per cycle, from ``leak_start`` to the first value at or above
+    ``leak_failure`` (the failing cycle).
+
+    ``log C_al`` drifts to the threshold in about ``target`` cycles (drawn uniformly in
+    ``[0.4 max_cycles, max_cycles]``) with gamma-distributed steps of shape ``shape``:
+    a monotone random walk.
+    """
+    log_start, log_fail = np.log(leak_start), np.log(leak_failure)
+    target = int(rng.integers(int(0.4 * max_cycles), max_cycles + 1))
+    steps = rng.gamma(shape, 1.0 / shape, size=4 * target) * (log_fail - log_start) / target
+    path = log_start + np.concatenate([[0.0], np.cumsum(steps)])
+    end = int(np.flatnonzero(path >= log_fail)[0])
+    return np.exp(path[: end + 1])
+
+
 def simulate_leak_runs(
     n_units: int = 10,
     *,
@@ -461,6 +477,7 @@ def simulate_leak_runs(
     signals: Sequence[str] | None = ("LeverPosition", "FlowExtrusion", "AirPressure"),
     seed: int = 0,
     batch_size: int = 500,
+    walk_shape: float = 4.0,
 ) -> Ensemble:
     """Simulate air-leak run-to-failure units (seed sections 8.1-8.2 and 8.4).
 
@@ -469,6 +486,13 @@ def simulate_leak_runs(
     around it, and the unit fails at the first cycle whose ``C_al`` reaches
     ``leak_failure``. Units get random operating points and parameter variation like
     :func:`simulate_fault_ensemble`, held fixed over their life.
+
+    The walk: each cycle adds a gamma-distributed step to ``log C_al`` (shape
+    ``walk_shape``, mean ``(log leak_failure - log leak_start) / target`` for a
+    unit-specific ``target`` life), so the path is monotone and a step's coefficient of
+    variation is ``1 / sqrt(walk_shape)`` (0.5 by default). The walk alone makes the
+    remaining life uncertain: with ``n`` cycles left its standard deviation is about
+    ``sqrt(n / walk_shape)`` cycles, even for a predictor that knows the unit's rate.
 
     Parameters
     ----------
@@ -482,6 +506,9 @@ def simulate_leak_runs(
         The leaking chamber (seed figure 8.8 shows chamber B).
     t_end, fs, signals, seed, batch_size
         As :func:`simulate_fault_ensemble`.
+    walk_shape : float, default 4.0
+        Shape of the gamma-distributed steps of ``log C_al``; larger is smoother
+        (``inf`` is not allowed; 1e6 is practically a straight line).
 
     Returns
     -------
@@ -505,21 +532,23 @@ def simulate_leak_runs(
         )
     if max_cycles < 3:
         raise ValueError(f"max_cycles must be >= 3; got {max_cycles!r}")
+    if not (
+        isinstance(walk_shape, int | float | np.integer | np.floating)
+        and not isinstance(walk_shape, bool)
+        and 0 < walk_shape < np.inf
+    ):
+        raise ValueError(
+            f"walk_shape must be a positive finite number (4 by default); got "
+            f"{walk_shape!r}"
+        )
     signals = _signal_list(signals)
     rng = np.random.default_rng(seed)
     units, cycles, leaks = [], [], []
-    log_start, log_fail = np.log(leak_start), np.log(leak_failure)
     for u in range(int(n_units)):
-        target = int(rng.integers(int(0.4 * max_cycles), max_cycles + 1))
-        # log C_al: a drift that reaches the threshold in about `target` cycles, with
-        # gamma-distributed increments (a monotone random walk); the unit fails at the
-        # first cycle at or above the threshold
-        steps = rng.gamma(4.0, 1.0 / 4.0, size=4 * target) * (log_fail - log_start) / target
-        path = log_start + np.concatenate([[0.0], np.cumsum(steps)])
-        end = int(np.flatnonzero(path >= log_fail)[0])
-        units += [u] * (end + 1)
-        cycles += list(range(end + 1))
-        leaks += list(np.exp(path[: end + 1]))
+        path = _leak_path(rng, max_cycles, leak_start, leak_failure, float(walk_shape))
+        units += [u] * len(path)
+        cycles += list(range(len(path)))
+        leaks += list(path)
     n = len(units)
     units_arr = np.asarray(units)
     per_unit = _operating_conditions(int(n_units), rng)

@@ -1,4 +1,11 @@
-"""Workflows people run: classify faults, compare sensors, the demo; the CLI and reports.
+"""Workflows people run, the CLI and reports.
+
+:func:`classify` and :func:`compare_models` train and score fault classifiers;
+:func:`compare_sensors` ranks sensors by accuracy and cost; :func:`run_rul` trains and
+scores remaining-useful-life models (C-MAPSS, the twin's air-leak runs);
+:func:`run_identify` identifies a linear model from a recording; :func:`run_mismatch`
+explains where a model file and a recording differ. Each ``run_*`` writes a JSON
+summary and a self-contained HTML :class:`Report`, as the ``pdmkit`` command does.
 
 Examples
 --------
@@ -20,8 +27,17 @@ from pdmkit.experiments._classify import (
     compare_models,
     make_classifier,
 )
+from pdmkit.experiments._identify import IDENTIFY_STRUCTURES, run_identify
 from pdmkit.experiments._mismatch import run_mismatch
 from pdmkit.experiments._report import Report
+from pdmkit.experiments._rul import (
+    LEAK_DEFAULTS,
+    leak_accuracy,
+    leak_indicators,
+    make_rul_model,
+    run_rul,
+    simulate_leak_dataset,
+)
 from pdmkit.experiments._sensors import (
     SensorComparison,
     SensorCosts,
@@ -30,6 +46,8 @@ from pdmkit.experiments._sensors import (
 )
 
 __all__ = [
+    "IDENTIFY_STRUCTURES",
+    "LEAK_DEFAULTS",
     "MODELS",
     "SELECTIONS",
     "ClassificationResult",
@@ -39,7 +57,13 @@ __all__ = [
     "classify",
     "compare_models",
     "compare_sensors",
+    "leak_accuracy",
+    "leak_indicators",
     "load_sensor_costs",
     "make_classifier",
+    "make_rul_model",
+    "run_identify",
     "run_mismatch",
+    "run_rul",
+    "simulate_leak_dataset",
 ]

@@ -20,10 +20,20 @@ units and predicts each test unit's RUL at its last observed cycle:
 Every model's predictions are capped at ``rul_cap`` (125 cycles) and scored against the
 true RULs capped the same way, as the C-MAPSS literature does (the uncapped scores are
 reported too).
+
+``run_rul(dataset="pneumatic-leak", ...)`` runs the same models on air-leak
+run-to-failure units of the pneumatic twin (:func:`simulate_leak_dataset`): the
+candidate indicators of each 10 s cycle are ranked by monotonicity, trendability and
+prognosability on the training units, the best one feeds the model (unsmoothed), and
+every test unit is followed through its whole life with
+:meth:`~pdmkit.rul.LinearDegradationModel.predict_trajectory`; the scores are over the
+predictions in the last half of each test unit's life, with the fraction of test units
+predicted within 10 % (see :func:`leak_accuracy`).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import time
 from pathlib import Path
@@ -35,7 +45,16 @@ import pandas as pd
 from pdmkit._atomic import atomic_path
 from pdmkit.errors import DataError
 
-__all__ = ["RUL_MODELS", "make_rul_model", "run_rul"]
+__all__ = [
+    "LEAK_DEFAULTS",
+    "LEAK_SIGNALS",
+    "RUL_MODELS",
+    "leak_accuracy",
+    "leak_indicators",
+    "make_rul_model",
+    "run_rul",
+    "simulate_leak_dataset",
+]
 
 RUL_MODELS = {
     "similarity": "residual similarity on a fused health indicator",
@@ -51,6 +70,313 @@ RUL_MODELS = {
     "neural": "LSTM over 40-cycle windows of the standardised sensors",
 }
 _CMAPSS_SENSORS = [f"sensor_{i}" for i in range(1, 22)]
+_LEAK_NAMES = ("pneumatic-leak", "leak", "pneumatic")
+#: Twin signals whose indicators are candidates for the air-leak RUL workflow.
+LEAK_SIGNALS = ("LeverPosition", "FlowExtrusion")
+#: Settings of :func:`simulate_leak_dataset` used by ``run_rul("pneumatic-leak")``.
+LEAK_DEFAULTS = {
+    "n_train": 20,
+    "n_test": 40,
+    "max_cycles": 60,
+    "t_end": 10.0,
+    "walk_shape": 4.0,
+}
+_LEAK_VERSION = 1  # bump when the simulation or the indicators change (cache key)
+_LEAK_LABELS = ("unit", "cycle", "c_leak", "rul", "failed", "load_kg", "supply_bar")
+_SEED_INDICATOR = "FlowExtrusion/stats/ShapeFactor"  # the seed's (section 8.4.2)
+_READINGS = {
+    "of_rul": "every prediction within 10 % of the true RUL",
+    "of_life": "every prediction within 10 % of the unit's life",
+    "mean_of_life": "mean absolute error within 10 % of the unit's life",
+    "alpha_lambda": "prediction at half life within 10 % of the true RUL",
+}
+
+
+# --------------------------------------------------------------------------- air leak
+def leak_indicators(ensemble, *, signals=None) -> pd.DataFrame:
+    """Candidate prognostic indicators of air-leak runs, one row per cycle.
+
+    For each signal: the time-domain statistics of each recording (group ``"stats"``
+    of :func:`pdmkit.features.extract`, the seed's shape factor among them), and
+    ``<signal>/deviation/LogRMS``, the base-10 logarithm of the RMS difference between
+    the recording and the unit's first one (its as-new reference, same operating
+    point). The first cycle of each unit is the reference and is left out of the
+    table; a deviation of exactly 0 (a recording identical to the reference) takes the
+    unit's smallest non-zero deviation.
+
+    Parameters
+    ----------
+    ensemble : Ensemble
+        Output of :func:`pdmkit.ensembles.simulate_leak_runs` (conditions ``unit``,
+        ``cycle``, ``rul``, ``failed``), each unit's cycles in order.
+    signals : sequence of str, optional
+        Signals to use (default every signal of the ensemble).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The conditions (``unit, cycle, c_leak, rul, failed, load_kg, supply_bar``) and
+        the indicator columns ``<signal>/stats/<Name>`` and ``<signal>/deviation/LogRMS``.
+
+    Examples
+    --------
+    >>> from pdmkit.ensembles import simulate_leak_runs
+    >>> from pdmkit.experiments._rul import leak_indicators
+    >>> runs = simulate_leak_runs(2, max_cycles=5, t_end=0.5, signals=["LeverPosition"])
+    >>> table = leak_indicators(runs)
+    >>> bool((table["cycle"] >= 1).all()), "LeverPosition/deviation/LogRMS" in table
+    (True, True)
+    """
+    from pdmkit.features import extract
+
+    cond = ensemble.conditions.reset_index(drop=True)
+    missing = [c for c in ("unit", "cycle") if c not in cond]
+    if missing:
+        raise DataError(
+            f"the ensemble has no condition column(s) {missing}; leak_indicators needs "
+            "the output of simulate_leak_runs (unit and cycle per member)"
+        )
+    names = list(ensemble.signal_names if signals is None else signals)
+    units = cond["unit"].to_numpy()
+    order = np.lexsort((cond["cycle"].to_numpy(), units))
+    if not np.array_equal(order, np.arange(len(cond))):
+        raise DataError("the ensemble's members must be sorted by unit, then cycle")
+    first = cond.groupby("unit", sort=False)["cycle"].transform("min").to_numpy()
+    is_ref = cond["cycle"].to_numpy() == first
+    ref_row = pd.Series(np.flatnonzero(is_ref), index=units[is_ref])
+    ref_of = ref_row.reindex(units).to_numpy()
+    parts = [cond[[c for c in _LEAK_LABELS if c in cond]]]
+    for name in names:
+        x, has = ensemble.stack(name)
+        if not has.all():
+            raise DataError(f"members {list(ensemble.member_ids[~has][:5])} lack {name!r}")
+        fs = ensemble.fs[name]
+        table = extract(x, fs=fs, groups=("stats",)).reset_index(drop=True)
+        table.columns = [f"{name}/{c}" for c in table.columns]
+        dev = np.sqrt(np.mean((x - x[ref_of]) ** 2, axis=1))
+        dev = pd.Series(dev).where(~is_ref)
+        floor = dev.where(dev > 0).groupby(units).transform("min")
+        dev = dev.where((dev > 0) | is_ref, floor)
+        table[f"{name}/deviation/LogRMS"] = np.log10(dev)
+        parts.append(table)
+    out = pd.concat(parts, axis=1)
+    return out.loc[~is_ref].reset_index(drop=True)
+
+
+def _leak_seed(seed: int, part: int) -> int:
+    return int(np.random.SeedSequence([int(seed), part]).generate_state(1)[0])
+
+
+def simulate_leak_dataset(
+    n_train: int = 20,
+    n_test: int = 40,
+    *,
+    max_cycles: int = 60,
+    t_end: float = 10.0,
+    walk_shape: float = 4.0,
+    seed: int = 0,
+    signals=LEAK_SIGNALS,
+    cache_dir: str | Path | None = None,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Simulate training and test air-leak units of the twin and their indicators.
+
+    Training and test units are drawn independently by
+    :func:`pdmkit.ensembles.simulate_leak_runs` (seeds derived from ``seed``) and turned
+    into per-cycle indicator tables by :func:`leak_indicators`; every unit runs to
+    failure (``rul`` 0 and ``failed`` True at its last row).
+
+    Parameters
+    ----------
+    n_train, n_test : int, default 20 and 40
+        Units in each part.
+    max_cycles, t_end, walk_shape
+        As :func:`pdmkit.ensembles.simulate_leak_runs` (10 s recordings, lives of
+        24-60 cycles plus the walk's spread, its default walk).
+    seed : int, default 0
+    signals : sequence of str, default :data:`LEAK_SIGNALS`
+    cache_dir : str or Path, optional
+        Keep the indicator tables in ``cache_dir/leak_<key>.parquet`` (the key hashes
+        every argument) and read them from there next time; the raw recordings (tens of
+        MB per unit) are not kept.
+
+    Returns
+    -------
+    (pandas.DataFrame, pandas.DataFrame)
+        Training and test tables (see :func:`leak_indicators`).
+
+    Examples
+    --------
+    >>> from pdmkit.experiments._rul import simulate_leak_dataset
+    >>> train, test = simulate_leak_dataset(2, 1, max_cycles=5, t_end=0.5,
+    ...                                     signals=["LeverPosition"])
+    >>> train["unit"].nunique(), test["unit"].nunique(), int(test["rul"].min())
+    (2, 1, 0)
+    """
+    from pdmkit.ensembles import simulate_leak_runs
+
+    for name, value in (("n_train", n_train), ("n_test", n_test)):
+        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+            raise DataError(f"{name} must be a positive integer, got {value!r}")
+    settings = {
+        "n_train": int(n_train),
+        "n_test": int(n_test),
+        "max_cycles": int(max_cycles),
+        "t_end": float(t_end),
+        "walk_shape": float(walk_shape),
+        "seed": int(seed),
+        "signals": list(signals),
+        "version": _LEAK_VERSION,
+    }
+    path = None
+    if cache_dir is not None:
+        key = hashlib.sha1(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:12]
+        path = Path(cache_dir) / f"leak_{key}.parquet"
+        if path.exists():
+            table = pd.read_parquet(path)
+            return tuple(
+                table[table["part"] == p].drop(columns="part").reset_index(drop=True)
+                for p in ("train", "test")
+            )
+    tables = []
+    for part, n in ((0, n_train), (1, n_test)):
+        runs = simulate_leak_runs(
+            int(n),
+            max_cycles=int(max_cycles),
+            t_end=float(t_end),
+            signals=list(signals),
+            seed=_leak_seed(seed, part),
+            walk_shape=float(walk_shape),
+        )
+        tables.append(leak_indicators(runs))
+        del runs
+    train, test = tables
+    test["unit"] = test["unit"] + int(n_train)  # unit ids unique over both parts
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        both = pd.concat(
+            [train.assign(part="train"), test.assign(part="test")], ignore_index=True
+        )
+        with atomic_path(path) as tmp:
+            both.to_parquet(tmp)
+    return train, test
+
+
+def leak_accuracy(unit, time, rul_pred, life, *, alpha: float = 0.1) -> pd.DataFrame:
+    """Per-unit accuracy of RUL predictions over the last half of life.
+
+    For each unit, the predictions made at times ``t`` with ``life / 2 <= t < life``
+    (``life`` = the unit's failing cycle, time counted from the start of its life,
+    true RUL ``life - t``, from about ``life / 2`` down to 1; the failing cycle itself,
+    true RUL 0, is left out) are checked against four readings of "within
+    ``alpha`` of the true RUL":
+
+    - ``of_rul``: every prediction within ``alpha * true RUL`` (the strictest; near
+      failure it asks for a fraction of a cycle);
+    - ``of_life``: every prediction within ``alpha * life`` (the prognostic-horizon
+      band of Saxena et al.: the horizon at ``alpha`` covers the last half of life);
+    - ``mean_of_life``: the mean absolute error within ``alpha * life``;
+    - ``alpha_lambda``: the prediction at half life within ``alpha * true RUL``
+      (:func:`pdmkit.rul.alpha_lambda_accuracy` at ``lam=0.5``).
+
+    A unit whose first prediction comes after half its life (a model with a window
+    longer than the history), or with no prediction in its last half, fails all four.
+
+    Parameters
+    ----------
+    unit, time, rul_pred : array_like
+        One row per prediction.
+    life : mapping or pandas.Series
+        Unit -> failing cycle.
+    alpha : float, default 0.1
+
+    Returns
+    -------
+    pandas.DataFrame
+        Indexed by unit: ``life``, ``n`` (predictions scored), ``mae``, the four
+        readings (bool), and ``frac_of_rul`` / ``frac_of_life`` (fraction of the
+        unit's predictions inside each band).
+
+    Examples
+    --------
+    >>> from pdmkit.experiments._rul import leak_accuracy
+    >>> t = [5, 6, 7, 8, 9]                        # life 10: true RUL 5, 4, 3, 2, 1
+    >>> acc = leak_accuracy([1] * 5, t, [5.2, 4.1, 3.9, 2.0, 1.0], {1: 10})
+    >>> acc.loc[1, ["of_rul", "of_life", "mean_of_life", "alpha_lambda"]].tolist()
+    [False, True, True, True]
+    """
+    from pdmkit.rul import alpha_lambda_accuracy
+
+    if not 0 < alpha:
+        raise ValueError(f"alpha must be positive, got {alpha!r}")
+    frame = pd.DataFrame(
+        {
+            "unit": np.asarray(unit),
+            "time": np.asarray(time, dtype=float),
+            "pred": np.asarray(rul_pred, dtype=float),
+        }
+    )
+    lives = pd.Series(life)
+    unknown = set(frame["unit"]) - set(lives.index)
+    if unknown:
+        raise DataError(f"no life given for unit(s) {sorted(unknown, key=str)[:5]}")
+    frame["life"] = lives.reindex(frame["unit"]).to_numpy(dtype=float)
+    frame["true"] = frame["life"] - frame["time"]
+    rows = {}
+    for name, part in frame.groupby("unit", sort=False):
+        life_u = float(part["life"].iloc[0])
+        part = part.sort_values("time")
+        last = part[(part["time"] >= life_u / 2) & (part["time"] < life_u)]
+        if last.empty:  # nothing predicted over the last half: not accurate there
+            rows[name] = {"life": life_u, "n": 0, "mae": np.nan}
+            rows[name].update({k: False for k in _READINGS})
+            rows[name].update({"frac_of_rul": 0.0, "frac_of_life": 0.0})
+            continue
+        err = (last["pred"] - last["true"]).abs()
+        in_rul = err <= alpha * last["true"]
+        in_life = err <= alpha * life_u
+        # a model that has not predicted yet at half life (a history shorter than its
+        # window) is not accurate there
+        complete = bool(part["time"].iloc[0] <= life_u / 2)
+        ok_lam = complete and alpha_lambda_accuracy(
+            part["time"], part["pred"], life_u, alpha=alpha, lam=0.5, t_start=0.0
+        )
+        rows[name] = {
+            "life": life_u,
+            "n": len(last),
+            "mae": float(err.mean()),
+            "of_rul": complete and bool(in_rul.all()),
+            "of_life": complete and bool(in_life.all()),
+            "mean_of_life": complete and bool(err.mean() <= alpha * life_u),
+            "alpha_lambda": bool(ok_lam),
+            "frac_of_rul": float(in_rul.mean()),
+            "frac_of_life": float(in_life.mean()),
+        }
+    return pd.DataFrame.from_dict(rows, orient="index").rename_axis("unit")
+
+
+def _leak_data(features, seed, options, out):
+    """(train, test, feature columns, ranking) of the air-leak workflow."""
+    from pdmkit.rul import prognostic_ranking
+
+    opts = {**LEAK_DEFAULTS, **dict(options or {})}
+    unknown = set(opts) - {*LEAK_DEFAULTS, "cache_dir", "signals"}
+    if unknown:
+        raise DataError(
+            f"unknown dataset option(s) {sorted(unknown)} for 'pneumatic-leak'; known: "
+            f"{sorted([*LEAK_DEFAULTS, 'cache_dir', 'signals'])}"
+        )
+    opts.setdefault("cache_dir", Path(out) / "cache")
+    train, test = simulate_leak_dataset(seed=seed, **opts)
+    candidates = [c for c in train.columns if "/" in str(c)]
+    ranking = prognostic_ranking(train, candidates)
+    if features is None:
+        scored = ranking["score"].dropna()
+        if scored.empty:
+            raise DataError("no candidate indicator of the leak runs can be scored")
+        cols = [str(scored.index[0])]
+    else:
+        cols = list(features)
+    return train, test, cols, ranking
 
 
 def _dataset(dataset, features):
@@ -60,7 +386,7 @@ def _dataset(dataset, features):
         if key not in ("cmapss-fd001", "cmapss"):
             raise DataError(
                 f"dataset {dataset!r} is not known to the RUL workflow; use "
-                "'cmapss-fd001' or pass (train_table, test_table)"
+                "'cmapss-fd001', 'pneumatic-leak' or pass (train_table, test_table)"
             )
         from pdmkit.ensembles import load_cmapss
 
@@ -107,6 +433,7 @@ def make_rul_model(
     seed: int = 0,
     rul_cap: float = 125.0,
     options: dict | None = None,
+    smoothing: float | None = 10,
 ):
     """Build ``(indicator, estimator)`` for a workflow model name.
 
@@ -122,6 +449,9 @@ def make_rul_model(
         Cap on the predictions.
     options : dict, optional
         Extra keyword arguments for the estimator (e.g. a small ``epochs`` for tests).
+    smoothing : float or None, default 10
+        ``ewm`` span of the health indicator of the degradation and covariate models
+        (None: unsmoothed, as for the clean air-leak indicator).
 
     Returns
     -------
@@ -153,7 +483,7 @@ def make_rul_model(
         "linear-degradation",
         "covariate",
     )
-    indicator = rul.HealthIndicator(features, smoothing=10 if smooth else None)
+    indicator = rul.HealthIndicator(features, smoothing=smoothing if smooth else None)
     if model in ("similarity", "residual"):
         est = rul.ResidualSimilarityModel(
             **{"degree": 3, "k": 10, "max_rul": rul_cap, **opts}
@@ -173,6 +503,21 @@ def make_rul_model(
     else:
         est = rul.CovariateSurvivalModel("hi", **{"max_rul": rul_cap, **opts})
     return indicator, est
+
+
+def _finish(report, summary: dict, out: Path, json_path) -> dict:
+    """Write the report and the JSON summary (with its ``paths``); return the summary."""
+    report.add_json(summary, caption="Summary")
+    summary["paths"] = {
+        "json": str(out / "rul.json"),
+        "report": str(out / "report.html"),
+        "predictions": str(out / "predictions.parquet"),
+    }
+    report.write(out / "report.html")
+    _write_json(summary, out / "rul.json")
+    if json_path is not None:
+        _write_json(summary, Path(json_path))
+    return summary
 
 
 def _write_json(data: dict, path: Path) -> Path:
@@ -195,6 +540,7 @@ def run_rul(
     rul_cap: float = 125.0,
     options: dict | None = None,
     n_trajectories: int = 4,
+    dataset_options: dict | None = None,
 ) -> dict[str, Any]:
     """Train a RUL model, predict the test units, and write JSON and an HTML report.
 
@@ -202,9 +548,11 @@ def run_rul(
     ----------
     dataset : str or (pandas.DataFrame, pandas.DataFrame)
         ``"cmapss-fd001"`` (NASA C-MAPSS FD001: 100 training engines run to failure,
-        100 test engines stopped earlier, true RULs from ``RUL_FD001.txt``), or a pair
-        of long tables ``(train, test)`` with ``unit``, ``time``/``cycle`` and the
-        features, the test table holding ``rul_true_final``.
+        100 test engines stopped earlier, true RULs from ``RUL_FD001.txt``),
+        ``"pneumatic-leak"`` (air-leak units of the pneumatic twin,
+        :func:`simulate_leak_dataset`, scored over the last half of each test unit's
+        life), or a pair of long tables ``(train, test)`` with ``unit``,
+        ``time``/``cycle`` and the features, the test table holding ``rul_true_final``.
     model : str, default "similarity"
         One of :data:`RUL_MODELS` (``similarity``, ``degradation``, ``survival``,
         ``neural`` and the variants named in the module notes).
@@ -223,6 +571,9 @@ def run_rul(
         Extra keyword arguments for the estimator.
     n_trajectories : int, default 4
         Test units shown as RUL-against-time plots.
+    dataset_options : dict, optional
+        For ``"pneumatic-leak"``: arguments of :func:`simulate_leak_dataset`
+        (defaults :data:`LEAK_DEFAULTS`; ``cache_dir`` defaults to ``out_dir/cache``).
 
     Returns
     -------
@@ -230,7 +581,13 @@ def run_rul(
         ``model, dataset, rmse, mae, phm08_score, coverage, n_units`` (scored against
         the capped true RUL), the same uncapped (``*_uncapped``), ``bias``,
         ``mean_interval_width``, ``level``, ``rul_cap``, ``seed``, ``fit_seconds``,
-        ``predict_seconds``, ``estimator``, ``features`` and ``paths``.
+        ``predict_seconds``, ``estimator``, ``features`` and ``paths``. For
+        ``"pneumatic-leak"`` the scores are over every prediction in the last half of
+        the test units' lives (``n_predictions`` of them), and ``within_10pct`` holds
+        the fraction of test units within 10 % under each reading of
+        :func:`leak_accuracy`, ``indicator_ranking`` the best candidates, and
+        ``true_leak`` the same scores with the true ``log10 C_al`` as the indicator
+        (what the random walk alone allows).
 
     Examples
     --------
@@ -256,6 +613,18 @@ def run_rul(
     from pdmkit.rul import rul_metrics
 
     out = Path(out_dir)
+    if isinstance(dataset, str) and dataset.lower().replace("_", "-") in _LEAK_NAMES:
+        return _run_leak(
+            model,
+            out,
+            json_path,
+            seed,
+            features=features,
+            rul_cap=rul_cap,
+            options=options,
+            n_trajectories=n_trajectories,
+            dataset_options=dataset_options,
+        )
     name, train, test, true, cols = _dataset(dataset, features)
     indicator, estimator = make_rul_model(
         model, cols, seed=seed, rul_cap=rul_cap, options=options
@@ -362,17 +731,7 @@ def run_rul(
         table.drop(columns=[c for c in ("nearest",) if c in table]),
         caption="Predictions per test unit",
     )
-    report.add_json(summary, caption="Summary")
-    summary["paths"] = {
-        "json": str(out / "rul.json"),
-        "report": str(out / "report.html"),
-        "predictions": str(out / "predictions.parquet"),
-    }
-    report.write(out / "report.html")
-    _write_json(summary, out / "rul.json")
-    if json_path is not None:
-        _write_json(summary, Path(json_path))
-    return summary
+    return _finish(report, summary, out, json_path)
 
 
 def _time_col(table: pd.DataFrame) -> str:
@@ -393,4 +752,219 @@ def _indicator_plot(table: pd.DataFrame, estimator):
         ax.legend()
     ax.set_xlabel(tcol)
     ax.set_ylabel("health indicator")
+    return ax
+
+
+# --------------------------------------------------------------------------- air leak
+
+
+def _leak_fit_predict(model, cols, train, test, seed, rul_cap, options):
+    """Fit on ``train`` and follow every test unit through its life."""
+    indicator, estimator = make_rul_model(
+        model, cols, seed=seed, rul_cap=rul_cap, options=options, smoothing=None
+    )
+    start = time.perf_counter()
+    train_in = indicator.fit_transform(train) if indicator is not None else train
+    test_in = indicator.transform(test) if indicator is not None else test
+    estimator.fit(train_in)
+    fit_seconds = time.perf_counter() - start
+    start = time.perf_counter()
+    path = estimator.predict_trajectory(test_in, every=1)
+    predict_seconds = time.perf_counter() - start
+    return indicator, estimator, train_in, path, fit_seconds, predict_seconds
+
+
+def _leak_scores(path, life: pd.Series, rul_cap: float):
+    """(table of every prediction, headline metrics, per-unit accuracy, fractions)."""
+    from pdmkit.rul import rul_metrics
+
+    table = path.to_pandas()
+    table["life"] = life.reindex(table["unit"]).to_numpy(dtype=float)
+    table["rul_true"] = table["life"] - table["time"]
+    table["last_half"] = (table["time"] >= table["life"] / 2) & (
+        table["time"] < table["life"]
+    )
+    last = table[table["last_half"]]
+    truth = np.minimum(last["rul_true"].to_numpy(), rul_cap)
+    metrics = rul_metrics(truth, last["rul"], last["lower"], last["upper"])
+    acc = leak_accuracy(table["unit"], table["time"], table["rul"], life)
+    fractions = {k: float(acc[k].mean()) for k in _READINGS}
+    fractions["points_of_rul"] = float(
+        np.mean(np.abs(last["rul"] - last["rul_true"]) <= 0.1 * last["rul_true"])
+    )
+    fractions["points_of_life"] = float(
+        np.mean(np.abs(last["rul"] - last["rul_true"]) <= 0.1 * last["life"])
+    )
+    return table, metrics, acc, fractions
+
+
+def _run_leak(
+    model,
+    out: Path,
+    json_path,
+    seed,
+    *,
+    features,
+    rul_cap,
+    options,
+    n_trajectories,
+    dataset_options,
+):
+    from pdmkit.experiments._report import Report
+
+    start = time.perf_counter()
+    train, test, cols, ranking = _leak_data(features, seed, dataset_options, out)
+    data_seconds = time.perf_counter() - start
+    life = test.groupby("unit", sort=False)["cycle"].max()
+    indicator, estimator, train_in, path, fit_s, pred_s = _leak_fit_predict(
+        model, cols, train, test, seed, rul_cap, options
+    )
+    table, metrics, acc, fractions = _leak_scores(path, life, rul_cap)
+    # the same model on the true leak coefficient: what the random walk alone allows
+    true_col = "true/log10_c_leak"
+    ceiling_in = [t.assign(**{true_col: np.log10(t["c_leak"])}) for t in (train, test)]
+    *_, true_path, _, _ = _leak_fit_predict(
+        model, [true_col], *ceiling_in, seed, rul_cap, options
+    )
+    _, true_metrics, _, true_fractions = _leak_scores(true_path, life, rul_cap)
+
+    top = ranking.head(5)
+    summary: dict[str, Any] = {
+        "model": model,
+        "dataset": "pneumatic-leak",
+        "rmse": metrics["rmse"],
+        "mae": metrics["mae"],
+        "phm08_score": metrics["phm08_score"],
+        "coverage": metrics["coverage"],
+        "n_units": len(acc),
+        "n_predictions": metrics["n"],
+        "within_10pct_of_life": fractions["of_life"],
+        "within_10pct_of_rul": fractions["of_rul"],
+        "within_10pct": fractions,
+        "readings": dict(_READINGS),
+        "bias": metrics["bias"],
+        "mean_interval_width": metrics["mean_width"],
+        "level": path.level,
+        "indicator": cols[0] if len(cols) == 1 else cols,
+        "indicator_ranking": {
+            str(k): {m: float(v) for m, v in row.items()} for k, row in top.iterrows()
+        },
+        "seed_indicator": {
+            "name": _SEED_INDICATOR,
+            "score": float(ranking.loc[_SEED_INDICATOR, "score"])
+            if _SEED_INDICATOR in ranking.index
+            else None,
+            "rank": int(list(ranking.index).index(_SEED_INDICATOR)) + 1
+            if _SEED_INDICATOR in ranking.index
+            else None,
+        },
+        "true_leak": {
+            "rmse": true_metrics["rmse"],
+            "mae": true_metrics["mae"],
+            "coverage": true_metrics["coverage"],
+            "within_10pct": true_fractions,
+        },
+        "simulation": {
+            **LEAK_DEFAULTS,
+            **{k: v for k, v in dict(dataset_options or {}).items() if k != "cache_dir"},
+        },
+        "n_train_units": int(train["unit"].nunique()),
+        "rul_cap": rul_cap,
+        "seed": seed,
+        "data_seconds": round(data_seconds, 2),
+        "fit_seconds": round(fit_s, 2),
+        "predict_seconds": round(pred_s, 2),
+        "estimator": repr(estimator),
+        "features": list(indicator.selected_) if indicator is not None else list(cols),
+    }
+
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out / "predictions.parquet") as tmp:
+        table.drop(columns=[c for c in ("nearest",) if c in table]).to_parquet(tmp)
+    report = Report(f"pdmkit rul: {model} on the pneumatic air-leak runs")
+    sim = summary["simulation"]
+    report.add_text(
+        f"Model: {RUL_MODELS[model]} ({summary['estimator']}). "
+        f"{summary['n_train_units']} training and {summary['n_units']} test units of "
+        "the pneumatic twin with a chamber-B air leak whose coefficient C_al grows "
+        "log-linearly from 1e-10 to 1e-6 m^2 along a unit-specific random walk "
+        f"(gamma steps of shape {sim['walk_shape']:g}); one {sim['t_end']:g} s "
+        "recording per cycle; a unit fails at the first cycle with C_al >= 1e-6. "
+        f"Seed {seed}."
+    )
+    report.add_heading("Indicator")
+    report.add_text(
+        f"Candidates: the time-domain statistics of {', '.join(LEAK_SIGNALS)} per "
+        "recording (the seed's shape factor among them) and the log RMS deviation of "
+        "each recording from the unit's first (as-new) one, ranked on the training "
+        "units by the mean of monotonicity, trendability and prognosability. Used: "
+        f"{', '.join(map(str, cols))}."
+    )
+    if summary["seed_indicator"]["rank"] is not None:
+        report.add_text(
+            f"The seed's indicator ({_SEED_INDICATOR}) ranks "
+            f"{summary['seed_indicator']['rank']} of {len(ranking)} with score "
+            f"{summary['seed_indicator']['score']:.3f}."
+        )
+    shown_rank = ranking.head(10)
+    if _SEED_INDICATOR in ranking.index and _SEED_INDICATOR not in shown_rank.index:
+        shown_rank = pd.concat([shown_rank, ranking.loc[[_SEED_INDICATOR]]])
+    report.add_table(shown_rank, caption="Candidate indicators, best first")
+    if indicator is not None:
+        report.add_figure(
+            _indicator_plot(train_in, estimator),
+            caption="Health indicator (the chosen indicator mapped to the fraction of "
+            "life) of ten training units",
+        )
+    report.add_heading("Scores over the last half of life")
+    rows = ["rmse", "mae", "coverage"]
+    scores = pd.DataFrame(
+        {
+            "indicator": [metrics[k] for k in rows] + [fractions[k] for k in _READINGS],
+            "true log10 C_al": [true_metrics[k] for k in rows]
+            + [true_fractions[k] for k in _READINGS],
+        },
+        index=["RMSE (cycles)", "MAE (cycles)", f"{100 * path.level:g} % interval coverage"]
+        + [f"units: {text}" for text in _READINGS.values()],
+    )
+    report.add_table(
+        scores,
+        caption="Every prediction from half life to the cycle before failure; the "
+        "second column is the same model fed the true leak coefficient",
+    )
+    by_life = list(acc.sort_values("life").index)
+    step = max(1, len(by_life) // max(1, n_trajectories))
+    shown = by_life[::step][: max(0, n_trajectories)]
+    if shown:
+        report.add_figure(
+            _leak_trajectory_plot(table, shown),
+            caption="RUL against cycle for test units (true RUL dashed; shaded: "
+            "within 10 % of the unit's life over its last half)",
+        )
+    report.add_table(acc, caption="Per test unit, over the last half of its life")
+    return _finish(report, summary, out, json_path)
+
+
+def _leak_trajectory_plot(table: pd.DataFrame, units, ax=None):
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(7, 4))
+    for i, u in enumerate(units):
+        part = table[table["unit"] == u]
+        color = f"C{i}"
+        t, life = part["time"].to_numpy(), float(part["life"].iloc[0])
+        ax.plot(t, part["rul"], color=color, label=f"unit {u} (life {life:g})")
+        ax.plot(t, part["rul_true"], color=color, linestyle="--", linewidth=0.8)
+        half = part[part["last_half"]]
+        ax.fill_between(
+            half["time"],
+            half["rul_true"] - 0.1 * life,
+            half["rul_true"] + 0.1 * life,
+            color=color,
+            alpha=0.15,
+        )
+    ax.set_xlabel("cycle")
+    ax.set_ylabel("RUL (cycles)")
+    ax.legend(fontsize="small")
     return ax

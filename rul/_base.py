@@ -214,6 +214,21 @@ class TrajectoryMixin:
 
     _min_history = 1
 
+    def _split_columns(self) -> list[str]:
+        """The value columns of each unit (none for a lifetime-only model)."""
+        return []
+
+    def _split(self, table, what: str = "table") -> list[Unit]:
+        """``table`` as units, with the key and failure columns ``fit`` resolved."""
+        return split_units(
+            table,
+            self._split_columns(),
+            unit=self._keys[0],
+            time=self._keys[1],
+            failed=self._failed,
+            what=what,
+        )
+
     def predict_trajectory(self, table, *, every: int = 1, min_length: int | None = None):
         """RUL predicted at every ``every``-th sample of each unit's history.
 

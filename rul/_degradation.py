@@ -40,7 +40,6 @@ from pdmkit.rul._base import (
     check_table,
     failed_column,
     resolve_keys,
-    split_units,
 )
 from pdmkit.rul._result import RULPrediction
 
@@ -108,15 +107,8 @@ class _BayesianDegradation(TrajectoryMixin, BaseEstimator):
         """Inverse of :meth:`_z`."""
         return self._sign * z
 
-    def _split(self, table, what="table"):
-        return split_units(
-            table,
-            [self.indicator],
-            unit=self._keys[0],
-            time=self._keys[1],
-            failed=self._failed,
-            what=what,
-        )
+    def _split_columns(self) -> list[str]:
+        return [self.indicator]
 
     def _choose_offset(self, units):  # exponential only
         return None

@@ -32,7 +32,6 @@ from pdmkit.rul._base import (
     failed_column,
     require_failures,
     resolve_keys,
-    split_units,
 )
 from pdmkit.rul._result import RULPrediction
 
@@ -208,15 +207,8 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         return int(self.window) if self.pad == "error" else 1
 
     # ------------------------------------------------------------------ data
-    def _split(self, table, what="table"):
-        return split_units(
-            table,
-            self.features_,
-            unit=self._keys[0],
-            time=self._keys[1],
-            failed=self._failed,
-            what=what,
-        )
+    def _split_columns(self) -> list[str]:
+        return list(self.features_)
 
     def _inputs(self, u: Unit) -> np.ndarray:
         x = u.x

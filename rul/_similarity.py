@@ -41,7 +41,6 @@ from pdmkit.rul._base import (
     failed_column,
     require_failures,
     resolve_keys,
-    split_units,
 )
 from pdmkit.rul._result import RULPrediction
 
@@ -104,15 +103,8 @@ class _SimilarityBase(TrajectoryMixin, BaseEstimator):
         self.time = time
         self.failed = failed
 
-    def _split(self, table, what="table"):
-        return split_units(
-            table,
-            self._columns,
-            unit=self._keys[0],
-            time=self._keys[1],
-            failed=self._failed,
-            what=what,
-        )
+    def _split_columns(self) -> list[str]:
+        return list(self._columns)
 
     def _validate_extra(self):  # subclass hook
         pass

@@ -35,7 +35,6 @@ from pdmkit.rul._base import (
     check_table,
     failed_column,
     resolve_keys,
-    split_units,
 )
 from pdmkit.rul._result import RULPrediction
 
@@ -144,16 +143,6 @@ class ReliabilitySurvivalModel(_SurvivalBase):
         self.unit = unit
         self.time = time
         self.failed = failed
-
-    def _split(self, table, what="table"):
-        return split_units(
-            table,
-            [],
-            unit=self._keys[0],
-            time=self._keys[1],
-            failed=self._failed,
-            what=what,
-        )
 
     def fit(self, table: pd.DataFrame, y=None):
         """Fit the distribution to the lifetimes of the units in a long table.
@@ -366,15 +355,8 @@ class CovariateSurvivalModel(_SurvivalBase):
         self.time = time
         self.failed = failed
 
-    def _split(self, table, what="table"):
-        return split_units(
-            table,
-            self._cols,
-            unit=self._keys[0],
-            time=self._keys[1],
-            failed=self._failed,
-            what=what,
-        )
+    def _split_columns(self) -> list[str]:
+        return list(self._cols)
 
     @staticmethod
     def _rows(units, mean, std):

@@ -132,6 +132,26 @@ def test_leak_runs_grow_to_the_threshold():
         assert unit["failed"].sum() == 1 and bool(unit["failed"].iloc[-1])
 
 
+@pytest.mark.parametrize("shape", [4.0, 100.0])
+def test_leak_walk_shape_sets_the_spread_of_the_steps(shape):
+    # log C_al takes gamma-distributed steps: coefficient of variation 1 / sqrt(shape)
+    runs = simulate_leak_runs(
+        8, max_cycles=40, t_end=0.05, signals=["AirPressure"], seed=4, walk_shape=shape
+    )
+    cond = runs.conditions
+    cvs = []
+    for _, unit in cond.groupby("unit"):
+        steps = np.diff(np.log(unit["c_leak"].to_numpy()))
+        cvs.append(steps.std(ddof=1) / steps.mean())
+    assert np.mean(cvs) == pytest.approx(1 / np.sqrt(shape), rel=0.25)
+
+
+def test_leak_walk_shape_must_be_positive_and_finite():
+    for bad in (0.0, -1.0, np.inf, "4"):
+        with pytest.raises(ValueError, match="walk_shape"):
+            simulate_leak_runs(1, max_cycles=4, t_end=0.05, walk_shape=bad)
+
+
 def test_sensor_faults_change_only_what_they_say():
     ens = simulate_sensor_fault_ensemble(20, t_end=1.0, seed=3)
     x, _ = ens.stack("FlowExtrusion")

@@ -54,6 +54,20 @@ def test_demo_writes_summary_and_report(tmp_path):
     assert best["heldout_accuracy"] == max(
         row["heldout_accuracy"] for row in summary["sensors"]
     )
+    rul = summary["rul"]
+    assert rul["model"] == "linear-degradation"
+    assert (rul["n_train_units"], rul["n_units"]) == (8, 4)
+    # every test unit is scored at each cycle of the last half of its life (lives of
+    # roughly 16-40 cycles)
+    assert rul["n_predictions"] >= 4 * 5
+    assert 0.0 <= rul["mae"] <= rul["rmse"]
+    for value in rul["within_10pct"].values():
+        assert 0.0 <= value <= 1.0
+    # over the last half of life the RUL is found to within a quarter of the shortest
+    # typical life (16 cycles) on average
+    assert rul["mae"] < 4.0
+    assert (out / "rul" / "report.html").exists()
     html = (out / "report.html").read_text()
-    assert html.count("data:image/png;base64,") >= 7
+    assert html.count("data:image/png;base64,") >= 8
+    assert "Remaining useful life" in html
     assert (out / "features.parquet").stat().st_size > 0
