@@ -13,6 +13,9 @@ Layers, lowest first (an import may only point down):
 ``pdmkit.experiments``
     Workflows people run (classify faults, compare sensors, demo), the CLI and reports.
 
+Trained pipelines and RUL models are saved and loaded without unpickling anything by
+:func:`save_model` and :func:`load_model`.
+
 Examples
 --------
 >>> import numpy as np
@@ -24,6 +27,7 @@ Examples
 
 from pdmkit import errors
 from pdmkit._config import data_dir
+from pdmkit._persist import load_model, save_model
 
 __version__ = "0.1.0"
-__all__ = ["__version__", "data_dir", "errors"]
+__all__ = ["__version__", "data_dir", "errors", "load_model", "save_model"]

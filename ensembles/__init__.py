@@ -6,6 +6,9 @@ unit, cycle). It is stored on disk as a Parquet dataset that streams in batches
 (:meth:`Ensemble.to_parquet`, :func:`iter_parquet`). Readers turn the file formats
 recordings come in into arrays and tables; loaders bring the shared recorded datasets;
 simulators generate labelled ensembles from the pneumatic-piston digital twin.
+On a Dask cluster (:func:`dask_client`), :func:`dask_map` and :func:`dask_stream` run the
+same per-partition work as in process (:func:`parquet_partitions`, :func:`simulate_sweep`,
+:func:`discover_mismatch_batch`); see ``docs/scale.md``.
 
 Examples
 --------
@@ -26,8 +29,18 @@ from pdmkit.ensembles._datasets import (
     load_emps,
     load_silverbox,
 )
+from pdmkit.ensembles._distributed import (
+    Partition,
+    dask_client,
+    dask_map,
+    dask_stream,
+    discover_mismatch_batch,
+    parquet_partitions,
+    read_partition,
+    simulate_sweep,
+)
 from pdmkit.ensembles._ensemble import Ensemble
-from pdmkit.ensembles._parquet import iter_parquet
+from pdmkit.ensembles._parquet import iter_parquet, write_parquet_batches
 from pdmkit.ensembles._pneumatic import (
     PNEUMATIC_FAULTS,
     PNEUMATIC_SENSORS,
@@ -37,7 +50,7 @@ from pdmkit.ensembles._pneumatic import (
     simulate_leak_runs,
     simulate_sensor_fault_ensemble,
 )
-from pdmkit.ensembles._readers import read_mat, read_npz, read_table
+from pdmkit.ensembles._readers import read_mat, read_members, read_npz, read_table
 from pdmkit.ensembles._tables import from_frame
 
 __all__ = [
@@ -45,6 +58,11 @@ __all__ = [
     "PNEUMATIC_FAULTS",
     "PNEUMATIC_SENSORS",
     "Ensemble",
+    "Partition",
+    "dask_client",
+    "dask_map",
+    "dask_stream",
+    "discover_mismatch_batch",
     "fault_labels",
     "from_frame",
     "iter_parquet",
@@ -54,11 +72,16 @@ __all__ = [
     "load_dataset",
     "load_emps",
     "load_silverbox",
+    "parquet_partitions",
     "pneumatic_residuals",
     "read_mat",
+    "read_members",
     "read_npz",
+    "read_partition",
     "read_table",
     "simulate_fault_ensemble",
     "simulate_leak_runs",
     "simulate_sensor_fault_ensemble",
+    "simulate_sweep",
+    "write_parquet_batches",
 ]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import struct
 import zipfile
 import zlib
 from pathlib import Path
@@ -19,7 +20,7 @@ import pandas as pd
 
 from pdmkit.errors import DataError, DataNotFoundError
 
-__all__ = ["read_mat", "read_npz", "read_table"]
+__all__ = ["read_mat", "read_members", "read_npz", "read_table"]
 
 _CSV = (".csv", ".tsv", ".txt")
 _COMPRESSED = (".gz", ".bz2", ".zip", ".xz", ".zst")
@@ -199,7 +200,19 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
             f"{path} is a MATLAB v7.3 (HDF5) file, which scipy.io.loadmat cannot read; "
             "re-save it in MATLAB with save(..., '-v7'), or read it with h5py"
         ) from None
-    except (MatReadError, ValueError, TypeError, OSError, EOFError, zlib.error) as exc:
+    except (
+        MatReadError,
+        ValueError,
+        TypeError,
+        OSError,
+        EOFError,
+        zlib.error,
+        IndexError,  # scipy indexes short headers unchecked
+        KeyError,
+        struct.error,
+        OverflowError,
+        MemoryError,  # a damaged header can claim a huge array
+    ) as exc:
         raise DataError(
             f"cannot read {path} as a MATLAB file ({type(exc).__name__}: {exc}); the file "
             "is damaged or not a .mat file"
@@ -287,3 +300,234 @@ def read_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
     if not out:
         raise DataError(f"{path} holds no arrays")
     return out
+
+
+# --------------------------------------------------------------------------- members
+#: Names of a sampling-rate scalar in a .mat / .npz member file.
+_FS_NAMES = ("fs", "Fs", "FS", "sampling_rate", "sample_rate")
+#: Names of a time column in a CSV / Parquet member file.
+_TIME_NAMES = ("time", "t", "Time", "TIME")
+_MEMBER_ERRORS = ("member", "signal", "source", "error")
+
+
+def _member_arrays(path: Path) -> tuple[dict[str, np.ndarray], float | None, dict]:
+    """(signals, sampling rate or None, condition values) of one member file."""
+    suffix = path.suffix.lower()
+    if suffix in (".mat", ".npz"):
+        data = read_mat(path) if suffix == ".mat" else read_npz(path)
+        signals, fs, conditions = {}, None, {}
+        for key, value in data.items():
+            arr = np.asarray(value)
+            if key in _FS_NAMES and arr.size == 1 and arr.dtype.kind in "iuf":
+                fs = float(arr.reshape(-1)[0])
+            elif arr.dtype.kind in "iuf" and arr.ndim >= 1 and arr.size > 1:
+                if arr.ndim > 1 and sorted(arr.shape)[-2] != 1:
+                    raise DataError(
+                        f"{path}: variable {key!r} has shape {arr.shape}; a member "
+                        "file holds 1-D signals (or n x 1 columns)"
+                    )
+                signals[key] = arr.reshape(-1).astype(np.float64)
+            elif arr.size == 1 and arr.dtype.kind in "USiufb":
+                conditions[key] = arr.reshape(-1)[0].item()
+        return signals, fs, conditions
+    table = read_table(path)
+    fs = None
+    time = next((c for c in _TIME_NAMES if c in table.columns), None)
+    if time is not None:
+        t = pd.to_numeric(table.pop(time), errors="coerce").to_numpy(dtype=float)
+        dt = np.diff(t)
+        if len(dt) and np.isfinite(dt).all() and (dt > 0).all():
+            fs = 1.0 / float(np.median(dt))
+    signals, conditions = {}, {}
+    for c in table.columns:
+        column = table[c]
+        if pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
+            signals[str(c)] = column.to_numpy(dtype=np.float64)
+        elif column.nunique(dropna=False) == 1:
+            conditions[str(c)] = column.iloc[0]
+        else:
+            raise DataError(
+                f"{path}: column {c!r} holds text that changes from row to row; a member "
+                "file holds numeric signal columns, a time column and constant labels"
+            )
+    return signals, fs, conditions
+
+
+def read_members(
+    files: Any,
+    *,
+    fs: float | None = None,
+    signals: Any = None,
+    on_error: str = "raise",
+    return_errors: bool = False,
+):
+    """Build an ensemble from member files: one recording per file.
+
+    A member file is a CSV / Parquet table (numeric columns are signals, a ``time``
+    column gives the sampling rate, constant text columns are condition variables such
+    as the label), or a ``.mat`` / ``.npz`` file (numeric vectors are signals, a scalar
+    ``fs`` gives the sampling rate, other scalars are conditions). The member id is the
+    file name without its extension.
+
+    With ``on_error="skip"`` a file that cannot be read, a member lacking a signal
+    named in ``signals``, a signal with NaN or inf samples, or a sampling rate that
+    differs from ``fs`` (default: the most common rate of the files) leaves that member
+    out and adds a row to the errors table; the other members are read.
+
+    Parameters
+    ----------
+    files : path, glob pattern or sequence of them
+        Member files; a directory stands for all the files in it.
+    fs : float, optional
+        Expected sampling rate in Hz (required when no file states its own).
+    signals : sequence of str, optional
+        Signals every member must have (default: all found; a member lacking one gets
+        None there).
+    on_error : {"raise", "skip"}, default "raise"
+    return_errors : bool, default False
+        Also return the errors table (columns ``member``, ``signal``, ``source``,
+        ``error``).
+
+    Returns
+    -------
+    Ensemble, or (Ensemble, DataFrame) with ``return_errors``
+
+    Raises
+    ------
+    pdmkit.errors.DataError
+        With ``on_error="raise"``: the first bad file (the message names it and says
+        what was expected and found). Always: no file matched, or no member was left.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> t = np.arange(100) / 50.0
+    >>> pd.DataFrame({"time": t, "vib": np.sin(t), "fault": "ir"}).to_csv(
+    ...     d / "a.csv", index=False)
+    >>> pd.DataFrame({"time": t / 2, "vib": np.cos(t), "fault": "ok"}).to_csv(
+    ...     d / "b.csv", index=False)
+    >>> _ = (d / "c.csv").write_bytes(b"\\x00\\x01garbage")
+    >>> ens, errors = read_members(d, fs=50.0, on_error="skip", return_errors=True)
+    >>> ens.member_ids.tolist(), ens.conditions["fault"].tolist()
+    (['a'], ['ir'])
+    >>> errors["member"].tolist()
+    ['b', 'c']
+    >>> print(errors["error"].iloc[0])
+    b.csv is sampled at 100 Hz; expected 50 Hz (fs as given); member skipped
+    """
+    import glob
+
+    from pdmkit.ensembles._ensemble import Ensemble
+
+    if on_error not in ("raise", "skip"):
+        raise ValueError(f"on_error must be 'raise' or 'skip'; got {on_error!r}")
+    patterns = [files] if isinstance(files, str | os.PathLike) else list(files)
+    paths: list[Path] = []
+    for p in patterns:
+        p = Path(p)
+        if p.is_dir():
+            paths += sorted(q for q in p.iterdir() if q.is_file() and not q.name[0] == ".")
+        elif any(ch in str(p) for ch in "*?["):
+            paths += sorted(Path(q) for q in glob.glob(str(p)) if Path(q).is_file())
+        else:
+            paths.append(p)
+    if not paths:
+        raise DataNotFoundError(f"no member files match {[str(p) for p in patterns]}")
+    wanted = (
+        None
+        if signals is None
+        else [signals]
+        if isinstance(signals, str)
+        else list(signals)
+    )
+    errors: list[dict] = []
+
+    def fail(member: str, signal: Any, path: Path, message: str) -> None:
+        if on_error == "raise":
+            raise DataError(message)
+        errors.append(
+            {
+                "member": member,
+                "signal": signal,
+                "source": str(path),
+                "error": f"{message}; member skipped",
+            }
+        )
+
+    read: list[tuple[str, Path, dict, float | None, dict]] = []
+    for path in paths:
+        member = path.name.split(".")[0]
+        try:
+            arrays, rate, conds = _member_arrays(path)
+        except DataError as exc:
+            fail(member, None, path, str(exc))
+            continue
+        if not arrays:
+            fail(member, None, path, f"{path.name} holds no numeric signal")
+            continue
+        missing = [s for s in wanted or () if s not in arrays]
+        if missing:
+            fail(
+                member,
+                missing[0],
+                path,
+                f"{path.name} lacks signal(s) {missing}; it has {sorted(arrays)}",
+            )
+            continue
+        bad = [s for s, x in arrays.items() if not np.isfinite(x).all()]
+        if bad:
+            x = arrays[bad[0]]
+            fail(
+                member,
+                bad[0],
+                path,
+                f"signal {bad[0]!r} of {path.name} holds {int((~np.isfinite(x)).sum())} "
+                f"NaN/inf value(s) (first at sample {int(np.argmax(~np.isfinite(x)))})",
+            )
+            continue
+        read.append((member, path, arrays, rate, conds))
+
+    rates = [r for _, _, _, r, _ in read if r is not None]
+    expected, whose = fs, "fs as given"
+    if expected is None and rates:
+        values, counts = np.unique(np.round(rates, 6), return_counts=True)
+        expected, whose = (
+            float(values[np.argmax(counts)]),
+            "the most common rate of the files",
+        )
+    if expected is None and read:
+        raise DataError(
+            f"none of the {len(read)} member files states its sampling rate (no time "
+            "column, no fs variable); pass fs="
+        )
+    kept = []
+    for member, path, arrays, rate, conds in read:
+        if rate is not None and abs(rate - expected) > 1e-3 * expected:
+            fail(
+                member,
+                None,
+                path,
+                f"{path.name} is sampled at {rate:g} Hz; expected {expected:g} Hz "
+                f"({whose})",
+            )
+            continue
+        kept.append((member, arrays, conds))
+    if not kept:
+        first = f"; e.g. {errors[0]['error']}" if errors else ""
+        raise DataError(f"no member could be read from {len(paths)} file(s){first}")
+    names = wanted or list(dict.fromkeys(s for _, a, _ in kept for s in a))
+    ids = [m for m, _, _ in kept]
+    if len(set(ids)) != len(ids):
+        dup = sorted({m for m in ids if ids.count(m) > 1})
+        raise DataError(f"member files share the names {dup[:5]}; rename them")
+    ens = Ensemble(
+        {s: [a.get(s) for _, a, _ in kept] for s in names},
+        fs=expected,
+        conditions=pd.DataFrame([c for _, _, c in kept]) if kept else None,
+        member_ids=ids,
+    )
+    order = {str(p): i for i, p in enumerate(paths)}
+    errors.sort(key=lambda e: order.get(e["source"], -1))
+    table = pd.DataFrame(errors, columns=list(_MEMBER_ERRORS))
+    return (ens, table) if return_errors else ens

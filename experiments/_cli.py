@@ -81,9 +81,25 @@ def _add_input_options(
     source.add_argument(
         "--dataset", help="named dataset (see `pdmkit datasets`), e.g. cwru"
     )
-    source.add_argument("--ensemble", type=Path, help="Parquet ensemble directory")
+    source.add_argument(
+        "--ensemble",
+        help="Parquet ensemble directory, or its fsspec URL (s3://..., file://...)",
+    )
+    source.add_argument(
+        "--members",
+        nargs="+",
+        metavar="FILE",
+        help="member files, one recording each (CSV/Parquet with a time column, "
+        ".mat/.npz with an fs variable; folders and glob patterns too)",
+    )
     if features_ok:
         source.add_argument("--features", type=Path, help="feature table (Parquet)")
+    parser.add_argument(
+        "--fs",
+        type=float,
+        metavar="HZ",
+        help="sampling rate of --members files (default: the rate most files state)",
+    )
     parser.add_argument("--label", help="condition column holding the class label")
     parser.add_argument(
         "--groups",
@@ -101,38 +117,52 @@ def _add_input_options(
     parser.add_argument("--json", type=Path, help="also write the JSON summary here")
 
 
-def _feature_table(args: argparse.Namespace):
-    """Return (table, label, sensors, features) for the input the user named.
-
-    ``features`` lists the indicator columns ``classify``/``rank`` use by default.
-    """
+def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
+    """(ensemble or path/URL, groups, options, label, sensors, profile, read errors)."""
     from pdmkit.experiments._datasets import get_profile
 
-    if getattr(args, "features", None) is not None:
-        from pdmkit.ensembles import read_table
-
-        table = read_table(args.features)
-        return table, args.label, None, _indicator_columns(table, args.signals)
+    groups = tuple(args.groups) if args.groups else ("stats", "spectral")
     if args.dataset is not None:
         profile = get_profile(args.dataset)
         _say(f"loading dataset {profile.name!r}")
         ensemble = profile.load()
         groups = tuple(args.groups) if args.groups else profile.groups
-        options = profile.options()
-        label = args.label or profile.label
         sensors = {k: list(v) for k, v in profile.sensors.items()}
-    else:
-        from pdmkit.ensembles import Ensemble
+        label = args.label or profile.label
+        return ensemble, groups, profile.options(), label, sensors, profile, None
+    if getattr(args, "members", None):
+        from pdmkit.ensembles._readers import read_members
 
-        ensemble = Ensemble.from_parquet(args.ensemble)
-        groups = tuple(args.groups) if args.groups else ("stats", "spectral")
-        options, label, sensors = {}, args.label, None
+        ensemble, errors = read_members(
+            args.members,
+            fs=args.fs,
+            signals=args.signals,
+            on_error=on_error,
+            return_errors=True,
+        )
+        return ensemble, groups, {}, args.label, None, None, errors
+    # a path or fsspec URL: streamed in batches, never loaded whole
+    return str(args.ensemble), groups, {}, args.label, None, None, None
+
+
+def _feature_table(args: argparse.Namespace):
+    """Return (table, label, sensors, features) for the input the user named.
+
+    ``features`` lists the indicator columns ``classify``/``rank`` use by default.
+    """
+    if getattr(args, "features", None) is not None:
+        from pdmkit.ensembles import read_table
+
+        table = read_table(args.features)
+        return table, args.label, None, _indicator_columns(table, args.signals)
+    ensemble, groups, options, label, sensors, profile, _ = _extraction_input(args)
     from pdmkit.features import extract_ensemble
 
-    _say(f"extracting {', '.join(groups)} indicators from {len(ensemble)} members")
+    size = f"{len(ensemble)} members" if not isinstance(ensemble, str) else ensemble
+    _say(f"extracting {', '.join(groups)} indicators from {size}")
     table = extract_ensemble(ensemble, groups=groups, **options)
     signals = args.signals
-    if signals is None and args.dataset is not None:
+    if signals is None and profile is not None:
         signals = profile.classify_signals
     return table, label, sensors, _indicator_columns(table, signals)
 
@@ -199,12 +229,42 @@ def _cmd_datasets(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Exit status of a command that finished but left members out (bad input).
+EXIT_SKIPPED = 3
+
+
 def _cmd_features(args: argparse.Namespace) -> int:
     from pdmkit.experiments._report import Report
+    from pdmkit.experiments._runs import extract_features_run
 
-    table, _, _, _ = _feature_table(args)
+    on_error = "raise" if args.strict else "skip"
+    ensemble, groups, options, _, _, _, read_errors = _extraction_input(args, on_error)
     out = Path(args.out)
+    client = args.scheduler if args.scheduler else args.workers
+    where = (
+        f"on the Dask scheduler {args.scheduler}"
+        if args.scheduler
+        else f"on {args.workers} local Dask workers"
+        if args.workers
+        else "in-process"
+    )
+    size = f"{len(ensemble)} members" if not isinstance(ensemble, str) else ensemble
+    _say(f"extracting {', '.join(groups)} indicators from {size} {where}")
+    table, errors = extract_features_run(
+        ensemble,
+        out / "run",
+        signals=args.signals,
+        groups=groups,
+        batch_size=args.batch_size,
+        on_error=on_error,
+        fresh=args.fresh,
+        client=client,
+        **options,
+    )
+    if read_errors is not None and len(read_errors):
+        errors = pd.concat([read_errors, errors], ignore_index=True)
     write_parquet(table, out / "features.parquet")
+    write_parquet(errors, out / "errors.parquet")
     feature_cols = [c for c in table.columns if "/" in str(c)]
     summary = {
         "n_members": len(table),
@@ -212,14 +272,75 @@ def _cmd_features(args: argparse.Namespace) -> int:
         "features": feature_cols,
         "conditions": [c for c in table.columns if c not in feature_cols],
         "path": str(out / "features.parquet"),
+        "n_skipped": int(errors["member"].nunique()),
+        "errors": errors.to_dict(orient="records"),
+        "errors_path": str(out / "errors.parquet"),
     }
     report = Report("pdmkit features")
     report.add_text(
         f"{summary['n_members']} members, {summary['n_features']} condition indicators."
     )
+    if len(errors):
+        report.add_text(
+            f"{summary['n_skipped']} member(s) were left out for bad input; "
+            "see the table below (also in errors.parquet)."
+        )
+        report.add_table(errors, caption="Members left out")
     report.add_table(table[feature_cols].describe().T, caption="Indicator statistics")
     _finish(summary, args, report, "features")
+    if len(errors):
+        _say(
+            f"{summary['n_skipped']} member(s) skipped for bad input, e.g. "
+            f"{errors['error'].iloc[0]}; see {out / 'errors.parquet'} (exit status "
+            f"{EXIT_SKIPPED}; --strict stops at the first)"
+        )
+        return EXIT_SKIPPED
     return 0
+
+
+def _add_scale_options(parser: argparse.ArgumentParser) -> None:
+    cluster = parser.add_mutually_exclusive_group()
+    cluster.add_argument(
+        "--workers",
+        type=_positive_int,
+        metavar="N",
+        help="run on a local Dask cluster of N worker processes (default: in-process)",
+    )
+    cluster.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on the Dask cluster at ADDRESS, e.g. tcp://10.0.0.5:8786",
+    )
+    parser.add_argument(
+        "--batch-size",
+        type=_positive_int,
+        default=512,
+        metavar="N",
+        help="members per partition (one task, one committed result; default 512)",
+    )
+    parser.add_argument(
+        "--fresh",
+        action="store_true",
+        help="discard the partitions a previous run left in OUT/run and start over",
+    )
+    parser.add_argument(
+        "--strict",
+        action="store_true",
+        help="stop at the first member with bad data (default: skip it, report it, "
+        f"exit with status {EXIT_SKIPPED})",
+    )
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a positive integer, got {text!r}"
+        ) from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
 
 
 def _ranking(table: pd.DataFrame, label: str, method: str, features: list[str]):
@@ -391,6 +512,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("features", help="extract condition indicators")
     _add_input_options(p, features_ok=False)
+    _add_scale_options(p)
     p.set_defaults(func=_cmd_features)
 
     p = sub.add_parser("rank", help="rank condition indicators")
@@ -482,6 +604,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except (DataError, ModelError, FileNotFoundError, PermissionError) as exc:
+    except (
+        DataError,
+        ModelError,
+        FileNotFoundError,
+        PermissionError,
+        ConnectionError,
+    ) as exc:
         _say(f"error: {exc}")
         return 2

@@ -464,7 +464,55 @@ def _wrap_error(err: DataError, signal: str, present: pd.Index) -> DataError:
     return new
 
 
-def _batch_table(batch, signals, groups, options, shaft_column) -> pd.DataFrame:
+def _error_row(member, signal, source, message) -> dict:
+    return {"member": str(member), "signal": signal, "source": source, "error": message}
+
+
+def _present_same_length(batch, name, ids, skip, errors):
+    """``batch.stack(name)``; with ``skip``, members of an odd length are set aside."""
+    try:
+        return batch.stack(name)
+    except DataError:
+        if not skip:
+            raise
+    xs = batch.signal(name)
+    lengths = np.array([-1 if x is None else len(x) for x in xs])
+    values, counts = np.unique(lengths[lengths >= 0], return_counts=True)
+    common = values[counts == counts.max()].max()  # the most common; ties: longest
+    mask = lengths == common
+    for i in np.flatnonzero((lengths >= 0) & ~mask):
+        errors.append(
+            _error_row(
+                ids[i],
+                name,
+                None,
+                f"signal {name!r} of member {ids[i]!r} has {lengths[i]} samples; the "
+                f"other members of its batch have {common}; member skipped (cut the "
+                "members to one length with frames())",
+            )
+        )
+    return np.stack([xs[i] for i in np.flatnonzero(mask)]), mask
+
+
+def _worker_threads() -> int | None:
+    """Threads of the Dask worker running this task (None outside a worker)."""
+    import sys
+
+    if "distributed" not in sys.modules:
+        return None
+    try:
+        from distributed import get_worker
+
+        return int(get_worker().state.nthreads)
+    except (ImportError, ValueError, AttributeError):
+        return None
+
+
+def _batch_table(
+    batch, signals, groups, options, shaft_column, on_error="raise", errors=None
+) -> pd.DataFrame:
+    skip = on_error == "skip"
+    errors = [] if errors is None else errors
     ids = pd.Index(batch.member_ids)
     conditions = batch.conditions
     conditions = (
@@ -478,9 +526,20 @@ def _batch_table(batch, signals, groups, options, shaft_column) -> pd.DataFrame:
             f"signal(s) {unknown} are not in the ensemble; its signals are {available}"
         )
     parts = [conditions]
+    n_errors = len(errors)
     for name in names:
-        array, mask = batch.stack(name)
+        array, mask = _present_same_length(batch, name, ids, skip, errors)
         mask = np.asarray(mask, dtype=bool)
+        if skip and signals is not None:  # a signal asked for by name must be there
+            for i in np.flatnonzero(~batch.has_signal(name)):
+                errors.append(
+                    _error_row(
+                        ids[i],
+                        name,
+                        None,
+                        f"member {ids[i]!r} lacks signal {name!r}; member skipped",
+                    )
+                )
         present = ids[mask]
         if len(present) == 0:
             continue
@@ -491,15 +550,82 @@ def _batch_table(batch, signals, groups, options, shaft_column) -> pd.DataFrame:
                     f"shaft_hz={shaft_column!r} names no condition column; the conditions "
                     f"are {list(conditions.columns)}"
                 )
-            opts["shaft_hz"] = conditions.loc[present, shaft_column].to_numpy(dtype=float)
-        try:
-            feats = extract(array, batch.fs[name], groups, **opts)
-        except DataError as err:
-            raise _wrap_error(err, name, present) from err
+        while len(present):
+            if shaft_column is not None:
+                opts["shaft_hz"] = conditions.loc[present, shaft_column].to_numpy(
+                    dtype=float
+                )
+            try:
+                # in a Dask worker, use its threads, not every core of the machine
+                feats = extract(
+                    array, batch.fs[name], groups, workers=_worker_threads(), **opts
+                )
+                break
+            except DataError as err:
+                wrapped = _wrap_error(err, name, present)
+                if not skip:
+                    raise wrapped from err
+                rows = getattr(err, "rows", None) or list(range(len(present)))
+                for r in rows:
+                    errors.append(
+                        _error_row(
+                            present[r],
+                            name,
+                            None,
+                            f"signal {name!r} of member {present[r]!r}: "
+                            f"{getattr(wrapped, 'problem', str(err))}; member skipped",
+                        )
+                    )
+                keep = np.ones(len(present), dtype=bool)
+                keep[rows] = False
+                array, present = array[keep], present[keep]
+        if len(present) == 0:
+            continue
         feats.index = present
         feats.columns = [f"{name}/{c}" for c in feats.columns]
         parts.append(feats)
-    return pd.concat(parts, axis=1).reindex(ids)
+    table = pd.concat(parts, axis=1).reindex(ids)
+    if len(errors) > n_errors:
+        failed = {e["member"] for e in errors[n_errors:]}
+        table = table[~table.index.isin(failed)]
+    return table
+
+
+def _extract_task(item, signals, groups, options, shaft_column, on_error):
+    """One unit of work (a batch or a Parquet partition): (table, errors, signals)."""
+    from pdmkit.ensembles._distributed import Partition, read_partition
+
+    errors: list = []
+    source = None
+    if isinstance(item, Partition):
+        source = f"{item.root} (members {item.start}:{item.stop})"
+        try:
+            batch = read_partition(
+                item, signals=signals, errors=errors if on_error == "skip" else None
+            )
+        except DataError as exc:
+            if on_error != "skip":
+                raise
+            # an unreadable part file: its members' ids are unknown, name positions
+            message = f"{exc}; member skipped"
+            rows = [
+                _error_row(f"#{i}", None, source, message)
+                for i in range(item.start, item.stop)
+            ]
+            return None, rows, []
+    else:
+        batch = item
+    if len(batch) == 0:
+        return None, errors, []
+    start = len(errors)
+    table = _batch_table(batch, signals, groups, options, shaft_column, on_error, errors)
+    for e in errors[start:]:
+        e["source"] = e["source"] or source
+    names = list(signals) if signals is not None else list(batch.signal_names)
+    return table, errors, names
+
+
+ERROR_COLUMNS = ("member", "signal", "source", "error")
 
 
 def extract_ensemble(
@@ -509,41 +635,60 @@ def extract_ensemble(
     groups: Sequence[str] = ("stats", "spectral"),
     batch_size: int = 512,
     progress: bool | None = None,
+    client=None,
+    on_error: str = "raise",
+    return_errors: bool = False,
     **options,
-) -> pd.DataFrame:
+):
     """Feature table of an ensemble: :func:`extract` per signal, members by id.
 
     Members stream through in batches of ``batch_size``, so an on-disk ensemble is
     never loaded whole: memory stays bounded by one batch plus the (small) feature rows.
+    With ``client`` the batches run as tasks on a Dask cluster (an on-disk ensemble is
+    then read by the workers, partition by partition); the table is the same.
 
     Parameters
     ----------
-    ensemble : Ensemble, path, or iterable of Ensemble
-        A :class:`pdmkit.ensembles.Ensemble`; a path to an on-disk Parquet ensemble
-        (read with ``pdmkit.ensembles.iter_parquet(path, batch_size=batch_size)``); or
-        an iterator of Ensemble batches.
+    ensemble : Ensemble, path, URL, or iterable of Ensemble
+        A :class:`pdmkit.ensembles.Ensemble`; a path or fsspec URL (``s3://...``,
+        ``file://...``) of an on-disk Parquet ensemble, read ``batch_size`` members at a
+        time (the batches of :func:`pdmkit.ensembles.iter_parquet`); or an iterable of
+        Ensemble batches.
     signals : sequence of str, optional
         Signals to use; default all of ``ensemble.signal_names``.
     groups : sequence of str, default ("stats", "spectral")
         Indicator groups (see :func:`extract`).
     batch_size : int, default 512
-        Members per batch.
+        Members per batch (per Dask task).
     progress : bool, optional
-        Show a progress bar; default only when stderr is a terminal.
+        Show a progress bar (in-process runs); default only when stderr is a terminal.
+    client : dask.distributed.Client, str, int, optional
+        Run on Dask: a client, a scheduler address (``"tcp://host:8786"``) or a number
+        of local worker processes to start; default in-process. See
+        :func:`pdmkit.ensembles.dask_client`.
+    on_error : {"raise", "skip"}, default "raise"
+        ``"skip"``: a member with bad data (NaN/inf samples, a length that differs
+        from its batch, a signal named in ``signals`` that it lacks, a signal too short
+        for the indicators) is left out of the table and described in the errors table;
+        the other members go on. ``"raise"``: the first bad member raises.
+    return_errors : bool, default False
+        Also return the errors table (columns ``member``, ``signal``, ``source``,
+        ``error``; empty when nothing went wrong).
     **options
         Group options, as for :func:`extract`. ``shaft_hz`` may also name a condition
         column holding each member's shaft speed in Hz.
 
     Returns
     -------
-    pandas.DataFrame
+    pandas.DataFrame, or (DataFrame, DataFrame) with ``return_errors``
         Indexed by member id: the condition columns, then ``<signal>/<group>/<Feature>``
         columns (e.g. ``DE/stats/Kurtosis``); NaN where a member lacks a signal.
 
     Raises
     ------
     pdmkit.errors.DataError
-        Bad signal data, naming the signal and the member ids; unknown signal names.
+        Bad signal data, naming the signal and the member ids (``on_error="raise"``);
+        unknown signal names.
 
     Examples
     --------
@@ -558,10 +703,16 @@ def extract_ensemble(
     (4, 12)
     >>> list(table.columns[:3])
     ['fault', 'vib/stats/Mean', 'vib/stats/Std']
+    >>> short = Ensemble({"vib": [rng.normal(size=2048), rng.normal(size=100)]}, fs=1e3)
+    >>> table, errors = extract_ensemble(short, on_error="skip", return_errors=True)
+    >>> table.index.tolist(), errors["member"].tolist()
+    (['m00000'], ['m00001'])
     """
     group_list = _check_groups(groups)
     _check_option_names(group_list, options, where="extract_ensemble")
     batch_size = _check_batch_size(batch_size, allow_none=False)
+    if on_error not in ("raise", "skip"):
+        raise ValueError(f"on_error must be 'raise' or 'skip'; got {on_error!r}")
     if signals is not None:
         if isinstance(signals, str):
             signals = [signals]
@@ -572,39 +723,77 @@ def extract_ensemble(
 
     total = None
     if isinstance(ensemble, str | os.PathLike):
-        from pdmkit.ensembles import iter_parquet
+        from pdmkit.ensembles._distributed import parquet_partitions
 
-        batches: Iterable = iter_parquet(ensemble, batch_size=batch_size, signals=signals)
+        items: Iterable = parquet_partitions(ensemble, batch_size=batch_size)
+        total = len(items)
     elif _is_ensemble(ensemble):
         n = len(ensemble)
         if n == 0:
             raise DataError("the ensemble has 0 members; nothing to extract")
         total = math.ceil(n / batch_size)
-        batches = [ensemble] if n <= batch_size else ensemble.batches(batch_size)
+        items = [ensemble] if n <= batch_size else ensemble.batches(batch_size)
     elif isinstance(ensemble, Iterable):
-        batches = ensemble
+        items = ensemble
     else:
         raise TypeError(
             "ensemble must be a pdmkit.ensembles.Ensemble, a path to a Parquet ensemble "
             f"or an iterable of Ensemble batches, got {type(ensemble).__name__}"
         )
 
-    tables = []
-    order: list[str] = []
-    for batch in _progress_bar(batches, desc="features", total=total, enable=progress):
-        if not _is_ensemble(batch):
-            raise TypeError(
-                f"the batches must be pdmkit.ensembles.Ensemble objects, got "
-                f"{type(batch).__name__}"
+    def checked(batches):
+        for batch in batches:
+            if not (_is_ensemble(batch) or hasattr(batch, "manifest")):
+                raise TypeError(
+                    f"the batches must be pdmkit.ensembles.Ensemble objects, got "
+                    f"{type(batch).__name__}"
+                )
+            yield batch
+
+    args = (signals, group_list, options, shaft_column, on_error)
+    if client is None:
+        results = (
+            _extract_task(item, *args)
+            for item in _progress_bar(
+                checked(items), desc="features", total=total, enable=progress
             )
-        if len(batch) == 0:
+        )
+    else:
+        from pdmkit.ensembles._distributed import dask_map
+
+        results = dask_map(
+            _extract_task,
+            list(checked(items)),
+            client=client,
+            signals=signals,
+            groups=group_list,
+            options=options,
+            shaft_column=shaft_column,
+            on_error=on_error,
+        )
+
+    return _combine(results, return_errors)
+
+
+def _combine(results, return_errors: bool = False):
+    """The feature table (and errors) from the ``_extract_task`` results, in order."""
+    tables, errors = [], []
+    order: list[str] = []
+    for table, errs, names in results:
+        errors.extend(errs)
+        if table is None:
             continue
-        table = _batch_table(batch, signals, group_list, options, shaft_column)
-        for s in signals if signals is not None else batch.signal_names:
+        for s in names:
             if s not in order:
                 order.append(s)
         tables.append(table)
-    if not tables:
+    error_table = pd.DataFrame(errors, columns=list(ERROR_COLUMNS))
+    if not tables or not sum(len(t) for t in tables):
+        if len(error_table):
+            raise DataError(
+                f"every member was skipped for bad data ({len(error_table)} problem(s)), "
+                f"e.g. {error_table['error'].iloc[0]}"
+            )
         raise DataError("the ensemble has 0 members; nothing to extract")
     table = pd.concat(tables, axis=0) if len(tables) > 1 else tables[0]
 
@@ -621,4 +810,13 @@ def extract_ensemble(
             f"member ids {_describe_ids(duplicated)} occur in more than one batch; "
             "member ids must be unique"
         )
-    return table
+    if len(error_table) and not return_errors:
+        import warnings
+
+        warnings.warn(
+            f"{error_table['member'].nunique()} member(s) skipped for bad data, e.g. "
+            f"{error_table['error'].iloc[0]}; pass return_errors=True to get the table",
+            UserWarning,
+            stacklevel=3,
+        )
+    return (table, error_table) if return_errors else table

@@ -1,0 +1,680 @@
+"""Save and load trained models without unpickling anything.
+
+A model file is a zip archive (extension of your choice, e.g. ``.pdmkit``)::
+
+    manifest.json      format, kind, class, package versions, SHA-256 of every member
+    model.skops        kind "skops": a scikit-learn estimator / pipeline (skops.io)
+    state.json         kind "object" / "torch": the object tree as JSON
+    arrays.npz         its numpy arrays and tables (Parquet bytes), allow_pickle=False
+    tensors.pt         its torch tensors (a flat dict), loaded with weights_only=True
+
+Three kinds of object:
+
+- scikit-learn estimators and pipelines go through :mod:`skops.io`; loading trusts only
+  the types skops reports that live under ``sklearn.``, ``numpy.``, ``scipy.`` or
+  ``pdmkit.`` (anything else is refused, never trusted blanket-wise). A pipeline skops
+  cannot write (a pdmkit step holding pandas tables, e.g. ``SelectTopRanked``) is saved
+  as an object tree like the pdmkit estimators below;
+- torch modules: ``state_dict`` plus a JSON config (constructor arguments), rebuilt by
+  the module's class, which must live under ``pdmkit.`` or ``torch.nn.``;
+- pdmkit estimators (the RUL models, health indicators): parameters and fitted
+  attributes as JSON + arrays + tensors, rebuilt only for classes under ``pdmkit.`` or
+  ``sklearn.`` (nested scikit-learn objects, pandas tables, scipy distributions
+  included). A NeuralRULModel keeps its networks as ``state_dict`` weights.
+
+Loading verifies the checksums first: a changed byte, a missing or an extra member, a
+pickled payload, or a class outside the allowed packages raises
+:class:`pdmkit.errors.ModelError` naming the file and the problem. The checksums
+detect damage and edits; the protection against malicious files is that nothing in
+them is ever executed or unpickled.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import io
+import json
+import math
+import os
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pdmkit._atomic import atomic_path
+from pdmkit.errors import ModelError
+
+__all__ = ["load_model", "save_model"]
+
+FORMAT = "pdmkit.model"
+FORMAT_VERSION = 1
+#: Packages whose classes a model file may name (rebuilt objects and skops types).
+OBJECT_PACKAGES = ("pdmkit.", "sklearn.")
+SKOPS_PACKAGES = ("sklearn.", "numpy.", "scipy.", "pdmkit.")
+TORCH_PACKAGES = ("pdmkit.", "torch.nn.")
+_MEMBERS = {"manifest.json", "model.skops", "state.json", "arrays.npz", "tensors.pt"}
+
+
+# --------------------------------------------------------------------------- helpers
+def _qualname(cls: type) -> str:
+    return f"{cls.__module__}.{cls.__qualname__}"
+
+
+def _allowed(name: str, packages: tuple[str, ...]) -> bool:
+    return name.startswith(packages) and "<" not in name
+
+
+def _import_class(name: str, packages: tuple[str, ...], where: str) -> type:
+    """The class ``module.Qual.Name``, only from ``packages``; never a function."""
+    if not isinstance(name, str) or not _allowed(name, packages):
+        raise ModelError(
+            f"{where} names the class {name!r}, which is not allowed: a model file may "
+            f"only rebuild classes of {', '.join(p.rstrip('.') for p in packages)}"
+        )
+    parts = name.split(".")
+    for cut in range(len(parts) - 1, 0, -1):
+        try:
+            obj: Any = importlib.import_module(".".join(parts[:cut]))
+        except ImportError:
+            continue
+        try:
+            for attr in parts[cut:]:
+                obj = getattr(obj, attr)
+        except AttributeError:
+            break
+        if isinstance(obj, type):
+            return obj
+        break
+    raise ModelError(f"{where} names the class {name!r}, which this pdmkit does not have")
+
+
+def _versions() -> dict[str, str]:
+    import sklearn
+
+    from pdmkit import __version__
+
+    return {"pdmkit": __version__, "numpy": np.__version__, "sklearn": sklearn.__version__}
+
+
+def _is_torch_module(obj: Any) -> bool:
+    torch = _torch_or_none()
+    return torch is not None and isinstance(obj, torch.nn.Module)
+
+
+def _torch_or_none():
+    import sys
+
+    return sys.modules.get("torch")
+
+
+def _has_setstate(cls: type) -> bool:
+    return getattr(cls, "__setstate__", None) not in (
+        None,
+        getattr(object, "__setstate__", None),
+    )
+
+
+def _is_sklearn(obj: Any) -> bool:
+    return type(obj).__module__.startswith("sklearn.")
+
+
+# --------------------------------------------------------------------------- encoding
+class _Encoder:
+    """Turn an object tree into JSON nodes, numpy arrays and torch tensors."""
+
+    def __init__(self) -> None:
+        self.arrays: dict[str, np.ndarray] = {}
+        self.tensors: dict[str, Any] = {}
+
+    def _array(self, a: np.ndarray) -> str:
+        key = f"a{len(self.arrays)}"
+        self.arrays[key] = a
+        return key
+
+    def encode(self, value: Any, path: str) -> Any:
+        import pandas as pd
+
+        if value is None or isinstance(value, bool | str):
+            return value
+        if isinstance(value, int) and not isinstance(value, bool):
+            return value if abs(value) < 2**53 else {"t": "int", "v": str(value)}
+        if isinstance(value, float):
+            return value if math.isfinite(value) else {"t": "float", "v": repr(value)}
+        if isinstance(value, np.generic):
+            arr = np.asarray(value)
+            if arr.dtype.kind not in "biufcUS":
+                raise self._refuse(value, path)
+            return {"t": "scalar", "key": self._array(arr.reshape(1))}
+        if isinstance(value, np.ndarray):
+            if value.dtype.kind in "biufcUSmM" or (
+                value.dtype.kind == "V" and not value.dtype.hasobject
+            ):
+                return {"t": "ndarray", "key": self._array(value)}
+            if value.dtype == object:
+                return {
+                    "t": "objarray",
+                    "shape": list(value.shape),
+                    "items": [
+                        self.encode(v, f"{path}[{i}]") for i, v in enumerate(value.ravel())
+                    ],
+                }
+            raise self._refuse(value, path)
+        if isinstance(value, list | tuple):
+            items = [self.encode(v, f"{path}[{i}]") for i, v in enumerate(value)]
+            return {"t": "tuple" if isinstance(value, tuple) else "list", "items": items}
+        if isinstance(value, dict):
+            return {
+                "t": "dict",
+                "items": [
+                    [self.encode(k, f"{path} key"), self.encode(v, f"{path}[{k!r}]")]
+                    for k, v in value.items()
+                ],
+            }
+        if isinstance(value, pd.DataFrame | pd.Series):
+            return self._frame(value, path)
+        if isinstance(value, pd.Index):
+            return {"t": "index", "v": self._frame(value.to_series(index=None), path)}
+        torch = _torch_or_none()
+        if torch is not None and isinstance(value, torch.Tensor):
+            key = f"t{len(self.tensors)}"
+            self.tensors[key] = value.detach().cpu().clone()
+            return {"t": "tensor", "key": key}
+        if torch is not None and isinstance(value, torch.nn.Module):
+            raise ModelError(
+                f"{path} is a torch module ({type(value).__name__}) inside an object "
+                "that does not say how to rebuild it; give the class __getstate__ / "
+                "__setstate__ that keep its state_dict (as NeuralRULModel does)"
+            )
+        frozen = self._scipy_frozen(value)
+        if frozen is not None:
+            return frozen
+        return self._object(value, path)
+
+    def _frame(self, value: Any, path: str) -> dict:
+        import pandas as pd
+
+        is_series = isinstance(value, pd.Series)
+        frame = value.to_frame(name="__series__") if is_series else value
+        if not all(isinstance(c, str) for c in frame.columns):
+            names = [self.encode(c, f"{path} column") for c in frame.columns]
+            frame = frame.set_axis([f"c{i}" for i in range(frame.shape[1])], axis=1)
+        else:
+            names = None
+        buffer = io.BytesIO()
+        try:
+            frame.to_parquet(buffer)
+        except Exception as exc:  # pyarrow refuses mixed object columns
+            raise ModelError(
+                f"{path}: a table that cannot be stored safely ({exc})"
+            ) from None
+        node = {
+            "t": "series" if is_series else "dataframe",
+            "key": self._array(np.frombuffer(buffer.getvalue(), dtype=np.uint8)),
+        }
+        if is_series:
+            node["name"] = self.encode(value.name, f"{path}.name")
+        if names is not None:
+            node["columns"] = names
+        return node
+
+    @staticmethod
+    def _scipy_frozen(value: Any) -> dict | None:
+        dist = getattr(value, "dist", None)
+        if (
+            type(value).__module__.startswith("scipy.stats")
+            and hasattr(value, "args")
+            and hasattr(value, "kwds")
+            and dist is not None
+        ):
+            import scipy.stats
+
+            name = getattr(dist, "name", None)
+            if getattr(scipy.stats, str(name), None) is None:
+                return None
+            args = [float(a) for a in value.args]
+            kwds = {k: float(v) for k, v in value.kwds.items()}
+            return {"t": "scipy_frozen", "name": name, "args": args, "kwds": kwds}
+        return None
+
+    def _object(self, value: Any, path: str) -> dict:
+        cls = type(value)
+        name = _qualname(cls)
+        if not _allowed(name, OBJECT_PACKAGES):
+            raise self._refuse(value, path)
+        if isinstance(value, type) or (callable(value) and not hasattr(value, "__dict__")):
+            raise self._refuse(value, path)
+        args = None
+        try:
+            reduced = value.__reduce_ex__(4)
+        except TypeError:
+            reduced = None
+        if isinstance(reduced, tuple) and len(reduced) >= 2 and reduced[0] is cls:
+            # extension types that need constructor arguments (sklearn's Tree)
+            args = list(reduced[1])
+            state = reduced[2] if len(reduced) > 2 else None
+            node = {"t": "object", "class": name, "args": self.encode(args, path)}
+            if state is not None:
+                node["state"] = self.encode(state, path)
+            return node
+        getstate = getattr(cls, "__getstate__", None)
+        if getstate is not None and getstate is not object.__getstate__:
+            state = value.__getstate__()
+        elif hasattr(value, "__dict__"):
+            state = dict(value.__dict__)
+        else:
+            slots = [s for c in cls.__mro__ for s in getattr(c, "__slots__", ())]
+            state = {s: getattr(value, s) for s in slots if hasattr(value, s)}
+        if not isinstance(state, dict) and not _has_setstate(cls):
+            raise self._refuse(value, path)
+        return {"t": "object", "class": name, "state": self.encode(state, path)}
+
+    @staticmethod
+    def _refuse(value: Any, path: str) -> ModelError:
+        return ModelError(
+            f"cannot save {path}: a {_qualname(type(value))} is not a type a model file "
+            "can hold safely (numbers, strings, numpy arrays, pandas tables, torch "
+            f"tensors, and objects of {', '.join(OBJECT_PACKAGES)} classes)"
+        )
+
+
+class _Decoder:
+    def __init__(self, arrays: dict[str, np.ndarray], tensors: dict[str, Any], where: str):
+        self.arrays = arrays
+        self.tensors = tensors
+        self.where = where
+
+    def _get(self, store: dict, key: Any, what: str) -> Any:
+        if not isinstance(key, str) or key not in store:
+            raise ModelError(f"{self.where}: state.json refers to a missing {what} {key!r}")
+        return store[key]
+
+    def decode(self, node: Any) -> Any:
+        import pandas as pd
+
+        if node is None or isinstance(node, bool | int | float | str):
+            return node
+        if not isinstance(node, dict) or "t" not in node:
+            raise ModelError(f"{self.where}: state.json holds an unknown node {node!r:.80}")
+        t = node["t"]
+        if t == "int":
+            return int(node["v"])
+        if t == "float":
+            return float(node["v"])
+        if t == "scalar":
+            return self._get(self.arrays, node["key"], "array")[0]
+        if t == "ndarray":
+            return self._get(self.arrays, node["key"], "array")
+        if t == "objarray":
+            items = [self.decode(v) for v in node["items"]]
+            out = np.empty(len(items), dtype=object)
+            out[:] = items
+            return out.reshape(node["shape"])
+        if t in ("list", "tuple"):
+            items = [self.decode(v) for v in node["items"]]
+            return tuple(items) if t == "tuple" else items
+        if t == "dict":
+            return {self.decode(k): self.decode(v) for k, v in node["items"]}
+        if t in ("dataframe", "series"):
+            raw = self._get(self.arrays, node["key"], "table")
+            frame = pd.read_parquet(io.BytesIO(raw.tobytes()))
+            if "columns" in node:
+                frame.columns = [self.decode(c) for c in node["columns"]]
+            if t == "series":
+                series = frame.iloc[:, 0]
+                series.name = self.decode(node.get("name"))
+                return series
+            return frame
+        if t == "index":
+            return pd.Index(self.decode(node["v"]))
+        if t == "tensor":
+            return self._get(self.tensors, node["key"], "tensor")
+        if t == "scipy_frozen":
+            import scipy.stats
+
+            dist = getattr(scipy.stats, str(node["name"]), None)
+            if not isinstance(dist, scipy.stats.rv_continuous | scipy.stats.rv_discrete):
+                raise ModelError(
+                    f"{self.where}: unknown scipy distribution {node['name']!r}"
+                )
+            return dist(*node["args"], **node["kwds"])
+        if t == "object" and "args" in node:
+            cls = _import_class(node["class"], OBJECT_PACKAGES, self.where)
+            args = self.decode(node["args"])
+            if not isinstance(args, list):
+                raise ModelError(
+                    f"{self.where}: the arguments of {node['class']} are damaged"
+                )
+            try:
+                obj = cls(*args)
+                if "state" in node:
+                    obj.__setstate__(self.decode(node["state"]))
+            except (TypeError, ValueError, KeyError, IndexError, AttributeError) as exc:
+                raise ModelError(
+                    f"{self.where}: cannot rebuild a {node['class']} ({exc})"
+                ) from None
+            return obj
+        if t == "object":
+            cls = _import_class(node["class"], OBJECT_PACKAGES, self.where)
+            state = self.decode(node["state"])
+            if not isinstance(state, dict) and not _has_setstate(cls):
+                raise ModelError(f"{self.where}: the state of {node['class']} is damaged")
+            obj = cls.__new__(cls)
+            if _has_setstate(cls):
+                try:
+                    obj.__setstate__(state)
+                except (TypeError, ValueError, KeyError, IndexError) as exc:
+                    raise ModelError(
+                        f"{self.where}: cannot restore a {node['class']} ({exc})"
+                    ) from None
+            elif hasattr(obj, "__dict__"):
+                obj.__dict__.update(state)
+            else:
+                for k, v in state.items():
+                    object.__setattr__(obj, k, v)
+            return obj
+        raise ModelError(f"{self.where}: state.json holds an unknown node type {t!r}")
+
+
+# --------------------------------------------------------------------------- save
+def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    return buffer.getvalue()
+
+
+def _torch_bytes(tensors: dict[str, Any]) -> bytes:
+    import torch
+
+    buffer = io.BytesIO()
+    torch.save(tensors, buffer)
+    return buffer.getvalue()
+
+
+def save_model(obj: Any, path: str | os.PathLike, *, config: dict | None = None) -> Path:
+    """Save a trained model to ``path`` without pickle.
+
+    Parameters
+    ----------
+    obj : scikit-learn estimator, torch module or pdmkit estimator
+        See the module description for what each kind keeps.
+    path : str or path-like
+        The model file (written atomically: an existing file is replaced only when
+        the new one is complete).
+    config : dict, optional
+        For a torch module: its constructor arguments (JSON-able); default the
+        module's ``get_config()`` when it has one.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    pdmkit.errors.ModelError
+        The object holds something that cannot be stored safely (the message names
+        the attribute path and its type), or a torch module without a config.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from pdmkit.rul import ReliabilitySurvivalModel
+    >>> model = ReliabilitySurvivalModel().fit_lifetimes([80.0, 95.0, 110.0, 130.0])
+    >>> path = save_model(model, pathlib.Path(tempfile.mkdtemp()) / "life.pdmkit")
+    >>> loaded = load_model(path)
+    >>> loaded.params_ == model.params_, bool(loaded.dist_.mean() == model.dist_.mean())
+    (True, True)
+    """
+    members: dict[str, bytes] = {}
+    manifest: dict[str, Any] = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "class": _qualname(type(obj)),
+        "versions": _versions(),
+    }
+    if _is_torch_module(obj):
+        name = _qualname(type(obj))
+        if not _allowed(name, TORCH_PACKAGES):
+            raise ModelError(
+                f"cannot save a torch module of class {name}: it must be a class of "
+                f"{', '.join(TORCH_PACKAGES)} that load_model can import and rebuild"
+            )
+        if config is None and hasattr(obj, "get_config"):
+            config = obj.get_config()
+        if config is None:
+            raise ModelError(
+                f"saving the torch module {name} needs config= (its constructor "
+                "arguments as a dict), or a get_config() method on the class"
+            )
+        manifest["kind"] = "torch"
+        members["state.json"] = json.dumps({"config": config}).encode()
+        members["tensors.pt"] = _torch_bytes(
+            {k: v.detach().cpu().clone() for k, v in obj.state_dict().items()}
+        )
+    elif _is_sklearn(obj) and (skops := _skops_bytes(obj)) is not None:
+        manifest["kind"] = "skops"
+        members["model.skops"] = skops
+    else:
+        if config is not None:
+            raise ModelError("config= is only for torch modules")
+        manifest["kind"] = "object"
+        enc = _Encoder()
+        root = enc._object(obj, type(obj).__name__)
+        members["state.json"] = json.dumps(root, allow_nan=False).encode()
+        members["arrays.npz"] = _npz_bytes(enc.arrays)
+        if enc.tensors:
+            members["tensors.pt"] = _torch_bytes(enc.tensors)
+    manifest["sha256"] = {k: hashlib.sha256(v).hexdigest() for k, v in members.items()}
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+            zf.writestr("manifest.json", json.dumps(manifest, indent=2))
+            for name, data in members.items():
+                zf.writestr(name, data)
+    return path
+
+
+def _skops_bytes(obj: Any) -> bytes | None:
+    """``obj`` through skops.io, or None where skops cannot (e.g. pandas attributes)."""
+    import skops.io as sio
+
+    buffer = io.BytesIO()
+    try:
+        sio.dump(obj, buffer)
+    except (TypeError, ValueError, NotImplementedError, AttributeError):
+        return None  # saved as an object tree instead
+    return buffer.getvalue()
+
+
+# --------------------------------------------------------------------------- load
+def _read_members(path: Path) -> tuple[dict[str, Any], dict[str, bytes]]:
+    where = str(path)
+    if not path.is_file():
+        from pdmkit.errors import DataNotFoundError
+
+        raise DataNotFoundError(f"{path} does not exist; expected a pdmkit model file")
+    try:
+        with zipfile.ZipFile(path) as zf:
+            names = zf.namelist()
+            extra = [n for n in names if n not in _MEMBERS]
+            if extra:
+                raise ModelError(
+                    f"{where} holds unexpected member(s) {extra[:5]}; a pdmkit model file "
+                    f"holds only {sorted(_MEMBERS)}: the file was tampered with"
+                )
+            if len(set(names)) != len(names):
+                raise ModelError(f"{where} holds duplicate members: tampered with")
+            data = {n: zf.read(n) for n in names}
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError) as exc:
+        raise ModelError(
+            f"{where} is not a pdmkit model file (not a readable zip archive: {exc}); "
+            "was it written by pdmkit.save_model, and copied whole?"
+        ) from None
+    except (ValueError, NotImplementedError) as exc:  # bad CRC, unknown compression
+        raise ModelError(f"{where} is damaged ({exc}); save the model again") from None
+    if "manifest.json" not in data:
+        raise ModelError(f"{where} lacks manifest.json; not a pdmkit model file")
+    try:
+        manifest = json.loads(data.pop("manifest.json"))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ModelError(f"{where}: manifest.json is not valid JSON ({exc})") from None
+    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
+        raise ModelError(f"{where}: manifest.json is not a pdmkit model manifest")
+    if not isinstance(manifest.get("format_version"), int) or (
+        manifest["format_version"] > FORMAT_VERSION
+    ):
+        raise ModelError(
+            f"{where} has format_version {manifest.get('format_version')!r}; this pdmkit "
+            f"reads up to {FORMAT_VERSION}. Upgrade pdmkit."
+        )
+    sums = manifest.get("sha256")
+    if not isinstance(sums, dict) or set(sums) != set(data):
+        raise ModelError(
+            f"{where}: the checksums in manifest.json do not list exactly the members "
+            f"{sorted(data)}; the file was tampered with or damaged"
+        )
+    for name, blob in data.items():
+        if hashlib.sha256(blob).hexdigest() != sums[name]:
+            raise ModelError(
+                f"{where}: checksum mismatch for {name} (its SHA-256 differs from the "
+                "one in manifest.json); the file was changed after it was saved. "
+                "Do not load it; save the model again"
+            )
+    return manifest, data
+
+
+def _load_npz(blob: bytes, where: str) -> dict[str, np.ndarray]:
+    try:
+        with np.load(io.BytesIO(blob), allow_pickle=False) as npz:
+            return {k: npz[k] for k in npz.files}
+    except ValueError as exc:
+        if "pickle" in str(exc):
+            raise ModelError(
+                f"{where}: arrays.npz holds a pickled object array; pdmkit never "
+                "unpickles model files"
+            ) from None
+        raise ModelError(f"{where}: arrays.npz is damaged ({exc})") from None
+    except (OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise ModelError(f"{where}: arrays.npz is damaged ({exc})") from None
+
+
+def _load_tensors(blob: bytes, where: str) -> dict[str, Any]:
+    import pickle
+
+    import torch
+
+    try:
+        tensors = torch.load(io.BytesIO(blob), weights_only=True, map_location="cpu")
+    except (pickle.UnpicklingError, RuntimeError, EOFError, ValueError) as exc:
+        raise ModelError(
+            f"{where}: tensors.pt holds more than tensors or is damaged; refused "
+            f"(torch.load with weights_only=True: {str(exc).splitlines()[0]})"
+        ) from None
+    if not isinstance(tensors, dict) or not all(
+        isinstance(v, torch.Tensor) for v in tensors.values()
+    ):
+        raise ModelError(f"{where}: tensors.pt must be a flat dict of tensors")
+    return tensors
+
+
+def load_model(path: str | os.PathLike) -> Any:
+    """Load a model saved by :func:`save_model`, after checking it.
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    object
+        The estimator, pipeline or module, ready to predict.
+
+    Raises
+    ------
+    pdmkit.errors.DataNotFoundError
+        The file does not exist.
+    pdmkit.errors.ModelError
+        Not a model file; a checksum mismatch (changed bytes); unexpected members; a
+        pickled payload; a class outside the allowed packages (the message names the
+        file and the problem).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "m.pdmkit"
+    >>> _ = path.write_bytes(b"not a model")
+    >>> load_model(path)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.ModelError: ... is not a pdmkit model file (not a readable zip ...
+    """
+    path = Path(path)
+    where = str(path)
+    manifest, data = _read_members(path)
+    kind = manifest.get("kind")
+    expected = {
+        "skops": {"model.skops"},
+        "torch": {"state.json", "tensors.pt"},
+        "object": {"state.json", "arrays.npz"},
+    }
+    if kind not in expected:
+        raise ModelError(f"{where}: unknown model kind {kind!r} in manifest.json")
+    missing = expected[kind] - set(data)
+    if missing:
+        raise ModelError(f"{where} lacks {sorted(missing)} for a model of kind {kind!r}")
+    if kind == "skops":
+        return _load_skops(data["model.skops"], where)
+    try:
+        state = json.loads(data["state.json"])
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ModelError(f"{where}: state.json is not valid JSON ({exc})") from None
+    tensors = _load_tensors(data["tensors.pt"], where) if "tensors.pt" in data else {}
+    if kind == "torch":
+        cls = _import_class(manifest.get("class"), TORCH_PACKAGES, where)
+        import torch
+
+        if not issubclass(cls, torch.nn.Module):
+            raise ModelError(f"{where}: {manifest['class']} is not a torch module")
+        config = state.get("config") if isinstance(state, dict) else None
+        if not isinstance(config, dict):
+            raise ModelError(f"{where}: state.json lacks the module's config")
+        try:
+            module = cls(**config)
+            module.load_state_dict(tensors)
+        except (TypeError, RuntimeError) as exc:
+            raise ModelError(
+                f"{where}: cannot rebuild {manifest['class']} from its config and "
+                f"weights ({str(exc).splitlines()[0]})"
+            ) from None
+        module.eval()
+        return module
+    arrays = _load_npz(data["arrays.npz"], where)
+    if not (isinstance(state, dict) and state.get("t") == "object"):
+        raise ModelError(f"{where}: state.json does not describe an object")
+    if state.get("class") != manifest.get("class"):
+        raise ModelError(
+            f"{where}: state.json rebuilds {state.get('class')!r} but the manifest "
+            f"says {manifest.get('class')!r}; the file was tampered with"
+        )
+    return _Decoder(arrays, tensors, where).decode(state)
+
+
+def _load_skops(blob: bytes, where: str) -> Any:
+    import skops.io as sio
+
+    try:
+        untrusted = sio.get_untrusted_types(data=blob)
+    except Exception as exc:  # skops raises many types on a damaged archive
+        raise ModelError(f"{where}: the skops payload is damaged ({exc})") from None
+    refused = [t for t in untrusted if not _allowed(t, SKOPS_PACKAGES)]
+    if refused:
+        raise ModelError(
+            f"{where} asks to rebuild the type(s) {refused[:5]}, which are not allowed: "
+            f"only types of {', '.join(p.rstrip('.') for p in SKOPS_PACKAGES)} are "
+            "trusted. Do not load this file"
+        )
+    try:
+        return sio.load(io.BytesIO(blob), trusted=list(untrusted))
+    except Exception as exc:
+        raise ModelError(f"{where}: cannot load the skops payload ({exc})") from None
