@@ -479,6 +479,28 @@ def _cmd_mismatch(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_identify(args: argparse.Namespace) -> int:
+    from pdmkit.experiments._identify import run_identify
+
+    summary = run_identify(
+        args.data,
+        input=args.input,
+        output=args.output,
+        structure=args.structure,
+        order=args.order,
+        out_dir=args.out,
+        json_path=args.json,
+        fs=args.fs,
+        criterion=args.criterion,
+    )
+    modes = ", ".join(f"{f:.4g} Hz" for f in summary["natural_frequencies_hz"] or [])
+    _say(
+        f"{summary['structure']} {summary['order']}: fit {summary['fit_percent']:.1f} %"
+        f"{'; modes ' + modes if modes else ''}; see {args.out}/report.html"
+    )
+    return 0
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     from pdmkit.experiments._demo import run_demo
 
@@ -566,6 +588,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=Path("results/rul"))
     p.add_argument("--json", type=Path)
     p.set_defaults(func=_cmd_rul)
+
+    from pdmkit.experiments._identify import IDENTIFY_STRUCTURES
+
+    p = sub.add_parser(
+        "identify",
+        help="identify a model (poles, resonances, damping) from an input/output record",
+        description="Identify a linear (ar, arx, armax, oe, bj, n4sid), "
+        "Hammerstein-Wiener (hw) or fractional-order model from a CSV/Parquet record.",
+    )
+    p.add_argument("data", type=Path, metavar="DATA", help="CSV or Parquet recording")
+    p.add_argument("--input", required=True, help="input column")
+    p.add_argument("--output", required=True, help="output column")
+    p.add_argument("--structure", default="arx", choices=list(IDENTIFY_STRUCTURES))
+    p.add_argument(
+        "--order", default=None, help="4, or na=4,nb=3,nk=1 (default: by --criterion)"
+    )
+    p.add_argument("--criterion", default="aic", choices=["aic", "bic", "mdl"])
+    p.add_argument("--fs", type=float, help="sampling rate (Hz) when there is no time")
+    p.add_argument("--out", type=Path, default=Path("results/identify"))
+    p.add_argument("--json", type=Path)
+    p.set_defaults(func=_cmd_identify)
 
     p = sub.add_parser(
         "mismatch",

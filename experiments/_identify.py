@@ -46,8 +46,110 @@ def _linear(structure: str) -> Callable[..., Any]:
     return fit
 
 
+def _modes(poles: np.ndarray, fs: float) -> tuple[list[float], list[float]]:
+    """Natural frequencies (Hz) and damping ratios of discrete poles (upper half-plane)."""
+    from pdmkit.models._ident import modes_from_poles
+
+    fn, zeta, _ = modes_from_poles(poles, fs)
+    return [float(v) for v in fn], [float(v) for v in zeta]
+
+
+class _HammersteinWienerResult:
+    """A fitted :class:`~pdmkit.models.HammersteinWiener` in the shape the CLI reports."""
+
+    def __init__(self, model, fs: float):
+        self.model, self.fs = model, fs
+
+    def simulate(self, u) -> np.ndarray:
+        return self.model.predict(u)
+
+    def frequency_response(self, f) -> np.ndarray:
+        """The linear block ``B(q)/F(q)`` at ``f`` Hz (the nonlinearities left out)."""
+        q = np.exp(-2j * np.pi * np.asarray(f, dtype=float) / self.fs)  # q^-1 at f
+        m = self.model
+        b = np.polyval(m.b_[::-1], q) * q**m.nk
+        return b / np.polyval(np.r_[1.0, m.f_][::-1], q)
+
+    def to_dict(self) -> dict:
+        m = self.model
+        fn, zeta = _modes(np.asarray(m.poles_), self.fs)
+        return {
+            "structure": "hw",
+            "order": {"nb": m.nb, "nf": m.nf, "nk": m.nk},
+            "poles": np.asarray(m.poles_),
+            "natural_frequencies_hz": fn,
+            "damping": zeta,
+            "fit_percent": float(m.fit_percent_),
+            "input_nl": str(m.input_nl),
+            "output_nl": str(m.output_nl),
+            "coefficients": dict(zip(m.coef_names_, map(float, m.coef_), strict=True)),
+        }
+
+
+class _FractionalResult:
+    """A fitted fractional-order model in the shape the CLI reports."""
+
+    def __init__(self, fit, fs: float):
+        self.fit, self.fs = fit, fs
+
+    def simulate(self, u) -> np.ndarray:
+        return self.fit.model.simulate(u, 1.0 / self.fs)
+
+    def frequency_response(self, f) -> np.ndarray:
+        return self.fit.model.frequency_response(2 * np.pi * np.asarray(f, dtype=float))
+
+    def to_dict(self) -> dict:
+        fit = self.fit
+        return {
+            "structure": "fractional",
+            "order": {"alpha": fit.alpha, "beta": fit.beta},
+            "poles": [],  # not a rational model: no poles
+            "natural_frequencies_hz": [],
+            "damping": [],
+            "fit_percent": float(fit.fit_percent),
+            "alpha": fit.alpha,
+            "beta": fit.beta,
+            "a": fit.a,
+            "b": fit.b,
+            "c": fit.c,
+            "error": float(fit.error),
+        }
+
+
+def _order_dict(order, keys: tuple[str, ...], structure: str) -> dict:
+    if order is None:
+        return {}
+    if isinstance(order, int):
+        return dict.fromkeys(keys[:2], order)
+    unknown = set(order) - set(keys)
+    if unknown:
+        raise ModelError(
+            f"--order for {structure} takes {', '.join(keys)}; got {sorted(unknown)}."
+        )
+    return dict(order)
+
+
+def _fit_hw(u, y, fs, order, criterion):
+    from pdmkit.models._hammerstein import HammersteinWiener
+
+    opts = _order_dict(order, ("nb", "nf", "nk"), "hw")
+    return _HammersteinWienerResult(HammersteinWiener(**opts).fit(u, y), fs)
+
+
+def _fit_fractional(u, y, fs, order, criterion):
+    from pdmkit.models._fractional import fit_fractional_tf
+
+    fixed = _order_dict(order, ("alpha", "beta"), "fractional") or None
+    fit = fit_fractional_tf(u, y, fs, domain="time", fixed_orders=fixed)
+    return _FractionalResult(fit, fs)
+
+
 #: Structure name -> ``fit(u, y, fs, order, criterion)``; extend to add structures.
-IDENTIFY_STRUCTURES: dict[str, Callable[..., Any]] = {s: _linear(s) for s in STRUCTURES}
+IDENTIFY_STRUCTURES: dict[str, Callable[..., Any]] = {
+    **{s: _linear(s) for s in STRUCTURES},
+    "hw": _fit_hw,
+    "fractional": _fit_fractional,
+}
 
 
 def parse_order(text: str | int | dict | None) -> int | dict | None:
@@ -265,7 +367,9 @@ def run_identify(
         Column names.
     structure : str, default "arx"
         A key of :data:`IDENTIFY_STRUCTURES` (``ar``, ``arx``, ``armax``, ``oe``,
-        ``bj``, ``n4sid``).
+        ``bj``, ``n4sid``; ``hw``: a Hammerstein-Wiener model with a dead zone at the
+        input, order ``nb,nf,nk``; ``fractional``: ``1/(a s^alpha + b s^beta + c)``
+        fitted in the time domain, ``--order alpha=2,beta=1`` fixes the orders).
     order : int, dict, str or None
         See :func:`parse_order`; None selects it by ``criterion``.
     out_dir : path

@@ -13,6 +13,12 @@ import pandas as pd
 
 from pdmkit._progress import progress as _progress_bar
 from pdmkit.errors import DataError
+from pdmkit.features._ar import (
+    AR_DEFAULT_ORDER,
+    _ar_feature_rows,
+    ar_feature_names,
+    resolve_ar_options,
+)
 from pdmkit.features._common import (
     MemberDataError,
     check_fs,
@@ -30,6 +36,12 @@ from pdmkit.features._envelope import (
     _envelope_feature_rows,
     envelope_feature_names,
     resolve_envelope_options,
+)
+from pdmkit.features._model_features import (
+    MODEL_GROUP_OPTIONS,
+    _model_feature_rows,
+    model_feature_names,
+    resolve_model_options,
 )
 from pdmkit.features._spectral import (
     _spectral_rows,
@@ -72,6 +84,9 @@ GROUP_OPTIONS: dict[str, dict[str, object]] = {
         "cycle_windows": 8,
         "event_windows": EVENT_WINDOWS,
     },
+    "ar": {"ar_order": AR_DEFAULT_ORDER},
+    # model-based groups fitted between an input and each member: frf, hw, fractional
+    **MODEL_GROUP_OPTIONS,
 }
 GROUPS = tuple(GROUP_OPTIONS)
 _OPTION_GROUP = {opt: group for group, opts in GROUP_OPTIONS.items() for opt in opts}
@@ -216,6 +231,12 @@ def _resolve(groups, options: dict, n_samples: int, n_members: int, fs: float) -
                         f"{n_members} members; pass one value, or one per member"
                     )
             plan[group] = resolved
+        elif group == "ar":
+            plan[group] = resolve_ar_options(
+                given.get("ar_order", AR_DEFAULT_ORDER), n_samples
+            )
+        elif group in MODEL_GROUP_OPTIONS:
+            plan[group] = resolve_model_options(group, n_members, n_samples, **given)
     return plan
 
 
@@ -233,6 +254,10 @@ def _feature_names(group: str, settings: dict) -> list[str]:
             settings["n_windows"],
             settings["event_windows"],
         )
+    if group == "ar":
+        return ar_feature_names(settings["order"])
+    if group in MODEL_GROUP_OPTIONS:
+        return model_feature_names(group, settings)
     return envelope_feature_names(settings["n_harmonics"])
 
 
@@ -249,6 +274,10 @@ def _compute(group: str, x: np.ndarray, fs: float, settings: dict, rows: slice):
             for name in ("period", "start")
         }
         return _cycle_feature_rows(x, fs, {**settings, **per_member})
+    if group == "ar":
+        return _ar_feature_rows(x, fs, settings)
+    if group in MODEL_GROUP_OPTIONS:
+        return _model_feature_rows(group, x, fs, settings, rows)
     if settings["shaft_hz"].ndim == 1:
         settings = {**settings, "shaft_hz": settings["shaft_hz"][rows]}
     return _envelope_feature_rows(x, fs, settings)
@@ -334,6 +363,15 @@ def extract(
         ``"cycle"``
             Per-stroke transition and event indicators and phase-window statistics of
             a cyclic machine (see :func:`cycle_features`); needs ``cycle_period``.
+        ``"ar"``
+            Natural frequencies and damping ratios of the poles of an AR model fitted
+            to each member, its fit and residual level (see :func:`ar_features`).
+        ``"frf"``, ``"hw"``, ``"fractional"``
+            Model-based indicators between a known input and each member: the H1
+            frequency response and a rational fit to it, Hammerstein-Wiener
+            coefficients, fractional-order transfer-function coefficients (see
+            :func:`frf_features`, :func:`hw_features`, :func:`fractional_features`);
+            each needs ``<group>_input``.
     axis : int, default -1
         Axis of ``signals`` holding the samples (0 for a ``(samples, members)`` array).
     batch_size : int, optional
@@ -352,6 +390,13 @@ def extract(
         - ``"envelope"``: ``bearing`` (:class:`BearingGeometry`), ``shaft_hz`` (Hz, one
           value or one per member), ``envelope_band=None`` (band-pass before the
           envelope, Hz), ``tolerance=0.02``, ``envelope_harmonics=3``.
+        - ``"ar"``: ``ar_order=8``.
+        - ``"frf"``: ``frf_input`` (array, shared or one row per member),
+          ``frf_nperseg``, ``frf_fmin``, ``frf_fmax``, ``frf_order=2``.
+        - ``"hw"``: ``hw_input``, ``hw_input_nl``, ``hw_output_nl``, ``hw_nb``,
+          ``hw_nf``, ``hw_nk``, ``hw_initial``.
+        - ``"fractional"``: ``fractional_input``, ``fractional_nperseg``,
+          ``fractional_fmax``.
 
     Returns
     -------
