@@ -113,8 +113,35 @@ def _add_input_options(
         default=None,
         help="use only these signals' indicators (default: the dataset's choice, else all)",
     )
+    parser.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="an indicator-group option (repeat), e.g. ar_order=12, nperseg=2048, "
+        "frf_input=Force (a model group's input signal)",
+    )
     parser.add_argument("--out", type=Path, default=Path("results"), help="output folder")
     parser.add_argument("--json", type=Path, help="also write the JSON summary here")
+
+
+def _group_options(items: Sequence[str]) -> dict:
+    """``["ar_order=12", "frf_input=Force"]`` -> ``{"ar_order": 12, "frf_input": "Force"}``.
+
+    Values are read as JSON where they parse (numbers, lists, true/false, null),
+    otherwise kept as text (a signal name).
+    """
+    options = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip():
+            raise DataError(f"--option takes KEY=VALUE, e.g. ar_order=12; got {item!r}")
+        try:
+            value = json.loads(text)
+        except ValueError:
+            value = text
+        options[key.strip()] = value
+    return options
 
 
 def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
@@ -122,6 +149,7 @@ def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
     from pdmkit.experiments._datasets import get_profile
 
     groups = tuple(args.groups) if args.groups else ("stats", "spectral")
+    extra = _group_options(getattr(args, "option", []) or [])
     if args.dataset is not None:
         profile = get_profile(args.dataset)
         _say(f"loading dataset {profile.name!r}")
@@ -129,7 +157,8 @@ def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
         groups = tuple(args.groups) if args.groups else profile.groups
         sensors = {k: list(v) for k, v in profile.sensors.items()}
         label = args.label or profile.label
-        return ensemble, groups, profile.options(), label, sensors, profile, None
+        options = {**profile.options(), **extra}
+        return ensemble, groups, options, label, sensors, profile, None
     if getattr(args, "members", None):
         from pdmkit.ensembles._readers import read_members
 
@@ -140,9 +169,9 @@ def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
             on_error=on_error,
             return_errors=True,
         )
-        return ensemble, groups, {}, args.label, None, None, errors
+        return ensemble, groups, extra, args.label, None, None, errors
     # a path or fsspec URL: streamed in batches, never loaded whole
-    return str(args.ensemble), groups, {}, args.label, None, None, None
+    return str(args.ensemble), groups, extra, args.label, None, None, None
 
 
 def _feature_table(args: argparse.Namespace):

@@ -539,6 +539,48 @@ def _present_same_length(batch, name, ids, skip, errors):
     return np.stack([xs[i] for i in np.flatnonzero(mask)]), mask
 
 
+def _named_inputs(batch, options, ids, skip, errors):
+    """Model-group inputs given as a signal name (``frf_input="Force"``), per member.
+
+    Returns ``({option: array (members, samples)}, has_all_inputs mask)``; members
+    lacking an input signal are errors (skipped with ``skip``).
+    """
+    named = {
+        k: v for k, v in options.items() if k.endswith("_input") and isinstance(v, str)
+    }
+    has_all = np.ones(len(ids), dtype=bool)
+    inputs = {}
+    for key, signal in named.items():
+        if signal not in batch.signal_names:
+            raise DataError(
+                f"{key}={signal!r} names no signal of the ensemble; its signals are "
+                f"{list(batch.signal_names)}"
+            )
+        values, mask = _present_same_length(batch, signal, ids, skip, errors)
+        mask = np.asarray(mask, dtype=bool)
+        missing = ids[~mask]
+        if len(missing) and not skip:
+            raise DataError(
+                f"{key}={signal!r}: members {list(missing[:5])} lack that input signal "
+                "(pass on_error='skip' to leave them out)"
+            )
+        for member in missing:
+            errors.append(
+                _error_row(
+                    member,
+                    signal,
+                    None,
+                    f"member {member!r} lacks the input signal "
+                    f"{signal!r} of {key}; member skipped",
+                )
+            )
+        full = np.full((len(ids), values.shape[1]), np.nan)
+        full[mask] = values
+        inputs[key] = full
+        has_all &= mask
+    return inputs, has_all
+
+
 def _worker_threads() -> int | None:
     """Threads of the Dask worker running this task (None outside a worker)."""
     import sys
@@ -572,9 +614,13 @@ def _batch_table(
         )
     parts = [conditions]
     n_errors = len(errors)
+    inputs, has_inputs = _named_inputs(batch, options, ids, skip, errors)
     for name in names:
         array, mask = _present_same_length(batch, name, ids, skip, errors)
         mask = np.asarray(mask, dtype=bool)
+        if inputs:  # model groups: keep the members that have their input signals too
+            array = array[has_inputs[mask]]
+            mask = mask & has_inputs
         if skip and signals is not None:  # a signal asked for by name must be there
             for i in np.flatnonzero(~batch.has_signal(name)):
                 errors.append(
@@ -596,6 +642,9 @@ def _batch_table(
                     f"are {list(conditions.columns)}"
                 )
         while len(present):
+            rows_of = ids.get_indexer(present)
+            for key, values in inputs.items():
+                opts[key] = values[rows_of]
             if shaft_column is not None:
                 opts["shaft_hz"] = conditions.loc[present, shaft_column].to_numpy(
                     dtype=float
@@ -644,9 +693,15 @@ def _extract_task(item, signals, groups, options, shaft_column, on_error):
     source = None
     if isinstance(item, Partition):
         source = f"{item.root} (members {item.start}:{item.stop})"
+        wanted = signals
+        if signals is not None:  # model groups' input signals are read too
+            named = [v for k, v in options.items() if k.endswith("_input")]
+            wanted = list(
+                dict.fromkeys([*signals, *(v for v in named if isinstance(v, str))])
+            )
         try:
             batch = read_partition(
-                item, signals=signals, errors=errors if on_error == "skip" else None
+                item, signals=wanted, errors=errors if on_error == "skip" else None
             )
         except DataError as exc:
             if on_error != "skip":
@@ -720,7 +775,9 @@ def extract_ensemble(
         Also return the errors table (columns ``member``, ``signal``, ``source``,
         ``error``; empty when nothing went wrong).
     **options
-        Group options, as for :func:`extract`. ``shaft_hz`` may also name a condition
+        Group options, as for :func:`extract`. ``<group>_input`` of a model group
+        (``frf``, ``hw``, ``fractional``) may name a signal of the ensemble: each
+        member's own recording of it is the input. ``shaft_hz`` may also name a condition
         column holding each member's shaft speed in Hz.
 
     Returns

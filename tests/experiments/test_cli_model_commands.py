@@ -145,3 +145,30 @@ def test_mismatch_cli_names_the_hidden_friction(tmp_path, capsys):
     assert summary["verdict"]["target"] == case.target
     assert summary["fit"]["rmse_augmented"] < 0.5 * summary["fit"]["rmse_nominal"]
     assert "verdict:" in capsys.readouterr().err
+
+
+def test_features_cli_model_group_with_a_named_input_signal(tmp_path):
+    from pdmkit.ensembles import Ensemble
+
+    rng = np.random.default_rng(5)
+    n, forces, accels = 4000, [], []
+    for fn in (15.0, 30.0, 45.0):
+        wn = 2 * np.pi * fn
+        s = -0.03 * wn + 1j * wn * np.sqrt(1 - 0.03**2)
+        den = np.real(np.poly([np.exp(s / FS), np.exp(np.conj(s) / FS)]))
+        u = rng.normal(size=n)
+        forces.append(u)
+        accels.append(signal.lfilter([0.0, 1.0], den, u))
+    ens = Ensemble({"Force": np.array(forces), "Accel": np.array(accels)}, fs=FS)
+    ens.to_parquet(tmp_path / "rig")
+    out = tmp_path / "feat"
+    code = _cli(
+        "features", "--ensemble", tmp_path / "rig", "--signals", "Accel",
+        "--groups", "frf", "ar", "--option", "frf_input=Force",
+        "--option", "frf_nperseg=512", "--option", "ar_order=2", "--out", out,
+    )  # fmt: skip
+    assert code == 0
+    table = pd.read_parquet(out / "features.parquet")
+    np.testing.assert_allclose(table["Accel/frf/PeakFreq"], [15, 30, 45], atol=0.5)
+    np.testing.assert_allclose(table["Accel/ar/Freq1"], [15, 30, 45], rtol=0.01)
+    assert _cli("features", "--ensemble", tmp_path / "rig", "--option", "nokey") == 2

@@ -46,3 +46,32 @@ def test_model_group_options_are_checked_by_group():
     with pytest.raises(ValueError, match="frf"):
         pf.extract(x, FS, groups=("stats",), frf_input=u)  # option of an unused group
     assert {"ar", "frf", "hw", "fractional"} <= set(pf.GROUPS)
+
+
+def test_ensemble_input_named_by_signal():
+    from pdmkit.ensembles import Ensemble
+
+    rng = np.random.default_rng(1)
+    forces, accels = [], []
+    for fn in (40.0, 40.0, 90.0, 90.0):
+        u, x = _resonators([fn], seed=int(rng.integers(1 << 30)))
+        forces.append(u)
+        accels.append(x[0])
+    ens = Ensemble(
+        {"Force": np.array(forces), "Accel": np.array(accels)},
+        fs=FS,
+        conditions={"state": ["a", "a", "b", "b"]},
+    )
+    table = pf.extract_ensemble(
+        ens, signals=["Accel"], groups=("frf",), frf_input="Force", frf_nperseg=1024
+    )
+    np.testing.assert_allclose(table["Accel/frf/PeakFreq"], [40, 40, 90, 90], atol=1.5)
+    # each member's own force is its input: a swapped input ruins the coherence
+    swapped = Ensemble({"Force": np.array(forces)[::-1], "Accel": np.array(accels)}, fs=FS)
+    bad = pf.extract_ensemble(
+        swapped, signals=["Accel"], groups=("frf",), frf_input="Force", frf_nperseg=1024
+    )
+    assert (bad["Accel/frf/MeanCoherence"] < 0.2).all()
+    assert (table["Accel/frf/MeanCoherence"] > 0.9).all()
+    with pytest.raises(DataError, match="names no signal"):
+        pf.extract_ensemble(ens, groups=("frf",), frf_input="Forse")
