@@ -3,17 +3,20 @@
 For each walk shape (the roughness of the leak coefficient's random walk; 4 is the
 twin's default), simulates ``--train`` training and ``--test`` test units
 (:func:`pdmkit.experiments._rul.simulate_leak_dataset`, cached under ``--cache``) and
-runs ``run_rul("pneumatic-leak", model)`` for the linear degradation, residual
-similarity and pairwise similarity models on the best-ranked indicator, plus linear
-degradation on the seed's indicator (the flow shape factor). Each row reports RMSE and
-MAE over the last half of the test units' lives and the fraction of test units within
-10 % under each reading of :func:`pdmkit.experiments._rul.leak_accuracy`; the
-``true_leak`` columns are the same model fed the true ``log10 C_al`` (what the random
-walk alone allows). ``--paths N`` (default 1500) also draws N leak paths per walk shape
-without simulating the twin and scores two predictors of the failing cycle on them
-under the every-cycle 10 %-of-life reading: a least-squares line through the true
-``log C_al`` so far, and an oracle that knows the unit's rate and extrapolates from the
-current value (the ceiling of any predictor that does not see the future steps).
+runs ``run_rul("pneumatic-leak", model)`` for the linear degradation, Wiener-process,
+gamma-process, residual similarity and pairwise similarity models on the best-ranked
+indicator, plus linear degradation on the seed's indicator (the flow shape factor). Each
+row reports RMSE and MAE over the last half of the test units' lives and the fraction of
+test units within 10 % under each reading of
+:func:`pdmkit.experiments._rul.leak_accuracy`; the ``true_leak`` columns are the same
+model fed the true ``log10 C_al`` (what the random walk alone allows). ``--paths N``
+(default 1500) also draws N leak paths per walk shape without simulating the twin and
+scores predictors of the failing cycle on them under the every-cycle 10 %-of-life
+reading: a least-squares line through the true ``log C_al`` so far, an oracle that knows
+the unit's rate and extrapolates from the current value (the ceiling of any predictor
+that does not see the future steps), and the Wiener and gamma-process models fitted on
+200 further paths (which, like any real predictor, must learn each unit's rate from its
+own increments).
 
 Usage::
 
@@ -31,31 +34,64 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from pdmkit.ensembles._pneumatic import _leak_path
-from pdmkit.experiments._rul import run_rul
+from pdmkit.experiments._rul import leak_accuracy, run_rul
+from pdmkit.rul import GammaProcessDegradationModel, WienerDegradationModel
 
-MODELS = ("linear-degradation", "similarity", "pairwise")
+MODELS = ("linear-degradation", "wiener", "gamma-process", "similarity", "pairwise")
 SEED_INDICATOR = "FlowExtrusion/stats/ShapeFactor"
 
 
-def process_ceiling(n_paths: int, shape: float, seed: int = 0, max_cycles: int = 60):
-    """Fraction of leak paths whose every last-half prediction is within 10 % of life.
-
-    Draws the paths exactly as :func:`pdmkit.ensembles.simulate_leak_runs` does (its
+def _draw_paths(rng, n_paths, shape, max_cycles):
+    """``n_paths`` true ``log C_al`` paths (cycle 0 to the failing cycle) and their
+    rates, drawn exactly as :func:`pdmkit.ensembles.simulate_leak_runs` draws them (its
     ``_leak_path``). The unit's rate follows from its target life, the generator's first
     draw: the state is saved, the target drawn, and the state restored so that
     ``_leak_path`` draws the same target.
     """
-    rng = np.random.default_rng(seed)
     lo, hi = np.log(1e-10), np.log(1e-6)
-    ok = {"least_squares": [], "known_rate": []}
+    out = []
     for _ in range(n_paths):
         state = rng.bit_generator.state
         target = int(rng.integers(int(0.4 * max_cycles), max_cycles + 1))
         rng.bit_generator.state = state  # _leak_path draws the same target again
         path = np.log(_leak_path(rng, max_cycles, 1e-10, 1e-6, shape))
-        life, rate = len(path) - 1, (hi - lo) / target
+        out.append((path, (hi - lo) / target))
+    return out
+
+
+def _path_table(paths, first_unit=0):
+    return pd.DataFrame(
+        {
+            "unit": np.concatenate(
+                [np.full(len(p), first_unit + i) for i, (p, _) in enumerate(paths)]
+            ),
+            "cycle": np.concatenate([np.arange(len(p), dtype=float) for p, _ in paths]),
+            "hi": np.concatenate([p for p, _ in paths]),
+        }
+    )
+
+
+def process_ceiling(
+    n_paths: int, shape: float, seed: int = 0, max_cycles: int = 60, n_train: int = 200
+):
+    """Fraction of leak paths whose every last-half prediction is within 10 % of life.
+
+    Predictors of the failing cycle from the true ``log C_al`` so far: a least-squares
+    line, an oracle that knows the unit's rate and extrapolates from the current value
+    (the ceiling of any predictor that does not see the future steps), and the Wiener
+    and gamma-process models fitted on ``n_train`` further paths (they must learn each
+    unit's rate from its own increments, as any real predictor must). For the models,
+    also the coverage of their 90 % intervals over the last-half predictions.
+    """
+    rng = np.random.default_rng(seed)
+    hi = np.log(1e-6)
+    paths = _draw_paths(rng, n_paths, shape, max_cycles)
+    ok = {"least_squares": [], "known_rate": []}
+    for path, rate in paths:
+        life = len(path) - 1
         good = {k: True for k in ok}
         for k in range(int(np.ceil(life / 2)), life):
             t = np.arange(k + 1.0)
@@ -69,7 +105,25 @@ def process_ceiling(n_paths: int, shape: float, seed: int = 0, max_cycles: int =
                 good[key] &= abs(value - (life - k)) <= 0.1 * life
         for key in ok:
             ok[key].append(good[key])
-    return {k: float(np.mean(v)) for k, v in ok.items()}
+    result = {k: float(np.mean(v)) for k, v in ok.items()}
+    test = _path_table(paths)
+    life = test.groupby("unit")["cycle"].max()
+    train = _path_table(_draw_paths(rng, n_train, shape, max_cycles), first_unit=n_paths)
+    for key, model in (
+        ("wiener", WienerDegradationModel()),
+        ("gamma_process", GammaProcessDegradationModel()),
+    ):
+        pred = model.fit(train).predict_trajectory(test).to_pandas()
+        acc = leak_accuracy(pred["unit"], pred["time"], pred["rul"], life)
+        true = life.reindex(pred["unit"]).to_numpy() - pred["time"].to_numpy()
+        last = (pred["time"].to_numpy() >= (true + pred["time"].to_numpy()) / 2) & (
+            true > 0
+        )
+        inside = (pred["lower"] <= true) & (true <= pred["upper"])
+        result[key] = float(acc["of_life"].mean())
+        result[f"{key}_mean_of_life"] = float(acc["mean_of_life"].mean())
+        result[f"{key}_coverage"] = float(inside[last].mean())
+    return result
 
 
 def main(argv=None) -> dict:
@@ -86,11 +140,13 @@ def main(argv=None) -> dict:
     for shape in args.shapes:
         if args.paths > 0:
             ceilings[shape] = process_ceiling(args.paths, shape, seed=args.seed)
+            c = ceilings[shape]
             print(
                 f"shape {shape:>4g} true leak paths ({args.paths}), units every-cycle "
-                f"within 10 % of life: least-squares line "
-                f"{ceilings[shape]['least_squares']:.3f}, known rate "
-                f"{ceilings[shape]['known_rate']:.3f}",
+                f"within 10 % of life: least-squares line {c['least_squares']:.3f}, "
+                f"known rate {c['known_rate']:.3f}, Wiener {c['wiener']:.3f} "
+                f"(coverage {c['wiener_coverage']:.3f}), gamma process "
+                f"{c['gamma_process']:.3f} (coverage {c['gamma_process_coverage']:.3f})",
                 flush=True,
             )
     rows = []

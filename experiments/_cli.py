@@ -607,6 +607,8 @@ def build_parser() -> argparse.ArgumentParser:
             "hash",
             "degradation",
             "linear-degradation",
+            "wiener",
+            "gamma-process",
             "survival",
             "covariate",
             "neural",

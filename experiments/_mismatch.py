@@ -38,10 +38,8 @@ def mismatch_summary(result: MismatchResult, **sources: Any) -> dict:
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import generate_concealed_case
-    >>> from pdmkit.models._mismatch import discover_mismatch
-    >>> case = generate_concealed_case("none", 0.2, seed=1, n_samples=300)
-    >>> res = discover_mismatch(case.model, case.data, effects=["sensor_offset"])
+    >>> from pdmkit.models._mismatch_cases import example_result
+    >>> res = example_result()
     >>> list(mismatch_summary(res))[:4]
     ['verdict', 'located', 'candidates', 'fit']
     """
@@ -138,10 +136,8 @@ def build_mismatch_report(result: MismatchResult, summary: dict, title: str) -> 
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import generate_concealed_case
-    >>> from pdmkit.models._mismatch import discover_mismatch
-    >>> case = generate_concealed_case("none", 0.2, seed=1, n_samples=300)
-    >>> res = discover_mismatch(case.model, case.data, effects=["sensor_offset"])
+    >>> from pdmkit.models._mismatch_cases import example_result
+    >>> res = example_result()
     >>> rep = build_mismatch_report(res, mismatch_summary(res), "demo")
     >>> "Ranked candidates" in rep.to_html()
     True

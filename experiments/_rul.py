@@ -10,6 +10,11 @@ units and predicts each test unit's RUL at its last observed cycle:
 - ``"degradation"`` (alias ``"exponential-degradation"``): the indicator smoothed
   (``ewm`` span 10), :class:`pdmkit.rul.ExponentialDegradationModel` with the mean final
   indicator of the training units as threshold; ``"linear-degradation"`` likewise;
+  ``"wiener"``: :class:`pdmkit.rul.WienerDegradationModel` (Brownian motion with a
+  unit-specific drift, first-passage RUL) on the same indicator; ``"gamma-process"``:
+  :class:`pdmkit.rul.GammaProcessDegradationModel` (monotone gamma increments with a
+  unit-specific rate); both with ``transform="auto"`` (an exponential transform of the
+  indicator chosen by profile likelihood on the training units);
 - ``"survival"`` (alias ``"reliability"``): a Weibull lifetime distribution,
   conditional on the age reached; ``"covariate"``: a Weibull proportional-hazards model
   on the smoothed indicator;
@@ -64,6 +69,8 @@ RUL_MODELS = {
     "degradation": "exponential degradation model with Bayesian updating",
     "exponential-degradation": "exponential degradation model with Bayesian updating",
     "linear-degradation": "linear degradation model with Bayesian updating",
+    "wiener": "Wiener-process degradation (drift updated per unit, first-passage RUL)",
+    "gamma-process": "gamma-process degradation (rate updated per unit, first passage)",
     "survival": "Weibull reliability model, conditional on the age reached",
     "reliability": "Weibull reliability model, conditional on the age reached",
     "covariate": "Weibull proportional hazards on the health indicator",
@@ -481,6 +488,8 @@ def make_rul_model(
         "degradation",
         "exponential-degradation",
         "linear-degradation",
+        "wiener",
+        "gamma-process",
         "covariate",
     )
     indicator = rul.HealthIndicator(features, smoothing=smoothing if smooth else None)
@@ -499,6 +508,14 @@ def make_rul_model(
     elif model == "linear-degradation":
         est = rul.LinearDegradationModel(
             **{"max_rul": rul_cap, "random_state": seed, **opts}
+        )
+    elif model == "wiener":  # deterministic: quantiles by bisection, no draws
+        est = rul.WienerDegradationModel(
+            **{"max_rul": rul_cap, "transform": "auto", **opts}
+        )
+    elif model == "gamma-process":
+        est = rul.GammaProcessDegradationModel(
+            **{"max_rul": rul_cap, "transform": "auto", **opts}
         )
     else:
         est = rul.CovariateSurvivalModel("hi", **{"max_rul": rul_cap, **opts})

@@ -98,6 +98,7 @@ from pdmkit.models._mismatch import MismatchResult, discover_mismatch, dm_test
 from pdmkit.models._mismatch_cases import (
     SHOWCASE_NAMES,
     ConcealedCase,
+    example_result,
     generate_concealed_case,
     score_concealed_cases,
     showcase_model,
@@ -135,6 +136,13 @@ from pdmkit.models._sensors import (
     SENSOR_UNITS,
     SensorSpec,
     default_sensor_specs,
+)
+from pdmkit.models._sparse import (
+    SparseTerms,
+    Term,
+    library_terms,
+    sparse_equation,
+    stlsq_path,
 )
 from pdmkit.models._subspace import n4sid, ss_predict, ss_simulate
 from pdmkit.models._symbolic import (
@@ -186,8 +194,10 @@ __all__ = [
     "ResponseData",
     "Saturation",
     "SensorSpec",
+    "SparseTerms",
     "SymbolicAnomaly",
     "TFFit",
+    "Term",
     "amplitude_dependence",
     "ar",
     "armax",
@@ -200,6 +210,7 @@ __all__ = [
     "discover_mismatch",
     "dm_test",
     "estimate_parameters",
+    "example_result",
     "fit_fractional_frf",
     "fit_fractional_tf",
     "fit_frf_params",
@@ -213,6 +224,7 @@ __all__ = [
     "hankel_singular_values",
     "identify",
     "initial_state",
+    "library_terms",
     "linearize",
     "load_model_file",
     "make_recording",
@@ -237,10 +249,12 @@ __all__ = [
     "simulate_ivp",
     "simulate_ode",
     "smooth_tracks",
+    "sparse_equation",
     "ss_predict",
     "ss_simulate",
     "stack_params",
     "state_probabilities",
+    "stlsq_path",
     "symbolize",
     "track_poles",
     "valve_command",

@@ -215,7 +215,10 @@ class Effect:
         return float(self.options[name])
 
     def __hash__(self) -> int:
-        return hash((self.candidate.id, self.candidate.attach, self.target, self.partner))
+        sig = getattr(self.candidate, "signature", None)  # data-driven term sets
+        return hash(
+            (self.candidate.id, self.candidate.attach, self.target, self.partner, sig)
+        )
 
     def __eq__(self, other) -> bool:
         return isinstance(other, Effect) and hash(self) == hash(other)
@@ -789,8 +792,12 @@ _ALL: tuple[Candidate, ...] = (
 #: candidate by ``(id, attach)``
 CANDIDATES: dict[tuple[str, str], Candidate] = {(c.id, c.attach): c for c in _ALL}
 
-#: the effect ids, in library order (``saturation`` and ``backlash`` attach in two places)
-CANDIDATE_IDS: tuple[str, ...] = tuple(dict.fromkeys(c.id for c in _ALL))
+#: id of the data-driven fallback (:mod:`pdmkit.models._sparse`), tried after the others
+SPARSE_ID = "sparse"
+
+#: the effect ids, in library order (``saturation`` and ``backlash`` attach in two
+#: places), then the data-driven fallback ``sparse``
+CANDIDATE_IDS: tuple[str, ...] = (*dict.fromkeys(c.id for c in _ALL), SPARSE_ID)
 
 _ATTACH_TEXT = {
     "velocity": "velocity / angular-velocity state (term on its derivative)",
@@ -798,11 +805,16 @@ _ATTACH_TEXT = {
     "input": "an input (transforms the signal the model receives)",
     "level": "level / pressure state (term on its derivative)",
     "output": "an output (sensor model)",
+    "state": "any non-kinematic state (term on its derivative)",
 }
 
 
 def candidate_library():
     """The candidate effects as a table: id, where each attaches, parameters, physics.
+
+    The last row is the data-driven fallback ``sparse``
+    (:mod:`pdmkit.models._sparse`), whose parameters are the coefficients of the terms
+    it selects.
 
     Returns
     -------
@@ -814,22 +826,32 @@ def candidate_library():
     >>> from pdmkit.models._candidates import candidate_library
     >>> lib = candidate_library()
     >>> len(lib), sorted(lib.loc[lib["id"] == "saturation", "attach"])
-    (18, ['input', 'level'])
+    (19, ['input', 'level'])
+    >>> lib["id"].iloc[-1]
+    'sparse'
     """
     import pandas as pd
 
-    return pd.DataFrame(
-        [
-            {
-                "id": c.id,
-                "attach": c.attach,
-                "where": _ATTACH_TEXT[c.attach],
-                "params": ", ".join(c.param_names),
-                "physics": c.physics.split(":")[0],
-            }
-            for c in _ALL
-        ]
+    rows = [
+        {
+            "id": c.id,
+            "attach": c.attach,
+            "where": _ATTACH_TEXT[c.attach],
+            "params": ", ".join(c.param_names),
+            "physics": c.physics.split(":")[0],
+        }
+        for c in _ALL
+    ]
+    rows.append(
+        {
+            "id": SPARSE_ID,
+            "attach": "state",
+            "where": _ATTACH_TEXT["state"],
+            "params": "c0, c1, ... (one per selected term)",
+            "physics": "Data-driven term (sparse regression through the simulation)",
+        }
     )
+    return pd.DataFrame(rows)
 
 
 def _position_partner(model, velocity: str, sc: Scales | None) -> str | None:

@@ -16,7 +16,14 @@
    Diebold-Mariano test on the validation errors with a HAC variance, a minimum
    relative improvement, and a lower BIC); otherwise the verdict is ``none``;
 5. when one effect is accepted, try it together with each runner-up and keep the pair
-   when it improves significantly again.
+   when it improves significantly again;
+6. when the residual left (after the accepted effect, or of the nominal model when none
+   was accepted) still fails the whiteness test, run the data-driven fallback
+   (:mod:`pdmkit.models._sparse`): a short equation selected by sparse regression
+   through the simulation. It becomes the verdict (``sparse``) only when it beats that
+   model by the same significance test and, when it would replace an accepted named
+   effect, also leaves a white validation residual; its output is an equation such as
+   ``dv/dt += -2.31*x**2*v``.
 
 References: Ljung, *System Identification*, 2nd ed., 1999 (residual tests); Diebold &
 Mariano, *Comparing predictive accuracy*, JBES 1995.
@@ -32,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from pdmkit.errors import ModelError
-from pdmkit.models._candidates import Effect, Scales, attach_candidates
+from pdmkit.models._candidates import SPARSE_ID, Effect, Scales, attach_candidates
 from pdmkit.models._mismatch_fit import (
     Recording,
     _choose_n_sub,
@@ -145,10 +152,8 @@ class MismatchResult:
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import generate_concealed_case
-    >>> from pdmkit.models._mismatch import discover_mismatch
-    >>> case = generate_concealed_case("none", 0.2, seed=1, n_samples=300)
-    >>> res = discover_mismatch(case.model, case.data, effects=["sensor_offset"])
+    >>> from pdmkit.models._mismatch_cases import example_result
+    >>> res = example_result()
     >>> res.verdict["effect"], res.augmented_effects
     ('none', ())
     """
@@ -172,10 +177,8 @@ class MismatchResult:
 
         Examples
         --------
-        >>> from pdmkit.models._mismatch_cases import generate_concealed_case
-        >>> from pdmkit.models._mismatch import discover_mismatch
-        >>> case = generate_concealed_case("none", 0.2, seed=1, n_samples=300)
-        >>> res = discover_mismatch(case.model, case.data, effects=["sensor_offset"])
+        >>> from pdmkit.models._mismatch_cases import example_result
+        >>> res = example_result()
         >>> sorted(res.to_dict())[:4]
         ['candidates', 'fit', 'located', 'regions']
         """
@@ -206,10 +209,8 @@ class MismatchResult:
 
         Examples
         --------
-        >>> from pdmkit.models._mismatch_cases import generate_concealed_case
-        >>> from pdmkit.models._mismatch import discover_mismatch
-        >>> case = generate_concealed_case("none", 0.2, seed=1, n_samples=300)
-        >>> res = discover_mismatch(case.model, case.data, effects=["sensor_offset"])
+        >>> from pdmkit.models._mismatch_cases import example_result
+        >>> res = example_result()
         >>> list(res.to_pandas().columns)[:3]
         ['effect', 'target', 'variant']
         """
@@ -222,10 +223,8 @@ class MismatchResult:
 
         Examples
         --------
-        >>> from pdmkit.models._mismatch_cases import generate_concealed_case
-        >>> from pdmkit.models._mismatch import discover_mismatch
-        >>> case = generate_concealed_case("none", 0.2, seed=1, n_samples=300)
-        >>> res = discover_mismatch(case.model, case.data, effects=["sensor_offset"])
+        >>> from pdmkit.models._mismatch_cases import example_result
+        >>> res = example_result()
         >>> res.plot().shape
         (2,)
         """
@@ -407,6 +406,8 @@ def _choose(scored: list[_Scored], tol: float, min_gain: float) -> _Scored:
 
 
 def _variant(e: Effect) -> str:
+    if e.candidate.id == SPARSE_ID:
+        return " + ".join(e.candidate.labels)
     if e.candidate.id == "overflow":
         return f"into {e.partner}" if e.partner else "lost"
     if e.partner:
@@ -416,6 +417,10 @@ def _variant(e: Effect) -> str:
 
 def _verdict_params(s: _Scored) -> dict:
     vals = s.job.values()
+    e = s.effects[0]
+    if e.candidate.id == SPARSE_ID:
+        c = {p: vals[f"{e.key}.{p}"] for p in e.param_names}
+        return {"equation": e.candidate.equation(e, c), **e.candidate.raw(c)}
     out = {}
     for e in s.effects:
         for p in e.param_names:
@@ -423,6 +428,11 @@ def _verdict_params(s: _Scored) -> dict:
         if e.partner and e.candidate.id == "overflow":
             out["into_state"] = e.partner
     return out
+
+
+def _white(s: _Scored) -> bool:
+    """Whether every output's validation residual passes the whiteness test."""
+    return all(whiteness_test(s.e_val[:, j])["white"] for j in range(s.e_val.shape[1]))
 
 
 def _explain(e: Effect, vals: Mapping[str, float]) -> str:
@@ -460,7 +470,7 @@ def discover_mismatch(
         A second recording used only for validation (its initial state is
         re-estimated).
     effects : sequence of str, optional
-        Restrict the candidate ids (default: the whole library).
+        Restrict the candidate ids (default: the whole library, ``sparse`` included).
     min_improvement : float
         Smallest relative validation-RMSE improvement that can count as a finding.
     alpha : float
@@ -641,13 +651,38 @@ def discover_mismatch(
             best_pair = min(pscored, key=lambda s: s.rmse_val)
             if significant(best_pair, accepted):
                 pair = best_pair
+
+    # ------------------------------------------------------------ 5. data-driven fallback
+    sparse_scored: list[_Scored] = []
+    sparse_best = None
+    ref = pair or accepted or base
+    t_sparse = 0.0
+    if (effects is None or SPARSE_ID in effects) and not _white(ref):
+        from pdmkit.models._sparse import fit_sparse
+
+        t0 = _time.perf_counter()
+        sjobs = fit_sparse(problem, model, nominal.values(), sc, x_scale)
+        sparse_scored = [_Scored(j, j.tag, j.effects, n_sub=problem.n_sub) for j in sjobs]
+        if sparse_scored:
+            _validate(model, problems, rec_val, sparse_scored, x_scale, 30)
+            for s in sparse_scored:
+                s.bic = _bic(s.job.cost, m, s.job.layout.n)
+                s.p_value = dm_test(base.e_val, s.e_val)[1]
+            cand = min(sparse_scored, key=lambda s: s.rmse_val)
+            # it replaces an accepted named effect only when it also whitens the
+            # residual (the named one did not): a closer fit alone is not a better
+            # explanation of real data that neither model captures fully
+            if significant(cand, ref) and (ref is base or _white(cand)):
+                sparse_best = cand
+                accepted, pair = cand, None
+        t_sparse = _time.perf_counter() - t0
     t_total = _time.perf_counter() - t_start
 
     # ------------------------------------------------------------ 5. summary
     import pandas as pd
 
     by_target: dict[tuple[str, str], _Scored] = {}
-    for s in singles:
+    for s in [*singles, *sparse_scored]:
         e = s.effects[0]
         k = (e.id, e.target)
         if k not in by_target or s.rmse_val < by_target[k].rmse_val:
@@ -674,9 +709,10 @@ def discover_mismatch(
     table = pd.DataFrame(rows)
     if len(table):
         table = table.sort_values(["rmse_validation", "criterion"], ignore_index=True)
-        if chosen is not None:
+        top = sparse_best or chosen
+        if top is not None:
             # the chosen candidate (BIC tie-break) first
-            first = table.index[table["_s"].map(lambda s: s is chosen)]
+            first = table.index[table["_s"].map(lambda s: s is top)]
             if len(first):
                 table = pd.concat([table.loc[first], table.drop(first)], ignore_index=True)
         table = table.drop(columns="_s")
@@ -782,6 +818,7 @@ def discover_mismatch(
         timings={
             "nominal_s": t_nominal,
             "screen_refit_s": t_screen,
+            "sparse_s": t_sparse,
             "total_s": t_total,
             "n_candidates": len(cands),
             "n_jobs": len(jobs),

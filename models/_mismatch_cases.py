@@ -1,10 +1,13 @@
 """Showcase models and concealed test cases for mismatch discovery.
 
 The showcase models are written as model files (the text of :func:`showcase_source`),
-exactly what a user would write. :func:`generate_concealed_case` simulates one of them
-with a hidden effect from the candidate library (sharper than the smooth form pdmkit
-fits), adds sensor noise, and hands back the model *without* the effect, the data and
-the truth, so that discovery can be scored.
+exactly what a user would write: a mass-spring-damper, two tanks, the Cascaded Tanks
+benchmark and a pneumatic piston (a hidden chamber leak or valve dead time is concealed
+in it; its data come from the showcase model itself, not from the full pneumatic twin).
+:func:`generate_concealed_case` simulates one of them with a hidden effect from the
+candidate library (sharper than the smooth form pdmkit fits) or a term outside it
+(``sparse``), adds sensor noise, and hands back the model *without* the effect, the
+data and the truth, so that discovery can be scored.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from pdmkit.models._odesim import _NP, _run
 __all__ = [
     "SHOWCASE_NAMES",
     "ConcealedCase",
+    "example_result",
     "generate_concealed_case",
     "score_concealed_cases",
     "showcase_model",
@@ -33,7 +37,12 @@ __all__ = [
 
 #: the built-in showcase model files (plain model files shipped with the package)
 _SHOWCASES = resources.files("pdmkit.models") / "showcases"
-SHOWCASE_NAMES: tuple[str, ...] = ("cascaded_tanks", "mass_spring_damper", "two_tanks")
+SHOWCASE_NAMES: tuple[str, ...] = (
+    "cascaded_tanks",
+    "mass_spring_damper",
+    "pneumatic_piston",
+    "two_tanks",
+)
 
 
 def showcase_source(name: str) -> str:
@@ -41,7 +50,7 @@ def showcase_source(name: str) -> str:
 
     Parameters
     ----------
-    name : {"mass_spring_damper", "two_tanks", "cascaded_tanks"}
+    name : {"mass_spring_damper", "two_tanks", "cascaded_tanks", "pneumatic_piston"}
 
     Returns
     -------
@@ -86,6 +95,7 @@ _PLACES: dict[str, list[tuple[str, str, str, str | None]]] = {
     "dead_time": [
         ("mass_spring_damper", "input", "F", None),
         ("two_tanks", "input", "u", None),
+        ("pneumatic_piston", "input", "u", None),
     ],
     "dead_zone": [
         ("mass_spring_damper", "input", "F", None),
@@ -103,7 +113,11 @@ _PLACES: dict[str, list[tuple[str, str, str, str | None]]] = {
         ("two_tanks", "level", "h1", "h2"),
         ("two_tanks", "level", "h2", None),
     ],
-    "leak": [("two_tanks", "level", "h1", None), ("two_tanks", "level", "h2", None)],
+    "leak": [
+        ("two_tanks", "level", "h1", None),
+        ("two_tanks", "level", "h2", None),
+        ("pneumatic_piston", "level", "pa", None),
+    ],
     "sensor_offset": [
         ("mass_spring_damper", "output", "x", None),
         ("two_tanks", "output", "h1", None),
@@ -123,10 +137,22 @@ _PLACES: dict[str, list[tuple[str, str, str, str | None]]] = {
         ("two_tanks", "output", "h1", None),
         ("two_tanks", "output", "h2", None),
     ],
+    # physics outside the named library: the data-driven fallback must find the term
+    "sparse": [("mass_spring_damper", "state", "v", None)],
+}
+
+#: the hidden term of a ``sparse`` case, by (system, target): (label, sign)
+_SPARSE_TRUTH = {
+    # damping that grows with the displacement (a squeeze film, a progressive damper)
+    ("mass_spring_damper", "v"): ("x**2*v", -1.0),
 }
 
 #: sampling of each system: (Ts, n_samples)
-_TIMING = {"mass_spring_damper": (0.02, 1500), "two_tanks": (2.0, 1200)}
+_TIMING = {
+    "mass_spring_damper": (0.02, 1500),
+    "two_tanks": (2.0, 1200),
+    "pneumatic_piston": (0.005, 1200),
+}
 
 
 def _excitation(system: str, n: int, ts: float, rng: np.random.Generator) -> dict:
@@ -134,6 +160,10 @@ def _excitation(system: str, n: int, ts: float, rng: np.random.Generator) -> dic
         hold = (0.1, 0.8)
         lo, hi = -40.0, 40.0
         name = "F"
+    elif system == "pneumatic_piston":
+        hold = (0.1, 0.6)
+        lo, hi = -1.0, 1.0
+        name = "u"
     else:
         hold = (40.0, 200.0)
         lo, hi = 0.5, 6.0
@@ -195,6 +225,8 @@ def _true_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict[
         return {"offset": 0.0, "rate": sign * 2 * m * sc.x_std[t] / sc.duration}
     if i == "sensor_gain":
         return {"gain": 1.0 + sign * 0.5 * m}
+    if i == "sparse":
+        return {"c0": 5 * m}  # the truth's norm carries the sign
     raise AssertionError(i)
 
 
@@ -266,6 +298,18 @@ class ConcealedCase:
         return {"model": model, "data": data}
 
 
+def _sparse_truth(model, system: str, target: str, X, u, sc: Scales) -> Effect:
+    """The hidden data-driven term of a ``sparse`` case (its coefficient is c0)."""
+    from pdmkit.models._sparse import SparseTerms, Term
+
+    label, sign = _SPARSE_TRUTH[system, target]
+    term = Term.parse(label)
+    data = {**{s: X[:, j] for j, s in enumerate(model.states)}, **u}
+    phi = np.asarray(term.evaluate(np, data, data, {}), float)
+    rms = max(float(np.sqrt(np.mean(phi**2))), 1e-300)
+    return Effect(SparseTerms([term], [sign * sc.f_scale(target) / rms], {}), target)
+
+
 def _with_params_source(source: str, params: dict[str, float]) -> str:
     import re
 
@@ -279,6 +323,7 @@ def generate_concealed_case(
     seed: int,
     *,
     target: str | None = None,
+    system: str | None = None,
     noise: float | None = None,
     n_samples: int | None = None,
 ):
@@ -293,7 +338,9 @@ def generate_concealed_case(
     ----------
     effect : str
         An effect id of the library, or ``"none"`` for an effect-free control whose
-        free parameter is mis-set by ``strength``.
+        free parameter is mis-set by ``strength``. ``"sparse"`` conceals a term that no
+        named candidate has (damping growing with the displacement, ``x**2*v`` on the
+        mass-spring-damper's ``dv/dt``), which only the data-driven fallback can name.
     strength : float
         Relative output change caused by the effect (e.g. 0.05 - 0.5).
     seed : int
@@ -301,6 +348,8 @@ def generate_concealed_case(
     target : str, optional
         Where to conceal it (e.g. ``"h2"``, ``"F"``); default random among the places
         the generator knows for the effect.
+    system : str, optional
+        Restrict the places to one showcase system (e.g. ``"pneumatic_piston"``).
     noise : float, optional
         Noise std relative to each output's std; default uniform in [0.01, 0.02].
     n_samples : int, optional
@@ -336,6 +385,13 @@ def generate_concealed_case(
                 f"{', '.join(CANDIDATE_IDS)} or 'none'."
             )
         places = _PLACES[effect]
+        if system is not None:
+            places = [p for p in places if p[0] == system]
+            if not places:
+                raise ModelError(
+                    f"generate_concealed_case: {effect} is not concealed in {system!r}; "
+                    f"systems: {sorted({p[0] for p in _PLACES[effect]})}."
+                )
         if target is not None:
             places = [p for p in places if p[2] == target]
             if not places:
@@ -360,7 +416,9 @@ def generate_concealed_case(
     values.update({f"x0:{s}": v for s, v in true_model.initial.items()})
     n_sub = 4
     X0 = np.array([[true_model.initial[s] for s in true_model.states]])
-    y0, _ = _run(true_model, [], [], [], time, u, dict(true_model.params), X0, n_sub, _NP)
+    y0, x0t = _run(
+        true_model, [], [], [], time, u, dict(true_model.params), X0, n_sub, _NP, True
+    )
     rec = Recording(time, ts, u, {o: y0[0, :, j] for j, o in enumerate(true_model.outputs)})
     sc = _nominal_scales(true_model, rec, values, n_sub)
     std = np.std(y0[0], axis=0)
@@ -372,18 +430,21 @@ def generate_concealed_case(
         achieved = float(strength)
     else:
         _, attach, tgt, partner = place
-        cand = CANDIDATES[effect, attach]
         fine = n_sub * 4
-        probe = Effect(cand, tgt, partner, {})
-        from pdmkit.models._candidates import attach_candidates
+        if effect == "sparse":
+            eff = probe = _sparse_truth(true_model, system, tgt, x0t[0], u, sc)
+        else:
+            cand = CANDIDATES[effect, attach]
+            probe = Effect(cand, tgt, partner, {})
+            from pdmkit.models._candidates import attach_candidates
 
-        opts = next(
-            e.options
-            for e in attach_candidates(true_model, sc, [effect])
-            if e.candidate is cand and e.target == tgt and e.partner == partner
-        )
-        sharp = {k: (v / 10 if k in ("eps", "w", "wf") else v) for k, v in opts.items()}
-        eff = Effect(cand, tgt, partner, sharp)
+            opts = next(
+                e.options
+                for e in attach_candidates(true_model, sc, [effect])
+                if e.candidate is cand and e.target == tgt and e.partner == partner
+            )
+            sharp = {k: (v / 10 if k in ("eps", "w", "wf") else v) for k, v in opts.items()}
+            eff = Effect(cand, tgt, partner, sharp)
         grid = np.geomspace(1e-3, 1.0, 24)
         theta = [
             {
@@ -423,6 +484,9 @@ def generate_concealed_case(
             )
         params = _true_params(probe, m, sc, true_model, sign)
         th = [{p: np.array([params[p]]) for p in eff.param_names}]
+        if effect == "sparse":
+            ((label, coef),) = eff.candidate.raw(params).items()
+            params = {"term": label, "coefficient": coef}
         Y, _ = _run(
             true_model, [eff], th, [None], time, u, dict(true_model.params), X0, fine, _NP
         )
@@ -461,6 +525,33 @@ def generate_concealed_case(
     )
 
 
+def example_result(seed: int = 1):
+    """A small, fast :class:`~pdmkit.models._mismatch.MismatchResult` for examples.
+
+    Discovery on a 300-sample effect-free control (:func:`generate_concealed_case`
+    with ``"none"``), trying only the ``sensor_offset`` candidate: about a second.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the control case.
+
+    Returns
+    -------
+    MismatchResult
+
+    Examples
+    --------
+    >>> from pdmkit.models._mismatch_cases import example_result
+    >>> example_result().verdict["effect"]
+    'none'
+    """
+    from pdmkit.models._mismatch import discover_mismatch
+
+    case = generate_concealed_case("none", 0.2, seed=seed, n_samples=300)
+    return discover_mismatch(case.model, case.data, effects=["sensor_offset"])
+
+
 def score_concealed_cases(
     effects=None,
     repeats: int = 1,
@@ -496,7 +587,8 @@ def score_concealed_cases(
     -------
     pandas.DataFrame
         One row per case: ``effect``, ``target``, ``strength``, ``seed``, ``verdict``,
-        ``verdict_target``, ``also``, ``right``, ``rmse_drop``, ``seconds``.
+        ``verdict_target``, ``also``, ``right``, ``rmse_drop``, ``seconds`` (wall
+        clock) and ``cpu_seconds`` (CPU time of this process: robust to other load).
 
     Examples
     --------
@@ -527,9 +619,9 @@ def score_concealed_cases(
                 else float(rng.uniform(0.05, 0.3))
             )
             case = generate_concealed_case(eff, st, s, n_samples=n_samples)
-            t0 = _time.perf_counter()
+            t0, c0 = _time.perf_counter(), _time.process_time()
             res = discover_mismatch(case.model, case.data, **options)
-            dt = _time.perf_counter() - t0
+            dt, cpu = _time.perf_counter() - t0, _time.process_time() - c0
             v = res.verdict
             right = v["effect"] == case.effect and (
                 case.effect == "none" or v["target"] == case.target
@@ -547,13 +639,14 @@ def score_concealed_cases(
                 "right": bool(right),
                 "rmse_drop": 1.0 - res.fit["rmse_augmented"] / res.fit["rmse_nominal"],
                 "seconds": dt,
+                "cpu_seconds": cpu,
             }
             rows.append(row)
             if verbose:
                 print(
                     f"{'ok ' if right else 'BAD'} {eff}@{case.target} s={case.strength:.2f}"
                     f" -> {v['effect']}@{v['target']} drop={row['rmse_drop']:.2f}"
-                    f" also=[{row['also']}] {dt:.1f}s",
+                    f" also=[{row['also']}] {dt:.1f}s (cpu {cpu:.1f}s)",
                     flush=True,
                 )
     return pd.DataFrame(rows)

@@ -17,132 +17,26 @@ from typing import Any
 import numpy as np
 
 from pdmkit.errors import ModelError
+from pdmkit.models._xp import NumpyNamespace, TorchNamespace, is_torch
 
 __all__ = ["simulate_ode"]
 
 
 # ---------------------------------------------------------------------------- backends
-def _is_torch(x: Any) -> bool:
-    return type(x).__module__.startswith("torch") and hasattr(x, "detach")
-
-
-class _Numpy:
-    name = "numpy"
-    tanh = staticmethod(np.tanh)
-    exp = staticmethod(np.exp)
-    sqrt = staticmethod(np.sqrt)
-    abs = staticmethod(np.abs)
-    floor = staticmethod(np.floor)
-    maximum = staticmethod(np.maximum)
-    minimum = staticmethod(np.minimum)
-
-    @staticmethod
-    def softplus(x, w):
-        return w * np.logaddexp(0.0, x / w)
-
-    @staticmethod
-    def sigmoid(x):
-        return 0.5 * (1.0 + np.tanh(0.5 * x))
-
-    @staticmethod
-    def cat(arrays, axis=0):
-        return np.concatenate(arrays, axis=axis)
-
-    @staticmethod
-    def stack(arrays, axis=0):
-        return np.stack(arrays, axis=axis)
-
-    @staticmethod
-    def take(a, idx):
-        return np.take_along_axis(a, idx, axis=1)
-
-    @staticmethod
-    def where(c, a, b):
-        return np.where(c, a, b)
-
-    @staticmethod
-    def asarray(x):
-        return np.asarray(x, dtype=np.float64)
-
-    @staticmethod
-    def to_numpy(x):
-        return np.asarray(x, dtype=np.float64)
-
-    @staticmethod
-    def bcast(x, shape):
-        return np.broadcast_to(np.asarray(x, dtype=np.float64), shape)
-
-    @staticmethod
-    def isfinite_all(x) -> bool:
-        return bool(np.isfinite(x).all())
-
-
-class _Torch:
-    name = "torch"
-
-    def __init__(self) -> None:
-        import torch
-
-        self.torch = torch
-        self.tanh = torch.tanh
-        self.exp = torch.exp
-        self.abs = torch.abs
-        self.floor = torch.floor
-        self.sigmoid = torch.sigmoid
-
-    def sqrt(self, x):
-        return self.torch.sqrt(x)
-
-    def maximum(self, a, b):
-        return self.torch.maximum(self.asarray(a), self.asarray(b))
-
-    def minimum(self, a, b):
-        return self.torch.minimum(self.asarray(a), self.asarray(b))
-
-    def softplus(self, x, w):
-        return w * self.torch.nn.functional.softplus(x / w)
-
-    def cat(self, arrays, axis=0):
-        return self.torch.cat(list(arrays), dim=axis)
-
-    def stack(self, arrays, axis=0):
-        return self.torch.stack(list(arrays), dim=axis)
-
-    def take(self, a, idx):
-        return self.torch.gather(a, 1, self.torch.as_tensor(idx, device=a.device))
-
-    def where(self, c, a, b):
-        return self.torch.where(self.torch.as_tensor(c), a, b)
-
-    def asarray(self, x):
-        if _is_torch(x):
-            return x if x.dtype == self.torch.float64 else x.to(self.torch.float64)
-        return self.torch.as_tensor(np.asarray(x, dtype=np.float64))
-
-    def to_numpy(self, x):
-        if _is_torch(x):
-            return x.detach().cpu().numpy()
-        return np.asarray(x, dtype=np.float64)
-
-    def bcast(self, x, shape):
-        return self.asarray(x).expand(*shape)
-
-    def isfinite_all(self, x) -> bool:
-        return bool(self.torch.isfinite(x).all())
-
-
-_NP = _Numpy()
+_NP = NumpyNamespace()
 
 
 def _namespace(*values) -> Any:
+    """The torch namespace when any value (nested in dicts / lists) is a tensor."""
+
     def any_torch(v):
         if isinstance(v, Mapping):
             return any(any_torch(w) for w in v.values())
         if isinstance(v, list | tuple):
             return any(any_torch(w) for w in v)
-        return _is_torch(v)
+        return is_torch(v)
 
-    return _Torch() if any(any_torch(v) for v in values) else _NP
+    return TorchNamespace() if any(any_torch(v) for v in values) else _NP
 
 
 # ---------------------------------------------------------------------------- engine
@@ -164,7 +58,7 @@ def _check_time(time) -> tuple[np.ndarray, float]:
     return t, ts
 
 
-_DERIV = ("velocity", "velocity_position", "level")
+_DERIV = ("velocity", "velocity_position", "level", "state")
 
 
 def _run(
@@ -200,7 +94,7 @@ def _run(
         raise ModelError(f"internal: x0 has shape {tuple(X.shape)}, expected (B, {nx}).")
     ts = float(t[1] - t[0])
     h = ts / n_sub
-    M = [None if m is None else (m if _is_torch(m) else np.asarray(m, bool)) for m in masks]
+    M = [None if m is None else (m if is_torch(m) else np.asarray(m, bool)) for m in masks]
     if xp.name == "torch":
         M = [None if m is None else xp.torch.as_tensor(m) for m in M]
 
@@ -341,7 +235,7 @@ def _resolve_inputs(model, time_n: int, inputs: Mapping[str, Any] | None, where:
         )
     out = {}
     for n, v in inputs.items():
-        if not _is_torch(v):
+        if not is_torch(v):
             v = np.asarray(v, dtype=np.float64)
             if v.ndim == 0:
                 v = np.full(time_n, float(v))
@@ -456,7 +350,7 @@ def simulate_ode(
     xp = _namespace(params, x0, effect_params, uin)
     P = {k: params.get(k, v) for k, v in model.params.items()}
     P = {
-        k: (xp.bcast(v, (B,)) if _is_torch(v) or np.ndim(v) else float(v))
+        k: (xp.bcast(v, (B,)) if is_torch(v) or np.ndim(v) else float(v))
         for k, v in P.items()
     }
     X0 = xp.stack(
@@ -475,7 +369,7 @@ def simulate_ode(
     states = {s: Xt[:, :, j] for j, s in enumerate(model.state_names)}
     outputs = {o: Y[:, :, j] for j, o in enumerate(model.outputs)}
     shown = {
-        k: (v.expand(B, t.size) if _is_torch(v) else np.broadcast_to(v, (B, t.size)))
+        k: (v.expand(B, t.size) if is_torch(v) else np.broadcast_to(v, (B, t.size)))
         for k, v in uin.items()
     }
     return ResponseData(t, states=states, outputs=outputs, inputs=shown, name=model.name)

@@ -90,6 +90,29 @@ class NumpyNamespace:
     def to_numpy(a):
         return np.asarray(a, dtype=np.float64)
 
+    @staticmethod
+    def softplus(a, w):
+        """Softplus of width ``w``: a smooth ``max(a, 0)``."""
+        return w * np.logaddexp(0.0, a / w)
+
+    @staticmethod
+    def sigmoid(a):
+        return 0.5 * (1.0 + np.tanh(0.5 * a))
+
+    @staticmethod
+    def take(a, idx):
+        """``a[i, idx[i, j]]`` for a 2-D ``a`` (gather along axis 1)."""
+        return np.take_along_axis(a, idx, axis=1)
+
+    @staticmethod
+    def bcast(a, shape):
+        """A read-only broadcast view of ``a`` with ``shape``."""
+        return np.broadcast_to(np.asarray(a, dtype=np.float64), shape)
+
+    @staticmethod
+    def isfinite_all(a) -> bool:
+        return bool(np.isfinite(a).all())
+
 
 class TorchNamespace:
     """torch back end (float64, autograd preserved)."""
@@ -173,6 +196,21 @@ class TorchNamespace:
         if hasattr(a, "detach"):
             return a.detach().cpu().numpy().astype(np.float64)
         return np.asarray(a, dtype=np.float64)
+
+    def softplus(self, a, w):
+        return w * self.torch.nn.functional.softplus(self._t(a) / w)
+
+    def sigmoid(self, a):
+        return self.torch.sigmoid(self._t(a))
+
+    def take(self, a, idx):
+        return self.torch.gather(a, 1, self.torch.as_tensor(idx, device=a.device))
+
+    def bcast(self, a, shape):
+        return self.asarray(a).expand(*shape)
+
+    def isfinite_all(self, a) -> bool:
+        return bool(self.torch.isfinite(self._t(a)).all())
 
 
 _NUMPY = NumpyNamespace()

@@ -9,7 +9,9 @@ every point of each unit's history.
 - Health indicators: :class:`RegimeNormalizer`, :func:`smooth_indicators`,
   :func:`prognostic_ranking`, :class:`HealthIndicator`.
 - Degradation models (Bayesian updating, threshold crossing):
-  :class:`LinearDegradationModel`, :class:`ExponentialDegradationModel`.
+  :class:`LinearDegradationModel`, :class:`ExponentialDegradationModel`; a Wiener
+  process (random-walk degradation, first-passage RUL): :class:`WienerDegradationModel`,
+  and its monotone counterpart :class:`GammaProcessDegradationModel`.
 - Similarity models: :class:`ResidualSimilarityModel`, :class:`PairwiseSimilarityModel`,
   :class:`HashSimilarityModel`.
 - Survival models: :class:`ReliabilitySurvivalModel` (Weibull and friends, censoring),
@@ -58,10 +60,12 @@ from pdmkit.rul._similarity import (
     ResidualSimilarityModel,
 )
 from pdmkit.rul._survival import CovariateSurvivalModel, ReliabilitySurvivalModel
+from pdmkit.rul._wiener import GammaProcessDegradationModel, WienerDegradationModel
 
 __all__ = [
     "CovariateSurvivalModel",
     "ExponentialDegradationModel",
+    "GammaProcessDegradationModel",
     "HashSimilarityModel",
     "HealthIndicator",
     "LinearDegradationModel",
@@ -71,6 +75,7 @@ __all__ = [
     "RegimeNormalizer",
     "ReliabilitySurvivalModel",
     "ResidualSimilarityModel",
+    "WienerDegradationModel",
     "alpha_lambda_accuracy",
     "interval_coverage",
     "mae",

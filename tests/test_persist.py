@@ -111,6 +111,8 @@ RUL_MODELS = [
     ("HashSimilarityModel", {}),
     ("ReliabilitySurvivalModel", {}),
     ("CovariateSurvivalModel", {"covariates": ["hi"]}),
+    ("WienerDegradationModel", {}),
+    ("GammaProcessDegradationModel", {"transform": "auto"}),
 ]
 
 

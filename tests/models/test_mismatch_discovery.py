@@ -66,12 +66,59 @@ def test_hidden_overflow_on_tanks():
 
 @pytest.mark.slow
 def test_hidden_dead_time_on_tanks():
-    case = generate_concealed_case("dead_time", 0.2, seed=4, target="u")
+    case = generate_concealed_case("dead_time", 0.2, seed=4, target="u", system="two_tanks")
     res = discover_mismatch(
         case.model, case.data, effects=["dead_time", "input_lag", "sensor_lag"], pairs=False
     )
     assert (res.verdict["effect"], res.verdict["target"]) == ("dead_time", "u")
     assert res.verdict["params"]["tau"] == pytest.approx(case.params["tau"], rel=0.1)
+
+
+def test_pneumatic_showcase_settles_where_the_valve_and_spring_say():
+    """Held command u: p_A -> p0 + (1+u)/2 (ps - p0), p_B mirrored, spring balances."""
+    m = showcase_model("pneumatic_piston")
+    p = m.params
+    t = np.arange(2001) * 0.005
+    for u in (-0.6, 0.2, 0.9):
+        r = simulate_ode(m, t, {"u": np.full(t.size, u)}, n_sub=2)
+        pa = p["p_ambient"] + 0.5 * (1 + u) * (p["p_supply"] - p["p_ambient"])
+        pb = p["p_ambient"] + 0.5 * (1 - u) * (p["p_supply"] - p["p_ambient"])
+        force = (
+            pa * p["area_a"]
+            - pb * p["area_b"]
+            - p["p_ambient"] * (p["area_a"] - p["area_b"])
+        )
+        assert r.outputs["pa"][0, -1] == pytest.approx(pa, rel=1e-4)
+        assert r.outputs["pb"][0, -1] == pytest.approx(pb, rel=1e-4)
+        assert r.outputs["x"][0, -1] == pytest.approx(force / p["k"], rel=1e-3)
+
+
+def test_generator_conceals_in_the_pneumatic_piston_on_request():
+    case = generate_concealed_case(
+        "dead_time", 0.2, seed=0, system="pneumatic_piston", n_samples=300
+    )
+    assert (case.system, case.target) == ("pneumatic_piston", "u")
+    assert list(case.data.columns) == ["time", "u", "x", "pa", "pb"]
+    assert case.strength == pytest.approx(0.2, rel=0.1)
+    with pytest.raises(ModelError, match="not concealed in"):
+        generate_concealed_case("coulomb_friction", 0.2, seed=0, system="two_tanks")
+
+
+@pytest.mark.slow
+def test_hidden_air_leak_in_the_pneumatic_piston():
+    case = generate_concealed_case(
+        "leak", 0.15, seed=2, system="pneumatic_piston", n_samples=700
+    )
+    assert (case.system, case.target) == ("pneumatic_piston", "pa")
+    res = discover_mismatch(
+        case.model,
+        case.data,
+        effects=["leak", "overflow", "sensor_offset"],
+        pairs=False,
+    )
+    assert (res.verdict["effect"], res.verdict["target"]) == ("leak", "pa")
+    assert res.verdict["params"]["k"] == pytest.approx(case.params["k"], rel=0.1)
+    assert res.fit["rmse_augmented"] < 0.5 * res.fit["rmse_nominal"]
 
 
 def test_unknown_effect_ids_and_bad_options_are_rejected():

@@ -138,7 +138,12 @@ def test_showcase_files_load(tmp_path):
 
     folder = Path(__file__).resolve().parents[2] / "models" / "showcases"
     names = sorted(p.stem for p in folder.glob("*.py"))
-    assert names == ["cascaded_tanks", "mass_spring_damper", "two_tanks"]
+    assert names == [
+        "cascaded_tanks",
+        "mass_spring_damper",
+        "pneumatic_piston",
+        "two_tanks",
+    ]
     for name in names:
         m = load_model_file(folder / f"{name}.py")
         assert m.outputs and set(m.free) <= set(m.params)
