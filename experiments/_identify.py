@@ -76,7 +76,7 @@ class _HammersteinWienerResult:
         return {
             "structure": "hw",
             "order": {"nb": m.nb, "nf": m.nf, "nk": m.nk},
-            "poles": np.asarray(m.poles_),
+            "poles": [[float(v.real), float(v.imag)] for v in np.atleast_1d(m.poles_)],
             "natural_frequencies_hz": fn,
             "damping": zeta,
             "fit_percent": float(m.fit_percent_),

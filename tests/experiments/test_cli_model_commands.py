@@ -86,8 +86,8 @@ def test_identify_hw_recovers_a_dead_zone(tmp_path):
     lower = next(v for k, v in coef.items() if "lower" in k.lower())
     upper = next(v for k, v in coef.items() if "upper" in k.lower())
     assert lower == pytest.approx(-0.3, rel=0.1) and upper == pytest.approx(0.3, rel=0.1)
-    # the linear block's pole: 0.6 -> continuous s = fs log(0.6), a real mode
-    assert summary["poles"][0] == pytest.approx(0.6, abs=0.02)
+    # the linear block's pole, as [real, imaginary] like the linear structures give it
+    assert summary["poles"][0] == pytest.approx([0.6, 0.0], abs=0.02)
 
 
 def test_identify_fractional_gives_the_issue_keys(tmp_path):
@@ -172,3 +172,18 @@ def test_features_cli_model_group_with_a_named_input_signal(tmp_path):
     np.testing.assert_allclose(table["Accel/frf/PeakFreq"], [15, 30, 45], atol=0.5)
     np.testing.assert_allclose(table["Accel/ar/Freq1"], [15, 30, 45], rtol=0.01)
     assert _cli("features", "--ensemble", tmp_path / "rig", "--option", "nokey") == 2
+
+
+def test_identify_hw_with_complex_poles_writes_json(tmp_path):
+    rng = np.random.default_rng(8)
+    u = np.repeat(rng.uniform(-1, 1, 200), 8)
+    y = signal.lfilter(
+        [0.0, 0.2], [1.0, -1.2, 0.5], np.clip(u, -0.6, 0.6)
+    )  # poles 0.6±0.37j
+    path = tmp_path / "osc.csv"
+    pd.DataFrame({"u": u, "y": y}).to_csv(path, index=False)
+    out = tmp_path / "o"
+    args = ["--fs", 50, "--structure", "hw", "--order", "nb=1,nf=2,nk=1", "--out", out]
+    assert _cli("identify", path, "--input", "u", "--output", "y", *args) == 0
+    poles = json.loads((out / "summary.json").read_text())["poles"]
+    assert len(poles) == 2 and all(len(p) == 2 for p in poles)

@@ -93,7 +93,7 @@ def test_bad_input_writes_nothing(recording, tmp_path):
     with pytest.raises(DataError, match="row 10"):
         run_identify(bad, input="F", output="acc", out_dir=out)
     with pytest.raises(ModelError, match="structure must be one of"):
-        run_identify(recording, input="F", output="acc", structure="hw", out_dir=out)
+        run_identify(recording, input="F", output="acc", structure="hx", out_dir=out)
     assert not out.exists()
 
 
