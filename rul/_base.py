@@ -9,6 +9,7 @@ failed, i.e. right-censored lifetimes). Units are kept in order of first appeara
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -16,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit.errors import DataError, NotFittedError
+from pdmkit.rul._result import RULPrediction
 
 # columns that are labels, never indicators
 LABEL_COLUMNS = ("rul", "rul_true_final", "failed")
@@ -197,6 +199,14 @@ def check_max_rul(value) -> float | None:
     return float(value)
 
 
+def keep_init_args(estimator, args: dict) -> None:
+    """Store an ``__init__``'s arguments (its ``locals()``) as attributes of the same
+    names, as scikit-learn's ``get_params`` expects."""
+    for name, value in args.items():
+        if name not in ("self", "__class__"):
+            setattr(estimator, name, value)
+
+
 def time_unit_cuts(units: Sequence[Unit], every: int, min_length: int) -> list[Unit]:
     """Histories cut after samples ``min_length, min_length + every, ..., n``."""
     out = []
@@ -217,6 +227,24 @@ class TrajectoryMixin:
     def _split_columns(self) -> list[str]:
         """The value columns of each unit (none for a lifetime-only model)."""
         return []
+
+    def _prediction(self, names, times, est, lo, hi, *, level, extra=None):
+        """A :class:`RULPrediction` of the estimates and intervals, capped at
+        ``max_rul``."""
+        est, lo, hi = (np.asarray(v, dtype=float) for v in (est, lo, hi))
+        cap = check_max_rul(self.max_rul)
+        if cap is not None:
+            est, lo, hi = (np.minimum(v, cap) for v in (est, lo, hi))
+        return RULPrediction(
+            names,
+            times,
+            est,
+            lo,
+            hi,
+            level=level,
+            model=type(self).__name__,
+            extra=extra,
+        )
 
     def _split(self, table, what: str = "table") -> list[Unit]:
         """``table`` as units, with the key and failure columns ``fit`` resolved."""
@@ -309,3 +337,109 @@ class TrajectoryMixin:
         3
         """
         return self.fit(table).predict(table)
+
+
+class DegradationMixin(TrajectoryMixin):
+    """Shared plumbing of the one-indicator degradation models (linear, exponential,
+    Wiener and gamma process): the fit-time checks, the threshold, the horizon and the
+    sequential updates predicted without a table.
+    """
+
+    _min_history = 1
+    # the attribute fit sets that predict(table=None) checks for
+    _fitted_attribute = "n_units_"
+
+    def _split_columns(self) -> list[str]:
+        return [self.indicator]
+
+    def _check_settings(self) -> None:
+        """Hook: checks of a model's own parameters, run early in :meth:`fit`."""
+
+    def _start_fit(self, table) -> tuple[list[Unit], np.ndarray]:
+        """Check the table and parameters; the training units and all their values."""
+        table = check_table(table)
+        self._keys = resolve_keys(table, self.unit, self.time)
+        self._failed = failed_column(table, self.failed)
+        self._level = check_level(self.level)
+        self._check_settings()
+        check_max_rul(self.max_rul)
+        if self.direction not in ("increasing", "decreasing"):
+            raise ValueError(
+                "direction must be 'increasing' (the indicator grows towards the "
+                f"threshold) or 'decreasing', got {self.direction!r}"
+            )
+        if not isinstance(self.indicator, str):
+            raise ValueError(f"indicator must be one column name, got {self.indicator!r}")
+        self._sign = 1.0 if self.direction == "increasing" else -1.0
+        units = self._split(table, "training table")
+        values = np.concatenate([u.x[:, 0] for u in units])
+        if np.ptp(values) == 0:
+            raise DataError(
+                f"indicator {self.indicator!r} is constant ({values[0]:g}) in every "
+                "training unit; a degradation model needs an indicator that changes "
+                "with wear"
+            )
+        return units, values
+
+    @staticmethod
+    def _require_failed_for_threshold(units: Sequence[Unit], takes: str) -> None:
+        """Raise when ``threshold=None`` (it ``takes`` a value at failure) and a
+        training unit is censored."""
+        censored = [u.name for u in units if not u.failed]
+        if censored:
+            raise DataError(
+                f"threshold=None takes {takes}, but units {censored[:8]} are censored; "
+                "pass threshold=<indicator value at failure>"
+            )
+
+    def _given_threshold(self) -> float:
+        threshold = float(self.threshold)
+        if not np.isfinite(threshold):
+            raise ValueError(f"threshold must be finite, got {self.threshold!r}")
+        return threshold
+
+    def _warn_unreached(self, values: np.ndarray, threshold: float, then: str) -> None:
+        """Warn (at the caller of :meth:`fit`) that no training unit reaches the
+        threshold."""
+        warnings.warn(
+            f"no training unit's {self.indicator!r} reaches threshold={threshold:g} "
+            f"(training range {values.min():g} .. {values.max():g}); {then}",
+            UserWarning,
+            stacklevel=3,
+        )
+
+    def _finish_fit(self, units: Sequence[Unit], *, positive_horizon: bool = False):
+        """Set ``horizon_`` (default 10 times the longest training life),
+        ``n_units_`` and empty ``states_``."""
+        lives = [u.t[-1] - u.t[0] for u in units]
+        self.horizon_ = (
+            float(self.horizon) if self.horizon is not None else 10.0 * max(max(lives), 1.0)
+        )
+        if positive_horizon and not self.horizon_ > 0:
+            raise ValueError(f"horizon must be positive, got {self.horizon!r}")
+        self.n_units_ = len(units)
+        self.states_ = {}
+        return self
+
+    @staticmethod
+    def _check_update_start(u: Unit, last: float) -> None:
+        if u.t[0] <= last:
+            raise DataError(
+                f"unit {u.name!r}: update starts at time {u.t[0]:g}, not after the "
+                f"last time already folded in ({last:g}); pass only new rows"
+            )
+
+    def _predict_states(self):
+        """Predict the units from :attr:`states_` (built by ``update``)."""
+        raise NotImplementedError
+
+    def _predict_table_or_states(self, table):
+        """``predict``: the units of ``table``, or without one those updated so far."""
+        check_fitted(self, self._fitted_attribute)
+        if table is not None:
+            return self._predict_units(self._split(table))
+        if not self.states_:
+            raise DataError(
+                "no unit has been updated yet; pass a table or call update first"
+            )
+        return self._predict_states()

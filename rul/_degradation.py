@@ -23,25 +23,19 @@ prediction's extra columns).
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator
 
 from pdmkit.errors import DataError
 from pdmkit.rul._base import (
-    TrajectoryMixin,
+    DegradationMixin,
     Unit,
     check_fitted,
     check_level,
-    check_max_rul,
     check_positive_int,
-    check_table,
-    failed_column,
-    resolve_keys,
+    keep_init_args,
 )
-from pdmkit.rul._result import RULPrediction
 
 _BIG = 1e300
 
@@ -58,9 +52,9 @@ def _ols(t: np.ndarray, z: np.ndarray):
     return w, rss, xtx
 
 
-class _BayesianDegradation(TrajectoryMixin, BaseEstimator):
+class _BayesianDegradation(DegradationMixin, BaseEstimator):
     _name = "degradation"
-    _min_history = 1
+    _fitted_attribute = "prior_mean_"
 
     def __init__(
         self,
@@ -79,21 +73,7 @@ class _BayesianDegradation(TrajectoryMixin, BaseEstimator):
         time: str | None = None,
         failed: str | None = None,
     ) -> None:
-        self.indicator = indicator
-        self.threshold = threshold
-        self.prior = prior
-        self.noise_var = noise_var
-        self.direction = direction
-        self.level = level
-        self.n_samples = n_samples
-        self.horizon = horizon
-        self.max_rul = max_rul
-        self.random_state = random_state
-        self.unit = unit
-        self.time = time
-        self.failed = failed
-
-    # -------------------------------------------------------------- sklearn protocol
+        keep_init_args(self, locals())
 
     # -------------------------------------------------------------- transforms
     def _signed(self, y):
@@ -107,8 +87,8 @@ class _BayesianDegradation(TrajectoryMixin, BaseEstimator):
         """Inverse of :meth:`_z`."""
         return self._sign * z
 
-    def _split_columns(self) -> list[str]:
-        return [self.indicator]
+    def _check_settings(self) -> None:
+        check_positive_int(self.n_samples, "n_samples", 100)
 
     def _choose_offset(self, units):  # exponential only
         return None
@@ -144,44 +124,16 @@ class _BayesianDegradation(TrajectoryMixin, BaseEstimator):
         >>> model.prior_mean_.round(4).tolist()
         [0.0, 0.021]
         """
-        table = check_table(table)
-        self._keys = resolve_keys(table, self.unit, self.time)
-        self._failed = failed_column(table, self.failed)
-        check_level(self.level)
-        check_positive_int(self.n_samples, "n_samples", 100)
-        check_max_rul(self.max_rul)
-        if self.direction not in ("increasing", "decreasing"):
-            raise ValueError(
-                "direction must be 'increasing' (the indicator grows towards the "
-                "threshold)"
-                f" or 'decreasing', got {self.direction!r}"
-            )
-        if not isinstance(self.indicator, str):
-            raise ValueError(f"indicator must be one column name, got {self.indicator!r}")
-        self._sign = 1.0 if self.direction == "increasing" else -1.0
-        units = self._split(table, "training table")
-        values = np.concatenate([u.x[:, 0] for u in units])
-        if np.ptp(values) == 0:
-            raise DataError(
-                f"indicator {self.indicator!r} is constant ({values[0]:g}) in every "
-                "training unit; a degradation model needs an indicator that changes "
-                "with wear"
-            )
+        units, values = self._start_fit(table)
         # threshold (given), offset (exponential), then the per-unit least squares
         if self.threshold is None:
-            censored = [u.name for u in units if not u.failed]
-            if censored:
-                raise DataError(
-                    "threshold=None takes the mean value of the fitted training paths at "
-                    f"the units' failure times, but units {censored[:8]} are censored; "
-                    "pass threshold=<indicator value at failure>"
-                )
+            self._require_failed_for_threshold(
+                units,
+                "the mean value of the fitted training paths at the units' failure times",
+            )
             self.threshold_ = None
         else:
-            threshold = float(self.threshold)
-            if not np.isfinite(threshold):
-                raise ValueError(f"threshold must be finite, got {self.threshold!r}")
-            self.threshold_ = threshold
+            self.threshold_ = self._given_threshold()
         self.offset_ = self._choose_offset(units)
         rows, fits = [], []
         for u in units:
@@ -213,12 +165,8 @@ class _BayesianDegradation(TrajectoryMixin, BaseEstimator):
             u for u in units if (self._signed(u.x[:, 0]) >= self._sign * threshold).any()
         ]
         if not reached and self.threshold is not None:
-            warnings.warn(
-                f"no training unit's {self.indicator!r} reaches threshold={threshold:g} "
-                f"(training range {values.min():g} .. {values.max():g}); RULs are "
-                "extrapolations of the fitted paths",
-                UserWarning,
-                stacklevel=2,
+            self._warn_unreached(
+                values, threshold, "RULs are extrapolations of the fitted paths"
             )
         self.unit_params_ = pd.DataFrame(rows)
         if self.noise_var is not None:
@@ -256,13 +204,7 @@ class _BayesianDegradation(TrajectoryMixin, BaseEstimator):
         self.prior_mean_ = mean
         self.prior_cov_ = cov
         self._prior_precision = np.linalg.inv(cov)
-        lives = [u.t[-1] - u.t[0] for u in units]
-        self.horizon_ = (
-            float(self.horizon) if self.horizon is not None else 10.0 * max(max(lives), 1.0)
-        )
-        self.n_units_ = len(units)
-        self.states_ = {}
-        return self
+        return self._finish_fit(units)
 
     @staticmethod
     def _check_prior(prior):
@@ -292,6 +234,13 @@ class _BayesianDegradation(TrajectoryMixin, BaseEstimator):
         cov = np.linalg.inv(precision)
         return cov @ vector, cov
 
+    def _unit_posterior(self, u: Unit):
+        """Posterior ``(mean, cov)`` of ``(a, b)`` from the prior and ``u``'s history."""
+        a, b = self._stats(u)
+        return self._posterior_from(
+            self._prior_precision + a, self._prior_precision @ self.prior_mean_ + b
+        )
+
     def posterior(self, table: pd.DataFrame) -> dict:
         """Posterior mean and covariance of ``(a, b)`` for each unit of ``table``.
 
@@ -312,13 +261,7 @@ class _BayesianDegradation(TrajectoryMixin, BaseEstimator):
         [0.0265, 0.0205]
         """
         check_fitted(self, "prior_mean_")
-        out = {}
-        for u in self._split(table):
-            a, b = self._stats(u)
-            out[u.name] = self._posterior_from(
-                self._prior_precision + a, self._prior_precision @ self.prior_mean_ + b
-            )
-        return out
+        return {u.name: self._unit_posterior(u) for u in self._split(table)}
 
     def update(self, table: pd.DataFrame):
         """Fold new measurements into each unit's posterior (sequential Bayes).
@@ -356,11 +299,7 @@ class _BayesianDegradation(TrajectoryMixin, BaseEstimator):
             a, b = self._stats(u)
             if u.name in self.states_:
                 p, v, last = self.states_[u.name]
-                if u.t[0] <= last:
-                    raise DataError(
-                        f"unit {u.name!r}: update starts at time {u.t[0]:g}, not after the "
-                        f"last time already folded in ({last:g}); pass only new rows"
-                    )
+                self._check_update_start(u, last)
             else:
                 p, v = (
                     self._prior_precision.copy(),
@@ -397,33 +336,21 @@ class _BayesianDegradation(TrajectoryMixin, BaseEstimator):
             lo.append(qs[0])
             est.append(qs[1])
             hi.append(qs[2])
-        est, lo, hi = (np.asarray(v, dtype=float) for v in (est, lo, hi))
-        cap = check_max_rul(self.max_rul)
-        if cap is not None:
-            est, lo, hi = (np.minimum(v, cap) for v in (est, lo, hi))
-        return RULPrediction(
-            names,
-            times,
-            est,
-            lo,
-            hi,
-            level=level,
-            model=type(self).__name__,
-            extra={"p_fail": np.asarray(pf)},
+        return self._prediction(
+            names, times, est, lo, hi, level=level, extra={"p_fail": np.asarray(pf)}
         )
 
     def _predict_units(self, units):
-        posts = []
-        for u in units:
-            a, b = self._stats(u)
-            posts.append(
-                self._posterior_from(
-                    self._prior_precision + a, self._prior_precision @ self.prior_mean_ + b
-                )
-            )
+        posts = [self._unit_posterior(u) for u in units]
         return self._summarise(
             [u.name for u in units], [float(u.t[-1]) for u in units], posts
         )
+
+    def _predict_states(self):
+        names = list(self.states_)
+        posts = [self._posterior_from(p, v) for p, v, _ in self.states_.values()]
+        times = [last for *_, last in self.states_.values()]
+        return self._summarise(names, times, posts)
 
     def predict(self, table: pd.DataFrame | None = None):
         """RUL of each unit at its last time, from its posterior.
@@ -455,17 +382,7 @@ class _BayesianDegradation(TrajectoryMixin, BaseEstimator):
         >>> float(p.estimate[0].round(0))  # 0.025 t reaches 1 at t = 40, 21 after t = 19
         21.0
         """
-        check_fitted(self, "prior_mean_")
-        if table is not None:
-            return self._predict_units(self._split(table))
-        if not self.states_:
-            raise DataError(
-                "no unit has been updated yet; pass a table or call update first"
-            )
-        names = list(self.states_)
-        posts = [self._posterior_from(p, v) for p, v, _ in self.states_.values()]
-        times = [last for *_, last in self.states_.values()]
-        return self._summarise(names, times, posts)
+        return self._predict_table_or_states(table)
 
 
 def _clip_psd(matrix: np.ndarray, reference: np.ndarray) -> np.ndarray:
@@ -618,22 +535,7 @@ n_units_
         time: str | None = None,
         failed: str | None = None,
     ) -> None:
-        super().__init__(
-            indicator,
-            threshold,
-            prior=prior,
-            noise_var=noise_var,
-            direction=direction,
-            level=level,
-            n_samples=n_samples,
-            horizon=horizon,
-            max_rul=max_rul,
-            random_state=random_state,
-            unit=unit,
-            time=time,
-            failed=failed,
-        )
-        self.offset = offset
+        keep_init_args(self, locals())
 
     def _z(self, y):
         s = self._signed(y) - self.offset_

@@ -32,6 +32,7 @@ from pdmkit.rul._base import (
     check_positive_int,
     check_table,
     failed_column,
+    keep_init_args,
     require_failures,
     resolve_keys,
     split_units,
@@ -175,12 +176,7 @@ class RegimeNormalizer(BaseEstimator):
         time: str | None = None,
         random_state: int = 0,
     ) -> None:
-        self.settings = settings
-        self.n_regimes = n_regimes
-        self.columns = columns
-        self.unit = unit
-        self.time = time
-        self.random_state = random_state
+        keep_init_args(self, locals())
 
     def _regimes(self, table: pd.DataFrame) -> np.ndarray:
         if self.n_regimes == 1:
@@ -483,15 +479,7 @@ class HealthIndicator(BaseEstimator):
         time: str | None = None,
         failed: str | None = None,
     ) -> None:
-        self.features = features
-        self.method = method
-        self.n_features = n_features
-        self.ranking = ranking
-        self.smoothing = smoothing
-        self.output = output
-        self.unit = unit
-        self.time = time
-        self.failed = failed
+        keep_init_args(self, locals())
 
     def fit(self, table: pd.DataFrame, y=None):
         """Select and fuse the candidates on run-to-failure training units.

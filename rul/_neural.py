@@ -30,6 +30,7 @@ from pdmkit.rul._base import (
     check_positive_int,
     check_table,
     failed_column,
+    keep_init_args,
     require_failures,
     resolve_keys,
 )
@@ -184,23 +185,7 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         time: str | None = None,
         failed: str | None = None,
     ):
-        self.features = features
-        self.window = window
-        self.arch = arch
-        self.hidden = hidden
-        self.epochs = epochs
-        self.batch_size = batch_size
-        self.lr = lr
-        self.max_rul = max_rul
-        self.n_folds = n_folds
-        self.time_feature = time_feature
-        self.level = level
-        self.pad = pad
-        self.random_state = random_state
-        self.n_threads = n_threads
-        self.unit = unit
-        self.time = time
-        self.failed = failed
+        keep_init_args(self, locals())
 
     @property
     def _min_history(self):

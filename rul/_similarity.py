@@ -39,10 +39,10 @@ from pdmkit.rul._base import (
     check_positive_int,
     check_table,
     failed_column,
+    keep_init_args,
     require_failures,
     resolve_keys,
 )
-from pdmkit.rul._result import RULPrediction
 
 _DISTANCES = ("euclidean", "absolute", "correlation", "dtw")
 
@@ -95,13 +95,7 @@ class _SimilarityBase(TrajectoryMixin, BaseEstimator):
         time=None,
         failed=None,
     ):
-        self.indicator = indicator
-        self.k = k
-        self.level = level
-        self.max_rul = max_rul
-        self.unit = unit
-        self.time = time
-        self.failed = failed
+        keep_init_args(self, locals())
 
     def _split_columns(self) -> list[str]:
         return list(self._columns)
@@ -186,18 +180,13 @@ class _SimilarityBase(TrajectoryMixin, BaseEstimator):
             hi.append(hi_)
             near.append(tuple(self.train_units_[i] for i in order))
             dist.append(float(np.mean(d[order])))
-        est, lo, hi = (np.asarray(v, dtype=float) for v in (est, lo, hi))
-        cap = check_max_rul(self.max_rul)
-        if cap is not None:
-            est, lo, hi = (np.minimum(v, cap) for v in (est, lo, hi))
-        return RULPrediction(
+        return self._prediction(
             [u.name for u in units],
             [float(u.t[-1]) for u in units],
             est,
             lo,
             hi,
             level=level,
-            model=type(self).__name__,
             extra={"nearest": near, "distance": np.asarray(dist)},
         )
 
@@ -267,17 +256,7 @@ class ResidualSimilarityModel(_SimilarityBase):
         time=None,
         failed=None,
     ):
-        super().__init__(
-            indicator,
-            k=k,
-            level=level,
-            max_rul=max_rul,
-            unit=unit,
-            time=time,
-            failed=failed,
-        )
-        self.degree = degree
-        self.align = align
+        keep_init_args(self, locals())
 
     def _validate_extra(self):
         check_positive_int(self.degree, "degree", 0)
@@ -409,18 +388,7 @@ class PairwiseSimilarityModel(_SimilarityBase):
         time=None,
         failed=None,
     ):
-        super().__init__(
-            indicator,
-            k=k,
-            level=level,
-            max_rul=max_rul,
-            unit=unit,
-            time=time,
-            failed=failed,
-        )
-        self.distance = distance
-        self.align = align
-        self.window = window
+        keep_init_args(self, locals())
 
     def _validate_extra(self):
         if self.distance not in _DISTANCES:
@@ -541,19 +509,7 @@ class HashSimilarityModel(_SimilarityBase):
         time=None,
         failed=None,
     ):
-        super().__init__(
-            indicator,
-            k=k,
-            level=level,
-            max_rul=max_rul,
-            unit=unit,
-            time=time,
-            failed=failed,
-        )
-        self.window = window
-        self.features = features
-        self.stride = stride
-        self.pad = pad
+        keep_init_args(self, locals())
 
     @property
     def _min_history(self):

@@ -34,9 +34,9 @@ from pdmkit.rul._base import (
     check_max_rul,
     check_table,
     failed_column,
+    keep_init_args,
     resolve_keys,
 )
-from pdmkit.rul._result import RULPrediction
 
 _DISTRIBUTIONS = {
     # name: (scipy distribution, parameter names; every parameter positive)
@@ -74,13 +74,8 @@ class _SurvivalBase(TrajectoryMixin, BaseEstimator):
     _min_history = 1
 
     def _result(self, names, times, q_values):
-        est, lo, hi = (np.asarray(v, dtype=float) for v in q_values)
-        cap = check_max_rul(self.max_rul)
-        if cap is not None:
-            est, lo, hi = (np.minimum(v, cap) for v in (est, lo, hi))
-        return RULPrediction(
-            names, times, est, lo, hi, level=float(self.level), model=type(self).__name__
-        )
+        est, lo, hi = q_values
+        return self._prediction(names, times, est, lo, hi, level=float(self.level))
 
 
 class ReliabilitySurvivalModel(_SurvivalBase):
@@ -137,12 +132,7 @@ class ReliabilitySurvivalModel(_SurvivalBase):
         time: str | None = None,
         failed: str | None = None,
     ):
-        self.distribution = distribution
-        self.level = level
-        self.max_rul = max_rul
-        self.unit = unit
-        self.time = time
-        self.failed = failed
+        keep_init_args(self, locals())
 
     def fit(self, table: pd.DataFrame, y=None):
         """Fit the distribution to the lifetimes of the units in a long table.
@@ -347,13 +337,7 @@ class CovariateSurvivalModel(_SurvivalBase):
         time: str | None = None,
         failed: str | None = None,
     ):
-        self.covariates = covariates
-        self.penalizer = penalizer
-        self.level = level
-        self.max_rul = max_rul
-        self.unit = unit
-        self.time = time
-        self.failed = failed
+        keep_init_args(self, locals())
 
     def _split_columns(self) -> list[str]:
         return list(self._cols)

@@ -47,17 +47,7 @@ from scipy.special import betainc, gammaln, log_ndtr, ndtr
 from sklearn.base import BaseEstimator
 
 from pdmkit.errors import DataError
-from pdmkit.rul._base import (
-    TrajectoryMixin,
-    Unit,
-    check_fitted,
-    check_level,
-    check_max_rul,
-    check_table,
-    failed_column,
-    resolve_keys,
-)
-from pdmkit.rul._result import RULPrediction
+from pdmkit.rul._base import DegradationMixin, Unit, check_fitted, keep_init_args
 
 
 def wiener_first_passage_cdf(t, distance, drift_mean, drift_var, diffusion_var):
@@ -121,7 +111,7 @@ def _quantiles(cdf, q, shape, horizon):
     return np.where(reach >= q, np.exp(0.5 * (lo + hi)), np.inf), reach
 
 
-class WienerDegradationModel(TrajectoryMixin, BaseEstimator):
+class WienerDegradationModel(DegradationMixin, BaseEstimator):
     """Wiener-process degradation: Brownian motion with a unit-specific drift.
 
     See the module notes: increments ``N(mu dt, sigma^2 dt)``, a normal prior on the
@@ -207,8 +197,6 @@ class WienerDegradationModel(TrajectoryMixin, BaseEstimator):
     True
     """
 
-    _min_history = 1
-
     def __init__(
         self,
         indicator: str = "hi",
@@ -225,21 +213,7 @@ class WienerDegradationModel(TrajectoryMixin, BaseEstimator):
         time: str | None = None,
         failed: str | None = None,
     ) -> None:
-        self.indicator = indicator
-        self.threshold = threshold
-        self.prior = prior
-        self.diffusion_var = diffusion_var
-        self.transform = transform
-        self.direction = direction
-        self.level = level
-        self.horizon = horizon
-        self.max_rul = max_rul
-        self.unit = unit
-        self.time = time
-        self.failed = failed
-
-    def _split_columns(self) -> list[str]:
-        return [self.indicator]
+        keep_init_args(self, locals())
 
     def _z(self, u: Unit) -> np.ndarray:
         return self._g(self._sign * u.x[:, 0])
@@ -328,56 +302,23 @@ class WienerDegradationModel(TrajectoryMixin, BaseEstimator):
         >>> model.unit_params_["drift"].tolist(), model.threshold_
         ([1.3333333333333333, 1.6666666666666667], 4.5)
         """
-        table = check_table(table)
-        self._keys = resolve_keys(table, self.unit, self.time)
-        self._failed = failed_column(table, self.failed)
-        level = check_level(self.level)
-        check_max_rul(self.max_rul)
-        if self.direction not in ("increasing", "decreasing"):
-            raise ValueError(
-                "direction must be 'increasing' (the indicator grows towards the "
-                f"threshold) or 'decreasing', got {self.direction!r}"
-            )
-        if not isinstance(self.indicator, str):
-            raise ValueError(f"indicator must be one column name, got {self.indicator!r}")
-        self._sign = 1.0 if self.direction == "increasing" else -1.0
-        self._level = level
-        units = self._split(table, "training table")
-        values = np.concatenate([u.x[:, 0] for u in units])
+        units, values = self._start_fit(table)
         signed = self._sign * values
         self._lo, self._span = float(signed.min()), float(max(np.ptp(signed), 1e-300))
-        if np.ptp(values) == 0:
-            raise DataError(
-                f"indicator {self.indicator!r} is constant ({values[0]:g}) in every "
-                "training unit; a degradation model needs an indicator that changes "
-                "with wear"
-            )
         self.transform_ = self._choose_transform(units)
         # threshold
         if self.threshold is None:
-            censored = [u.name for u in units if not u.failed]
-            if censored:
-                raise DataError(
-                    "threshold=None takes the mean of the training units' last (failing) "
-                    f"values, but units {censored[:8]} are censored; pass "
-                    "threshold=<indicator value at failure>"
-                )
+            self._require_failed_for_threshold(
+                units, "the mean of the training units' last (failing) values"
+            )
             self._w = float(np.mean([self._z(u)[-1] for u in units]))
             self.threshold_ = float(self._sign * self._g_inverse(self._w))
         else:
-            threshold = float(self.threshold)
-            if not np.isfinite(threshold):
-                raise ValueError(f"threshold must be finite, got {self.threshold!r}")
+            threshold = self._given_threshold()
             self.threshold_ = threshold
             self._w = float(self._g(self._sign * threshold))
             if not any((self._z(u) >= self._w).any() for u in units):
-                warnings.warn(
-                    f"no training unit's {self.indicator!r} reaches threshold="
-                    f"{threshold:g} (training range {values.min():g} .. "
-                    f"{values.max():g}); RULs extrapolate the fitted drift",
-                    UserWarning,
-                    stacklevel=2,
-                )
+                self._warn_unreached(values, threshold, "RULs extrapolate the fitted drift")
         # per-unit drifts and the pooled diffusion
         rows, ss, dof = [], 0.0, 0
         for u in units:
@@ -403,15 +344,7 @@ class WienerDegradationModel(TrajectoryMixin, BaseEstimator):
             rows, columns=["unit", "drift", "elapsed", "n", "end", "rss"]
         )
         self._estimate_process(ss, dof)
-        lives = [u.t[-1] - u.t[0] for u in units]
-        self.horizon_ = (
-            float(self.horizon) if self.horizon is not None else 10.0 * max(max(lives), 1.0)
-        )
-        if not self.horizon_ > 0:
-            raise ValueError(f"horizon must be positive, got {self.horizon!r}")
-        self.n_units_ = len(units)
-        self.states_ = {}
-        return self
+        return self._finish_fit(units, positive_horizon=True)
 
     def _estimate_process(self, ss: float, dof: int) -> None:
         """Pooled diffusion and the drift prior from :attr:`unit_params_`."""
@@ -540,11 +473,7 @@ class WienerDegradationModel(TrajectoryMixin, BaseEstimator):
             z = self._z(u)
             if u.name in self.states_:
                 t0, z0, last, _ = self.states_[u.name]
-                if u.t[0] <= last:
-                    raise DataError(
-                        f"unit {u.name!r}: update starts at time {u.t[0]:g}, not after the "
-                        f"last time already folded in ({last:g}); pass only new rows"
-                    )
+                self._check_update_start(u, last)
             else:
                 t0, z0 = float(u.t[0]), float(z[0])
             self.states_[u.name] = (t0, z0, float(u.t[-1]), float(z[-1]))
@@ -568,17 +497,13 @@ class WienerDegradationModel(TrajectoryMixin, BaseEstimator):
             out.append(np.where(past, 0.0, value))
         lo, est, hi = out
         p_fail = np.where(past, 1.0, reach)
-        cap = check_max_rul(self.max_rul)
-        if cap is not None:
-            est, lo, hi = (np.minimum(v, cap) for v in (est, lo, hi))
-        return RULPrediction(
+        return self._prediction(
             names,
             t_now,
             est,
             lo,
             hi,
             level=level,
-            model=type(self).__name__,
             extra={"p_fail": p_fail, **self._extra(post)},
         )
 
@@ -631,13 +556,9 @@ class WienerDegradationModel(TrajectoryMixin, BaseEstimator):
         >>> round(float(p.estimate[0]), 4), round(float(ig.median()), 4)
         (5.7615, 5.7615)
         """
-        check_fitted(self, "n_units_")
-        if table is not None:
-            return self._predict_units(self._split(table))
-        if not self.states_:
-            raise DataError(
-                "no unit has been updated yet; pass a table or call update first"
-            )
+        return self._predict_table_or_states(table)
+
+    def _predict_states(self):
         names = list(self.states_)
         cols = list(zip(*self.states_.values(), strict=True))
         return self._summarise(names, *cols)
@@ -740,18 +661,7 @@ failed
         time: str | None = None,
         failed: str | None = None,
     ) -> None:
-        self.indicator = indicator
-        self.threshold = threshold
-        self.prior = prior
-        self.shape = shape
-        self.transform = transform
-        self.direction = direction
-        self.level = level
-        self.horizon = horizon
-        self.max_rul = max_rul
-        self.unit = unit
-        self.time = time
-        self.failed = failed
+        keep_init_args(self, locals())
 
     def _estimate_process(self, ss: float, dof: int) -> None:
         rows = self.unit_params_
