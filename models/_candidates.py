@@ -16,6 +16,7 @@ output's units.
 
 from __future__ import annotations
 
+import abc
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
@@ -87,7 +88,7 @@ class Scales:
 
 
 # ---------------------------------------------------------------------------- base
-class Candidate:
+class Candidate(abc.ABC):
     """A candidate physical effect: the hypothesis, its parameters and its term.
 
     Subclasses set the class attributes and override the hooks they need:
@@ -122,11 +123,13 @@ class Candidate:
     input_override: bool = False
 
     # hooks -------------------------------------------------------------------
+    @abc.abstractmethod
     def specs(self, eff: Effect, sc: Scales) -> dict[str, ParamSpec]:
-        raise NotImplementedError
+        """The effect's parameters: bounds, scales and neutral values."""
 
+    @abc.abstractmethod
     def guesses(self, eff: Effect, sc: Scales) -> list[dict[str, float]]:
-        raise NotImplementedError
+        """Starting points of the fit."""
 
     def prepare(self, xp, eff, th, h):
         """Values that stay constant during a simulation (computed once per run)."""

@@ -9,6 +9,7 @@ failed, i.e. right-censored lifetimes). Units are kept in order of first appeara
 
 from __future__ import annotations
 
+import abc
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -339,7 +340,7 @@ class TrajectoryMixin:
         return self.fit(table).predict(table)
 
 
-class DegradationMixin(TrajectoryMixin):
+class DegradationMixin(TrajectoryMixin, abc.ABC):
     """Shared plumbing of the one-indicator degradation models (linear, exponential,
     Wiener and gamma process): the fit-time checks, the threshold, the horizon and the
     sequential updates predicted without a table.
@@ -429,9 +430,9 @@ class DegradationMixin(TrajectoryMixin):
                 f"last time already folded in ({last:g}); pass only new rows"
             )
 
+    @abc.abstractmethod
     def _predict_states(self):
         """Predict the units from :attr:`states_` (built by ``update``)."""
-        raise NotImplementedError
 
     def _predict_table_or_states(self, table):
         """``predict``: the units of ``table``, or without one those updated so far."""

@@ -25,6 +25,8 @@ spaced for the matching; remaining lives use the training units' time values.
 
 from __future__ import annotations
 
+import abc
+
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator
@@ -83,7 +85,7 @@ def _sliding_corr(f: np.ndarray, x: np.ndarray) -> np.ndarray:
     return out / x.shape[1]
 
 
-class _SimilarityBase(TrajectoryMixin, BaseEstimator):
+class _SimilarityBase(TrajectoryMixin, BaseEstimator, abc.ABC):
     def __init__(
         self,
         indicator="hi",
@@ -161,9 +163,9 @@ class _SimilarityBase(TrajectoryMixin, BaseEstimator):
     def _build(self, units):
         self._library = units
 
+    @abc.abstractmethod
     def _match(self, u: Unit):
         """Return (distances, remaining lives) against every training unit."""
-        raise NotImplementedError
 
     def _predict_units(self, units):
         level = check_level(self.level)
