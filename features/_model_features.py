@@ -352,31 +352,7 @@ def _model_feature_rows(
     group: str, x: np.ndarray, fs: float, settings: dict, rows: slice
 ) -> dict[str, np.ndarray]:
     """Rows ``rows`` of a model group for ``extract``: name -> values."""
-    u = settings["input"][rows]
-    if group == "frf":
-        df = frf_features(
-            u,
-            x,
-            fs,
-            nperseg=settings["nperseg"],
-            fmin=settings["fmin"],
-            fmax=settings["fmax"],
-            order=settings["order"],
-        )
-    elif group == "hw":
-        df = hw_features(
-            u,
-            x,
-            fs,
-            input_nl=settings["input_nl"],
-            output_nl=settings["output_nl"],
-            nb=settings["nb"],
-            nf=settings["nf"],
-            nk=settings["nk"],
-            initial=settings["initial"],
-        )
-    else:
-        df = fractional_features(
-            u, x, fs, nperseg=settings["nperseg"], fmax=settings["fmax"]
-        )
+    compute = {"frf": frf_features, "hw": hw_features, "fractional": fractional_features}
+    options = {k: v for k, v in settings.items() if k != "input"}
+    df = compute[group](settings["input"][rows], x, fs, **options)
     return {c.split("/", 1)[1]: df[c].to_numpy() for c in df.columns}
