@@ -27,6 +27,7 @@ from pdmkit._atomic import atomic_dir, atomic_path
 from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError, ModelError
 from pdmkit.experiments._report import Report, _to_jsonable
+from pdmkit.models._frf import frf_estimate
 from pdmkit.models._ident import STRUCTURES, fit_percent, identify
 
 __all__ = [
@@ -260,19 +261,6 @@ def identify_summary(model, **sources: Any) -> dict:
     return _to_jsonable(out)
 
 
-def _h1(u: np.ndarray, y: np.ndarray, fs: float):
-    from scipy import signal
-
-    nper = int(min(4096, max(64, 2 ** int(np.log2(max(len(u) // 8, 64))))))
-    f, puy = signal.csd(u - u.mean(), y - y.mean(), fs=fs, nperseg=nper)
-    _, puu = signal.welch(u - u.mean(), fs=fs, nperseg=nper)
-    _, pyy = signal.welch(y - y.mean(), fs=fs, nperseg=nper)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        h1 = puy / puu
-        coh = np.abs(puy) ** 2 / (puu * pyy)
-    return f, h1, coh
-
-
 def build_identify_report(model, summary: dict, u, y, fs: float, title: str) -> Report:
     """HTML report: summary, modes, pole map, FRF vs H1 estimate, simulation vs data.
 
@@ -306,15 +294,16 @@ def build_identify_report(model, summary: dict, u, y, fs: float, title: str) -> 
         rep.add_figure(ax, caption="Poles (x) and zeros (o) in the z-plane")
     if hasattr(model, "frequency_response"):
         rep.add_heading("Frequency response")
-        f, h1, _ = _h1(u, y, fs)
-        f = f[1:]
+        nper = int(min(4096, max(64, 2 ** int(np.log2(max(len(u) // 8, 64))))))
+        estimate = frf_estimate(u, y, fs, nperseg=min(nper, len(u)))
+        f, h1 = estimate.freq[1:], estimate.H[1:]  # without DC
         g = model.frequency_response(f)
         fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
-        a1.semilogy(f, np.abs(h1[1:]), color="0.6", lw=0.8, label="H1 estimate (data)")
+        a1.semilogy(f, np.abs(h1), color="0.6", lw=0.8, label="H1 estimate (data)")
         a1.semilogy(f, np.abs(g), color="C0", label="model")
         a1.set_ylabel("|G|")
         a1.legend(loc="best", fontsize="small")
-        a2.plot(f, np.degrees(np.unwrap(np.angle(h1[1:]))), color="0.6", lw=0.8)
+        a2.plot(f, np.degrees(np.unwrap(np.angle(h1))), color="0.6", lw=0.8)
         a2.plot(f, np.degrees(np.unwrap(np.angle(g))), color="C0")
         a2.set_ylabel("phase [deg]")
         a2.set_xlabel("frequency [Hz]")
