@@ -11,9 +11,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from pdmkit.errors import DataError
 
-__all__ = ["check_fs"]
+__all__ = ["check_fs", "uniform_step"]
 
 
 def check_fs(fs: object, name: str = "fs") -> float:
@@ -54,3 +56,49 @@ def check_fs(fs: object, name: str = "fs") -> float:
             f"{name} must be a positive, finite sampling rate in Hz; got {fs!r}."
         )
     return value
+
+
+def uniform_step(time: object, source: str) -> float:
+    """The sampling step of a time column, after checking it increases uniformly.
+
+    Parameters
+    ----------
+    time : array_like
+        Time stamps in s.
+    source : str
+        The file or table the column comes from, for the message.
+
+    Returns
+    -------
+    float
+        The median step in s.
+
+    Raises
+    ------
+    pdmkit.errors.DataError
+        The time does not increase, or a step differs from the median by more than 0.1 %.
+
+    Examples
+    --------
+    >>> from pdmkit._checks import uniform_step
+    >>> uniform_step([0.0, 0.1, 0.2, 0.3], "run.csv")
+    0.1
+    >>> uniform_step([0.0, 0.1, 0.3, 0.4], "run.csv")
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.DataError: run.csv: time must be uniform; row 2 (time 0.3) is 0.2 s after the previous sample, the usual step is 0.1 s. Resample to a uniform grid.
+    """  # noqa: E501
+    t = np.asarray(time, dtype=float)
+    dt = np.diff(t)
+    step = float(np.median(dt)) if dt.size else math.nan
+    if not step > 0:
+        raise DataError(f"{source}: time must increase; the median step is {step:g} s.")
+    deviation = np.abs(dt - step)
+    if np.any(deviation > 1e-3 * step):
+        k = int(np.argmax(deviation)) + 1
+        raise DataError(
+            f"{source}: time must be uniform; row {k} (time {t[k]:g}) is {dt[k - 1]:g} s "
+            f"after the previous sample, the usual step is {step:g} s. Resample to a "
+            "uniform grid."
+        )
+    return step

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._atomic import atomic_dir, atomic_path
+from pdmkit._checks import check_fs, uniform_step
 from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError, ModelError
 from pdmkit.experiments._report import Report, _to_jsonable
@@ -208,26 +209,13 @@ def _column(table: pd.DataFrame, name: str, path, role: str) -> np.ndarray:
 
 def _sampling_rate(table: pd.DataFrame, fs, path) -> float:
     if fs is not None:
-        fs = float(fs)
-        if not fs > 0:
-            raise DataError(f"fs must be positive; got {fs}.")
-        return fs
+        return check_fs(fs)
     if "time" not in table.columns:
         raise DataError(
             f"{path}: no 'time' column to take the sampling rate from; add one (s) or "
             "pass fs (--fs)."
         )
-    t = _column(table, "time", path, "time")
-    dt = np.diff(t)
-    if dt.size == 0 or not np.all(dt > 0):
-        raise DataError(f"{path}: 'time' must increase strictly.")
-    if np.max(np.abs(dt - dt.mean())) > 1e-3 * dt.mean():
-        i = int(np.argmax(np.abs(dt - dt.mean())))
-        raise DataError(
-            f"{path}: 'time' is not uniform (step {dt[i]:.6g} s at row {i + 1} vs mean "
-            f"{dt.mean():.6g} s); resample the data first."
-        )
-    return 1.0 / float(dt.mean())
+    return 1.0 / uniform_step(_column(table, "time", path, "time"), str(path))
 
 
 def identify_summary(model, **sources: Any) -> dict:

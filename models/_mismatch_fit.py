@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from pdmkit._checks import uniform_step
 from pdmkit.errors import DataError, ModelError
 from pdmkit.models._candidates import Effect, Scales
 from pdmkit.models._odesim import _NP, _run, _stable_n_sub
@@ -133,18 +134,7 @@ def make_recording(model, data: Any, name: str = "data") -> Recording:
     t = arrays["time"]
     if t.size < 10:
         raise DataError(f"{name}: needs at least 10 samples; got {t.size}.")
-    dt = np.diff(t)
-    ts = float(np.median(dt))
-    if not ts > 0:
-        raise DataError(f"{name}: time must increase; the median step is {ts:g} s.")
-    dev = np.abs(dt - ts)
-    if np.any(dev > 1e-3 * ts):
-        k = int(np.argmax(dev)) + 1
-        raise DataError(
-            f"{name}: time must be uniform; row {k} (time {t[k]:g}) is {dt[k - 1]:g} s "
-            f"after the previous sample, the usual step is {ts:g} s. Resample to a uniform "
-            "grid."
-        )
+    ts = uniform_step(t, name)
     t = t[0] + ts * np.arange(t.size)
     return Recording(
         time=t,
