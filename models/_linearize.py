@@ -182,14 +182,7 @@ def linearize(model, x0, u0=None, *, params=None, t: float = 0.0, args=()) -> Li
         def f(x, u):
             xd = {k: x[i] for i, k in enumerate(sn)}
             ud = {k: u[i] for i, k in enumerate(un)}
-            try:
-                out = model.rhs(t, xd, ud, pt)
-            except Exception as exc:
-                raise ModelError(
-                    f"linearize: rhs of {model.name!r} failed on torch tensors "
-                    f"({type(exc).__name__}: {exc}); use torch functions (torch.sin, ...) "
-                    "or plain arithmetic in rhs."
-                ) from exc
+            out = model.derivatives(xd, ud, pt, t=t)  # checks keys, names rhs errors
             return torch.stack(
                 [torch.as_tensor(out[k], dtype=dtype) + 0.0 * x.sum() for k in sn]
             )
