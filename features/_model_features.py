@@ -81,6 +81,25 @@ MODEL_GROUP_OPTIONS: dict[str, dict[str, object]] = {
 }
 
 
+def _member_inputs(u, n_members: int, n_samples: int, option: str) -> np.ndarray:
+    """The input signal as ``(n_members, n_samples)``: one row per member, or one array
+    shared by all (broadcast). ``option`` names the argument in the errors."""
+    if u is None:
+        raise DataError(
+            f"model-based indicators need the input signal; pass {option}= (one array "
+            "shared by all members, or one row per member)."
+        )
+    u = np.asarray(u, dtype=float)
+    if u.ndim == 1:
+        u = np.broadcast_to(u, (n_members, u.size))
+    if u.shape != (n_members, n_samples):
+        raise DataError(
+            f"{option} has shape {u.shape}; expected ({n_samples},) or "
+            f"({n_members}, {n_samples}): one input sample per output sample."
+        )
+    return u
+
+
 def _pair(u, y, name: str) -> tuple[np.ndarray, np.ndarray]:
     y = np.asarray(y, dtype=float)
     if y.ndim == 1:
@@ -89,20 +108,7 @@ def _pair(u, y, name: str) -> tuple[np.ndarray, np.ndarray]:
         raise DataError(
             f"{name}: y must be (n_samples,) or (members, samples); got {y.shape}."
         )
-    if u is None:
-        raise DataError(
-            f"{name}: model-based indicators need the input signal; pass {name}_input= "
-            "(one array per member, or one shared by all)."
-        )
-    u = np.asarray(u, dtype=float)
-    if u.ndim == 1:
-        u = np.broadcast_to(u, y.shape)
-    if u.shape != y.shape:
-        raise DataError(
-            f"{name}: input has shape {u.shape} but the signal has {y.shape}; give one "
-            "input sample per output sample."
-        )
-    return u, y
+    return _member_inputs(u, *y.shape, f"{name}_input"), y
 
 
 def _warn_failed(group: str, failed: list[int], err: str) -> None:
@@ -319,20 +325,7 @@ def resolve_model_options(group: str, n_members: int, n_samples: int, **given) -
     if unknown:
         raise DataError(f"{group}: unknown options {sorted(unknown)}.")
     settings = {k[len(group) + 1 :]: v for k, v in opts.items()}
-    u = settings["input"]
-    if u is None:
-        raise DataError(
-            f"group {group!r} needs {group}_input=: the input signal (one array shared by "
-            "all members, or one row per member)."
-        )
-    u = np.asarray(u, dtype=float)
-    if u.ndim == 1:
-        u = np.broadcast_to(u, (n_members, u.size))
-    if u.shape != (n_members, n_samples):
-        raise DataError(
-            f"{group}_input has shape {u.shape}; expected ({n_samples},) or "
-            f"({n_members}, {n_samples}) to match the signals."
-        )
+    u = _member_inputs(settings["input"], n_members, n_samples, f"{group}_input")
     settings["input"] = u
     return settings
 
