@@ -125,7 +125,9 @@ def _add_input_options(
     parser.add_argument("--json", type=Path, help="also write the JSON summary here")
 
 
-def _group_options(items: Sequence[str]) -> dict:
+def _group_options(
+    items: Sequence[str], flag: str = "--option", example: str = "ar_order=12"
+) -> dict:
     """``["ar_order=12", "frf_input=Force"]`` -> ``{"ar_order": 12, "frf_input": "Force"}``.
 
     Values are read as JSON where they parse (numbers, lists, true/false, null),
@@ -135,7 +137,7 @@ def _group_options(items: Sequence[str]) -> dict:
     for item in items:
         key, sep, text = item.partition("=")
         if not sep or not key.strip():
-            raise DataError(f"--option takes KEY=VALUE, e.g. ar_order=12; got {item!r}")
+            raise DataError(f"{flag} takes KEY=VALUE, e.g. {example}; got {item!r}")
         try:
             value = json.loads(text)
         except ValueError:
@@ -465,20 +467,44 @@ def _cmd_sensors(args: argparse.Namespace) -> int:
 
 
 def _cmd_rul(args: argparse.Namespace) -> int:
-    from pdmkit.experiments._rul import run_rul
+    from pdmkit.experiments._rul import predict_rul, run_rul
 
+    if (args.trained is None) != (args.history is None):
+        raise DataError("--trained MODEL and --history TABLE go together")
+    if args.trained is not None:
+        answer = predict_rul(args.trained, args.history, json_path=args.json)
+        level = 100 * answer["level"]
+        for row in answer["units"]:
+            print(
+                f"unit {row['unit']} at time {row['time']:g}: RUL {row['rul']:.1f} "
+                f"({level:g} % interval {row['lower']:.1f} to {row['upper']:.1f})"
+            )
+        return 0
+    if (args.train is None) != (args.test is None):
+        raise DataError("--train and --test go together (two long tables)")
+    dataset = args.dataset
+    if args.train is not None:
+        from pdmkit.ensembles._readers import read_table
+
+        dataset = (read_table(args.train), read_table(args.test))
     summary = run_rul(
-        args.dataset,
+        dataset,
         args.model,
         out_dir=args.out,
         json_path=args.json,
         seed=args.seed,
         rul_cap=args.rul_cap,
+        features=args.features,
+        options=_group_options(args.option, example="k=5"),
+        dataset_options=_group_options(
+            args.dataset_option, "--dataset-option", "walk_shape=16"
+        )
+        or None,
     )
     _say(
         f"{summary['model']}: RMSE {summary['rmse']:.2f}, MAE {summary['mae']:.2f}, "
         f"PHM08 score {summary['phm08_score']:.0f} on {summary['n_units']} units; "
-        f"see {args.out}/report.html"
+        f"see {args.out}/report.html; trained model {summary['model_file']}"
     )
     return 0
 
@@ -616,6 +642,48 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--rul-cap", type=float, default=125.0, help="cap of RUL targets")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--train",
+        type=Path,
+        help="your own run-to-failure units: a long table (CSV / Parquet) with unit, "
+        "time or cycle and the sensor columns; with --test",
+    )
+    p.add_argument(
+        "--test",
+        type=Path,
+        help="test units' histories, with rul_true_final (each unit's true RUL after "
+        "its last row); with --train",
+    )
+    p.add_argument("--features", nargs="+", help="input columns (default: all numeric)")
+    p.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="an estimator setting (repeat), e.g. k=5, level=0.8, threshold=1.0",
+    )
+    p.add_argument(
+        "--dataset-option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="pneumatic-leak simulation setting (repeat): n_train, n_test, max_cycles, "
+        "t_end, walk_shape",
+    )
+    p.add_argument(
+        "--trained",
+        type=Path,
+        metavar="MODEL",
+        help="answer RULs with a trained model (DIR/model.pdmkit of an earlier run) "
+        "instead of training; with --history",
+    )
+    p.add_argument(
+        "--history",
+        type=Path,
+        metavar="TABLE",
+        help="units' histories so far (CSV / Parquet: unit, time or cycle, the model's "
+        "columns); with --trained",
+    )
     p.add_argument("--out", type=Path, default=Path("results/rul"))
     p.add_argument("--json", type=Path)
     p.set_defaults(func=_cmd_rul)

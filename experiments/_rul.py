@@ -57,6 +57,7 @@ __all__ = [
     "leak_accuracy",
     "leak_indicators",
     "make_rul_model",
+    "predict_rul",
     "run_rul",
     "simulate_leak_dataset",
 ]
@@ -522,6 +523,99 @@ def make_rul_model(
     return indicator, est
 
 
+def _fit_pipeline(model, features, train, *, seed, rul_cap, options, smoothing=10):
+    """A fitted :class:`pdmkit.rul.RULPipeline` for a workflow model, and its fit time."""
+    from pdmkit.rul import RULPipeline
+
+    indicator, estimator = make_rul_model(
+        model, features, seed=seed, rul_cap=rul_cap, options=options, smoothing=smoothing
+    )
+    start = time.perf_counter()
+    pipeline = RULPipeline(indicator, estimator).fit(train)
+    return pipeline, time.perf_counter() - start
+
+
+def _save_pipeline(pipeline, out: Path, summary: dict) -> None:
+    """Write the trained pipeline to ``out/model.pdmkit`` (see :func:`predict_rul`)."""
+    from pdmkit._persist import save_model
+
+    summary["model_file"] = str(save_model(pipeline, out / "model.pdmkit"))
+
+
+def predict_rul(model_file, history, *, json_path=None) -> dict[str, Any]:
+    """RUL of each unit in ``history`` from a model trained by :func:`run_rul`.
+
+    Parameters
+    ----------
+    model_file : str or Path
+        ``model.pdmkit`` from a ``run_rul`` / ``pdmkit rul`` output folder (any
+        :class:`pdmkit.rul.RULPipeline` or RUL model saved with
+        :func:`pdmkit.save_model`).
+    history : str, Path or pandas.DataFrame
+        The units' histories so far: a long table (CSV or Parquet file, or a frame)
+        with ``unit``, ``time`` or ``cycle`` and the columns the model was trained on.
+    json_path : str or Path, optional
+        Also write the answer here as JSON.
+
+    Returns
+    -------
+    dict
+        ``model_file``, ``model`` (the estimator), ``level`` and ``units``: one entry
+        per unit with ``unit``, ``time`` (its last time), ``rul``, ``lower``,
+        ``upper``.
+
+    Raises
+    ------
+    pdmkit.errors.ModelError
+        The model file is damaged, not a pdmkit model, or not a RUL model.
+    pdmkit.errors.DataError
+        The history lacks a column the model needs (the message names it).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> import numpy as np, pandas as pd
+    >>> from pdmkit import save_model
+    >>> from pdmkit.experiments._rul import predict_rul
+    >>> from pdmkit.rul import LinearDegradationModel
+    >>> t = np.arange(0.0, 40.0)
+    >>> train = pd.DataFrame({"unit": np.repeat([1, 2, 3], 40), "time": np.tile(t, 3),
+    ...     "hi": np.r_[0.02 * t, 0.025 * t, 0.03 * t] + 0.001 * np.sin(np.tile(t, 3))})
+    >>> model = LinearDegradationModel(threshold=1.0).fit(train)
+    >>> path = save_model(model, pathlib.Path(tempfile.mkdtemp()) / "model.pdmkit")
+    >>> history = pd.DataFrame({"unit": "pump-7", "time": [0.0, 10.0], "hi": [0.0, 0.25]})
+    >>> answer = predict_rul(path, history)
+    >>> answer["units"][0]["unit"], round(answer["units"][0]["rul"])   # 1.0 at t = 40
+    ('pump-7', 30)
+    """
+    from pdmkit._persist import load_model
+    from pdmkit.ensembles._readers import read_table
+    from pdmkit.errors import ModelError
+
+    pipeline = load_model(model_file)
+    if not hasattr(pipeline, "predict_trajectory"):
+        raise ModelError(
+            f"{model_file}: holds a {type(pipeline).__name__}, not a RUL model; train "
+            "one with `pdmkit rul ... --out DIR` (it writes DIR/model.pdmkit)"
+        )
+    table = history if isinstance(history, pd.DataFrame) else read_table(history)
+    where = "history" if isinstance(history, pd.DataFrame) else str(history)
+    try:
+        prediction = pipeline.predict(table)
+    except DataError as exc:  # name the file: the model's message names the column
+        raise DataError(f"{where}: {exc}") from None
+    rows = prediction.to_pandas()[["unit", "time", "rul", "lower", "upper"]]
+    answer = {
+        "model_file": str(model_file),
+        "model": repr(getattr(pipeline, "model", pipeline)),
+        "level": float(prediction.level),
+        "units": rows.to_dict(orient="records"),
+    }
+    if json_path is not None:
+        _write_json(answer, Path(json_path))
+    return answer
+
+
 def _finish(report, summary: dict, out: Path, json_path) -> dict:
     """Write the report and the JSON summary (with its ``paths``); return the summary."""
     report.add_json(summary, caption="Summary")
@@ -643,17 +737,11 @@ def run_rul(
             dataset_options=dataset_options,
         )
     name, train, test, true, cols = _dataset(dataset, features)
-    indicator, estimator = make_rul_model(
-        model, cols, seed=seed, rul_cap=rul_cap, options=options
+    pipeline, fit_seconds = _fit_pipeline(
+        model, cols, train, seed=seed, rul_cap=rul_cap, options=options
     )
-    start = time.perf_counter()
-    if indicator is not None:
-        train_in = indicator.fit_transform(train)
-        test_in = indicator.transform(test)
-    else:
-        train_in, test_in = train, test
-    estimator.fit(train_in)
-    fit_seconds = time.perf_counter() - start
+    indicator, estimator = pipeline.indicator, pipeline.model
+    train_in, test_in = pipeline.transform(train), pipeline.transform(test)
     start = time.perf_counter()
     pred = estimator.predict(test_in)
     predict_seconds = time.perf_counter() - start
@@ -690,6 +778,7 @@ def run_rul(
 
     # ---------------------------------------------------------------- files
     out.mkdir(parents=True, exist_ok=True)
+    _save_pipeline(pipeline, out, summary)
     table = pred.to_pandas()
     table["rul_true"] = truth
     table["rul_true_capped"] = capped
@@ -777,18 +866,13 @@ def _indicator_plot(table: pd.DataFrame, estimator):
 
 def _leak_fit_predict(model, cols, train, test, seed, rul_cap, options):
     """Fit on ``train`` and follow every test unit through its life."""
-    indicator, estimator = make_rul_model(
-        model, cols, seed=seed, rul_cap=rul_cap, options=options, smoothing=None
+    pipeline, fit_seconds = _fit_pipeline(
+        model, cols, train, seed=seed, rul_cap=rul_cap, options=options, smoothing=None
     )
     start = time.perf_counter()
-    train_in = indicator.fit_transform(train) if indicator is not None else train
-    test_in = indicator.transform(test) if indicator is not None else test
-    estimator.fit(train_in)
-    fit_seconds = time.perf_counter() - start
-    start = time.perf_counter()
-    path = estimator.predict_trajectory(test_in, every=1)
+    path = pipeline.predict_trajectory(test, every=1)
     predict_seconds = time.perf_counter() - start
-    return indicator, estimator, train_in, path, fit_seconds, predict_seconds
+    return pipeline, path, fit_seconds, predict_seconds
 
 
 def _leak_scores(path, life: pd.Series, rul_cap: float):
@@ -833,14 +917,15 @@ def _run_leak(
     train, test, cols, ranking = _leak_data(features, seed, dataset_options, out)
     data_seconds = time.perf_counter() - start
     life = test.groupby("unit", sort=False)["cycle"].max()
-    indicator, estimator, train_in, path, fit_s, pred_s = _leak_fit_predict(
+    pipeline, path, fit_s, pred_s = _leak_fit_predict(
         model, cols, train, test, seed, rul_cap, options
     )
+    indicator, estimator = pipeline.indicator, pipeline.model
     table, metrics, acc, fractions = _leak_scores(path, life, rul_cap)
     # the same model on the true leak coefficient: what the random walk alone allows
     true_col = "true/log10_c_leak"
     ceiling_in = [t.assign(**{true_col: np.log10(t["c_leak"])}) for t in (train, test)]
-    *_, true_path, _, _ = _leak_fit_predict(
+    _, true_path, _, _ = _leak_fit_predict(
         model, [true_col], *ceiling_in, seed, rul_cap, options
     )
     _, true_metrics, _, true_fractions = _leak_scores(true_path, life, rul_cap)
@@ -896,6 +981,7 @@ def _run_leak(
     }
 
     out.mkdir(parents=True, exist_ok=True)
+    _save_pipeline(pipeline, out, summary)
     with atomic_path(out / "predictions.parquet") as tmp:
         table.drop(columns=[c for c in ("nearest",) if c in table]).to_parquet(tmp)
     report = Report(f"pdmkit rul: {model} on the pneumatic air-leak runs")
@@ -929,7 +1015,7 @@ def _run_leak(
     report.add_table(shown_rank, caption="Candidate indicators, best first")
     if indicator is not None:
         report.add_figure(
-            _indicator_plot(train_in, estimator),
+            _indicator_plot(pipeline.transform(train), estimator),
             caption="Health indicator (the chosen indicator mapped to the fraction of "
             "life) of ten training units",
         )

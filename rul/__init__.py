@@ -17,6 +17,8 @@ every point of each unit's history.
 - Survival models: :class:`ReliabilitySurvivalModel` (Weibull and friends, censoring),
   :class:`CovariateSurvivalModel` (proportional hazards with time-varying covariates).
 - A learned model: :class:`NeuralRULModel` (small torch LSTM / 1-D CNN over windows).
+- :class:`RULPipeline`: a health indicator and a model in one object (what
+  ``pdmkit rul`` saves and ``pdmkit rul --trained`` loads).
 - Metrics: :func:`rmse`, :func:`mae`, :func:`phm08_score`, :func:`interval_coverage`,
   :func:`alpha_lambda_accuracy`, :func:`relative_accuracy`, :func:`prognostic_horizon`,
   :func:`rul_metrics`.
@@ -53,6 +55,7 @@ from pdmkit.rul._metrics import (
     rul_metrics,
 )
 from pdmkit.rul._neural import NeuralRULModel
+from pdmkit.rul._pipeline import RULPipeline
 from pdmkit.rul._result import RULPrediction
 from pdmkit.rul._similarity import (
     HashSimilarityModel,
@@ -71,6 +74,7 @@ __all__ = [
     "LinearDegradationModel",
     "NeuralRULModel",
     "PairwiseSimilarityModel",
+    "RULPipeline",
     "RULPrediction",
     "RegimeNormalizer",
     "ReliabilitySurvivalModel",
