@@ -87,7 +87,7 @@ LEAK_DEFAULTS = {
     "n_test": 40,
     "max_cycles": 60,
     "t_end": 10.0,
-    "walk_shape": 4.0,
+    "walk_shape": 16.0,  # simulate_leak_runs' default; its notes say why
 }
 _LEAK_VERSION = 1  # bump when the simulation or the indicators change (cache key)
 _LEAK_LABELS = ("unit", "cycle", "c_leak", "rul", "failed", "load_kg", "supply_bar")
@@ -181,7 +181,7 @@ def simulate_leak_dataset(
     *,
     max_cycles: int = 60,
     t_end: float = 10.0,
-    walk_shape: float = 4.0,
+    walk_shape: float = 16.0,
     seed: int = 0,
     signals=LEAK_SIGNALS,
     cache_dir: str | Path | None = None,

@@ -119,3 +119,25 @@ def test_unknown_dataset_option_is_named(tmp_path):
         run_rul(
             "pneumatic-leak", "linear-degradation", tmp_path, dataset_options={"n_units": 3}
         )
+
+
+@pytest.mark.slow
+def test_linear_degradation_meets_the_issue_target_on_the_default_leak_runs(tmp_path):
+    # issue 6: linear-degradation RUL within 10 % over the last half of life for at
+    # least 80 % of test units, on the default air-leak runs (20 training / 40 test
+    # units, seed 0; about 45 s, most of it simulating the twin). The reading held:
+    # every last-half prediction within 10 % of the unit's life (docs/rul.md).
+    summary = run_rul("pneumatic-leak", "linear-degradation", tmp_path, n_trajectories=0)
+    assert summary["simulation"]["walk_shape"] == 16.0
+    assert summary["n_units"] == 40
+    assert summary["within_10pct"]["of_life"] >= 0.8
+    # the residual and pairwise similarity models are reported beside it
+    for model in ("similarity", "pairwise"):
+        other = run_rul(
+            "pneumatic-leak",
+            model,
+            tmp_path / model,
+            n_trajectories=0,
+            dataset_options={"cache_dir": tmp_path / "cache"},
+        )
+        assert other["n_units"] == 40 and np.isfinite(other["rmse"])
