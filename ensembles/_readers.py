@@ -64,13 +64,43 @@ def _drop_trailing_empty(table: pd.DataFrame) -> pd.DataFrame:
     return table.drop(columns=empty) if empty else table
 
 
+def _single_column_blanks(path: Path, table: pd.DataFrame, options: dict) -> pd.DataFrame:
+    """A one-column CSV keeps its empty values.
+
+    pandas skips blank lines, and in a one-column file an empty (or whitespace-only)
+    value *is* a blank line: skipping it would shift every later sample. Blank lines
+    between values become missing values; blank lines after the last value end the
+    file (as an editor's trailing newlines do) and are not rows.
+    """
+    if table.shape[1] != 1 or "skip_blank_lines" in options:
+        return table
+    full = _drop_trailing_empty(pd.read_csv(path, skip_blank_lines=False, **options))
+    if full.shape[1] != 1:
+        return table
+    col = full.iloc[:, 0]
+    if not pd.api.types.is_numeric_dtype(col):  # whitespace-only values are empty
+        col = col.mask(col.map(lambda v: isinstance(v, str) and not v.strip()))
+    present = np.flatnonzero(col.notna().to_numpy())
+    if present.size == 0:
+        return table
+    col = col.iloc[: present[-1] + 1].reset_index(drop=True)
+    if len(col) == len(table):
+        return table
+    if pd.api.types.is_numeric_dtype(table.iloc[:, 0]):
+        col = pd.to_numeric(col)
+    return col.to_frame(name=table.columns[0])
+
+
 def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
     """Read a CSV or Parquet table into a DataFrame.
 
     CSV (``.csv``, ``.tsv`` tab-separated, ``.txt``; optionally ``.gz``/``.bz2``/...
     compressed) goes through :func:`pandas.read_csv`, Parquet (``.parquet``, ``.pq``)
     through :func:`pandas.read_parquet`. Columns named ``Unnamed: k`` that hold nothing
-    (left by a delimiter at the end of every line) are dropped.
+    (left by a delimiter at the end of every line) are dropped. In a one-column CSV an
+    empty line between values is a missing value (NaN), not a skipped line, so the
+    samples after it keep their positions; empty lines after the last value are not
+    rows.
 
     Parameters
     ----------
@@ -135,6 +165,8 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
             "is damaged or not what its extension says"
         ) from None
     table = _drop_trailing_empty(table)
+    if kind == "csv":
+        table = _single_column_blanks(path, table, options)
     if len(table) == 0:
         raise DataError(
             f"{path} holds no rows (columns: {list(table.columns)}); expected a table "

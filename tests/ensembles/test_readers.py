@@ -37,6 +37,18 @@ def test_read_table_drops_the_empty_column_of_a_trailing_delimiter(tmp_path: Pat
     assert table["V2"].tolist() == [0.25, 1.25]
 
 
+def test_one_column_csv_keeps_empty_values_in_place(tmp_path: Path) -> None:
+    # pandas skips blank lines; in a one-column recording they are missing samples,
+    # and skipping them would shift every later sample (a lost time alignment)
+    path = tmp_path / "flow.csv"
+    path.write_text("flow\n1.5\n\n1.7\n   \n1.9\n\n\n")
+    table = read_table(path)
+    np.testing.assert_array_equal(table["flow"], [1.5, np.nan, 1.7, np.nan, 1.9])
+    # with two columns an empty line is no row at all, as pandas reads it
+    path.write_text("t,flow\n0,1.5\n\n1,1.7\n")
+    assert read_table(path)["flow"].tolist() == [1.5, 1.7]
+
+
 @pytest.mark.parametrize("name", ["bad.csv", "bad.parquet"])
 def test_read_table_garbage_names_the_file(tmp_path: Path, name: str) -> None:
     path = tmp_path / name
