@@ -634,6 +634,7 @@ def build_parser() -> argparse.ArgumentParser:
             "degradation",
             "linear-degradation",
             "wiener",
+            "wiener-noisy",
             "gamma-process",
             "survival",
             "covariate",

@@ -11,7 +11,9 @@ units and predicts each test unit's RUL at its last observed cycle:
   (``ewm`` span 10), :class:`pdmkit.rul.ExponentialDegradationModel` with the mean final
   indicator of the training units as threshold; ``"linear-degradation"`` likewise;
   ``"wiener"``: :class:`pdmkit.rul.WienerDegradationModel` (Brownian motion with a
-  unit-specific drift, first-passage RUL) on the same indicator; ``"gamma-process"``:
+  unit-specific drift, first-passage RUL) on the same indicator; ``"wiener-noisy"``:
+  :class:`pdmkit.rul.NoisyWienerDegradationModel` (the same read through measurement
+  noise, Kalman filter); ``"gamma-process"``:
   :class:`pdmkit.rul.GammaProcessDegradationModel` (monotone gamma increments with a
   unit-specific rate); both with ``transform="auto"`` (an exponential transform of the
   indicator chosen by profile likelihood on the training units);
@@ -71,6 +73,8 @@ RUL_MODELS = {
     "exponential-degradation": "exponential degradation model with Bayesian updating",
     "linear-degradation": "linear degradation model with Bayesian updating",
     "wiener": "Wiener-process degradation (drift updated per unit, first-passage RUL)",
+    "wiener-noisy": "Wiener-process degradation read through measurement noise "
+    "(Kalman filter on level and drift, first-passage RUL)",
     "gamma-process": "gamma-process degradation (rate updated per unit, first passage)",
     "survival": "Weibull reliability model, conditional on the age reached",
     "reliability": "Weibull reliability model, conditional on the age reached",
@@ -458,8 +462,8 @@ def make_rul_model(
     options : dict, optional
         Extra keyword arguments for the estimator (e.g. a small ``epochs`` for tests).
     smoothing : float or None, default 10
-        ``ewm`` span of the health indicator of the degradation and covariate models
-        (None: unsmoothed, as for the clean air-leak indicator).
+        ``ewm`` span of the health indicator of the degradation (but not the Wiener)
+        and covariate models (None: unsmoothed, as for the clean air-leak indicator).
 
     Returns
     -------
@@ -485,11 +489,12 @@ def make_rul_model(
         return None, rul.NeuralRULModel(features, **kw)
     if model in ("survival", "reliability"):
         return None, rul.ReliabilitySurvivalModel(max_rul=rul_cap, **opts)
+    # the Wiener models describe the raw increments (smoothing would correlate them;
+    # the noisy one filters the noise itself); the others read a smoothed indicator
     smooth = model in (
         "degradation",
         "exponential-degradation",
         "linear-degradation",
-        "wiener",
         "gamma-process",
         "covariate",
     )
@@ -512,6 +517,10 @@ def make_rul_model(
         )
     elif model == "wiener":  # deterministic: quantiles by bisection, no draws
         est = rul.WienerDegradationModel(
+            **{"max_rul": rul_cap, "transform": "auto", **opts}
+        )
+    elif model == "wiener-noisy":
+        est = rul.NoisyWienerDegradationModel(
             **{"max_rul": rul_cap, "transform": "auto", **opts}
         )
     elif model == "gamma-process":

@@ -11,7 +11,9 @@ every point of each unit's history.
 - Degradation models (Bayesian updating, threshold crossing):
   :class:`LinearDegradationModel`, :class:`ExponentialDegradationModel`; a Wiener
   process (random-walk degradation, first-passage RUL): :class:`WienerDegradationModel`,
-  and its monotone counterpart :class:`GammaProcessDegradationModel`.
+  the same read through measurement noise (Kalman filter):
+  :class:`NoisyWienerDegradationModel`, and the monotone counterpart
+  :class:`GammaProcessDegradationModel`.
 - Similarity models: :class:`ResidualSimilarityModel`, :class:`PairwiseSimilarityModel`,
   :class:`HashSimilarityModel`.
 - Survival models: :class:`ReliabilitySurvivalModel` (Weibull and friends, censoring),
@@ -64,6 +66,7 @@ from pdmkit.rul._similarity import (
 )
 from pdmkit.rul._survival import CovariateSurvivalModel, ReliabilitySurvivalModel
 from pdmkit.rul._wiener import GammaProcessDegradationModel, WienerDegradationModel
+from pdmkit.rul._wiener_noise import NoisyWienerDegradationModel
 
 __all__ = [
     "CovariateSurvivalModel",
@@ -73,6 +76,7 @@ __all__ = [
     "HealthIndicator",
     "LinearDegradationModel",
     "NeuralRULModel",
+    "NoisyWienerDegradationModel",
     "PairwiseSimilarityModel",
     "RULPipeline",
     "RULPrediction",

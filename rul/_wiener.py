@@ -319,7 +319,11 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
             self._w = float(self._g(self._sign * threshold))
             if not any((self._z(u) >= self._w).any() for u in units):
                 self._warn_unreached(values, threshold, "RULs extrapolate the fitted drift")
-        # per-unit drifts and the pooled diffusion
+        self._fit_process(units)
+        return self._finish_fit(units, positive_horizon=True)
+
+    def _fit_process(self, units) -> None:
+        """Per-unit drifts (:attr:`unit_params_`) and the process parameters."""
         rows, ss, dof = [], 0.0, 0
         for u in units:
             if len(u) < 2:
@@ -344,7 +348,6 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
             rows, columns=["unit", "drift", "elapsed", "n", "end", "rss"]
         )
         self._estimate_process(ss, dof)
-        return self._finish_fit(units, positive_horizon=True)
 
     def _estimate_process(self, ss: float, dof: int) -> None:
         """Pooled diffusion and the drift prior from :attr:`unit_params_`."""
@@ -383,12 +386,15 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
             explained = float(np.mean(s2 / elapsed))
             v0 = max(sample - explained, 1e-3 * sample, 1e-12 * (m0**2 + s2))
         self.drift_mean_, self.drift_var_ = m0, v0
+        self._warn_non_positive_drift(m0)
+
+    def _warn_non_positive_drift(self, m0: float) -> None:
         if m0 <= 0:
             warnings.warn(
                 f"the mean drift of {self.indicator!r} towards the threshold is {m0:g} "
                 "(not positive); most RULs will be inf - check direction=",
                 UserWarning,
-                stacklevel=3,
+                stacklevel=5,
             )
 
     @staticmethod
@@ -434,11 +440,18 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
         (1.25, 0.125)
         """
         check_fitted(self, "n_units_")
-        out = {}
-        for u in self._split(table):
+        units = self._split(table)
+        return {
+            u.name: post for u, post in zip(units, self._posteriors(units), strict=True)
+        }
+
+    def _posteriors(self, units) -> list[tuple[float, float]]:
+        """The posterior of each unit's drift (rate for the gamma process)."""
+        out = []
+        for u in units:
             z = self._z(u)
             post = self._posterior(z[-1] - z[0], u.t[-1] - u.t[0])
-            out[u.name] = tuple(float(v) for v in post)
+            out.append(tuple(float(v) for v in post))
         return out
 
     def update(self, table: pd.DataFrame):
@@ -486,25 +499,22 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
         dist = self._w - z_now
         past = dist <= 0
         d = np.where(past, 1.0, dist)
+        return self._first_passage_summary(
+            names, t_now, past, lambda t: self._rul_cdf(t, d, post), self._extra(post)
+        )
+
+    def _first_passage_summary(self, names, t_now, past, cdf, extra):
+        """Median and interval of each unit's RUL from its distribution function
+        ``cdf`` (vectorised over the units); RUL 0 where ``past``."""
         level = self._level
-
-        def cdf(t):
-            return self._rul_cdf(t, d, post)
-
         out = []
         for q in ((1 - level) / 2, 0.5, (1 + level) / 2):
-            value, reach = _quantiles(cdf, q, d.shape, self.horizon_)
+            value, reach = _quantiles(cdf, q, past.shape, self.horizon_)
             out.append(np.where(past, 0.0, value))
         lo, est, hi = out
         p_fail = np.where(past, 1.0, reach)
         return self._prediction(
-            names,
-            t_now,
-            est,
-            lo,
-            hi,
-            level=level,
-            extra={"p_fail": p_fail, **self._extra(post)},
+            names, t_now, est, lo, hi, level=level, extra={"p_fail": p_fail, **extra}
         )
 
     def _rul_cdf(self, t, d, post):
