@@ -2,7 +2,8 @@
 
 :func:`classify` and :func:`compare_models` train and score fault classifiers;
 :func:`compare_sensors` ranks sensors by accuracy and cost; :func:`run_rul` trains and
-scores remaining-useful-life models (C-MAPSS, the twin's air-leak runs);
+scores remaining-useful-life models (C-MAPSS, the twin's air-leak runs, your tables) and
+:func:`predict_rul` answers a unit's RUL from a saved model and its history;
 :func:`run_identify` identifies a linear model from a recording; :func:`run_mismatch`
 explains where a model file and a recording differ. Each ``run_*`` writes a JSON
 summary and a self-contained HTML :class:`Report`, as the ``pdmkit`` command does.
@@ -35,6 +36,7 @@ from pdmkit.experiments._rul import (
     leak_accuracy,
     leak_indicators,
     make_rul_model,
+    predict_rul,
     run_rul,
     simulate_leak_dataset,
 )
@@ -76,6 +78,7 @@ __all__ = [
     "make_rul_model",
     "package_versions",
     "predict_members",
+    "predict_rul",
     "run_identify",
     "run_mismatch",
     "run_rul",

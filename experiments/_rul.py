@@ -563,6 +563,8 @@ def predict_rul(model_file, history, *, json_path=None) -> dict[str, Any]:
     history : str, Path or pandas.DataFrame
         The units' histories so far: a long table (CSV or Parquet file, or a frame)
         with ``unit``, ``time`` or ``cycle`` and the columns the model was trained on.
+        Without a ``unit`` column the table is one unit's history, named after the
+        file (``"unit"`` for a frame).
     json_path : str or Path, optional
         Also write the answer here as JSON.
 
@@ -609,6 +611,10 @@ def predict_rul(model_file, history, *, json_path=None) -> dict[str, Any]:
         )
     table = history if isinstance(history, pd.DataFrame) else read_table(history)
     where = "history" if isinstance(history, pd.DataFrame) else str(history)
+    unit = getattr(getattr(pipeline, "model", pipeline), "unit", "unit")
+    if unit not in table.columns:  # one unit's history: named after its file
+        name = "unit" if isinstance(history, pd.DataFrame) else Path(history).stem
+        table = table.assign(**{unit: name})
     try:
         prediction = pipeline.predict(table)
     except DataError as exc:  # name the file: the model's message names the column

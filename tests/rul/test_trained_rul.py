@@ -100,6 +100,12 @@ def test_bad_trained_inputs_are_named(tables_on_disk, tmp_path, capsys):
     history.to_csv(tmp_path / "h.csv", index=False)
     with pytest.raises(DataError, match=r"h\.csv.*s2"):
         predict_rul(path, tmp_path / "h.csv")
+    # without a unit column the file is one unit's history, named after the file
+    one = test[test["unit"] == test["unit"].iloc[0]].drop(columns="unit")
+    one.to_csv(tmp_path / "pump-7.csv", index=False)
+    (row,) = predict_rul(path, tmp_path / "pump-7.csv")["units"]
+    want = pipe.predict(one.assign(unit="pump-7")).estimate[0]
+    assert row["unit"] == "pump-7" and row["rul"] == pytest.approx(want)
     # a model file that holds something else
     other = save_model(
         KNeighborsClassifier(1).fit(np.eye(2), [0, 1]), tmp_path / "knn.pdmkit"
