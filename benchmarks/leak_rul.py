@@ -1,9 +1,10 @@
 """Air-leak RUL on the pneumatic twin: the done-when table of issue 6, in one run.
 
-For each walk shape (the roughness of the leak coefficient's random walk; 4 is the
-twin's default), simulates ``--train`` training and ``--test`` test units
+For each walk shape (the roughness of the leak coefficient's random walk; 16 is the
+twin's default, 4 the rough case), simulates ``--train`` training and ``--test`` test units
 (:func:`pdmkit.experiments._rul.simulate_leak_dataset`, cached under ``--cache``) and
-runs ``run_rul("pneumatic-leak", model)`` for the linear degradation, Wiener-process,
+runs ``run_rul("pneumatic-leak", model)`` for the linear degradation, Wiener-process
+(plain and with measurement noise),
 gamma-process, residual similarity and pairwise similarity models on the best-ranked
 indicator, plus linear degradation on the seed's indicator (the flow shape factor). Each
 row reports RMSE and MAE over the last half of the test units' lives and the fraction of
@@ -40,7 +41,14 @@ from pdmkit.ensembles._pneumatic import _leak_path
 from pdmkit.experiments._rul import leak_accuracy, run_rul
 from pdmkit.rul import GammaProcessDegradationModel, WienerDegradationModel
 
-MODELS = ("linear-degradation", "wiener", "gamma-process", "similarity", "pairwise")
+MODELS = (
+    "linear-degradation",
+    "wiener",
+    "wiener-noisy",
+    "gamma-process",
+    "similarity",
+    "pairwise",
+)
 SEED_INDICATOR = "FlowExtrusion/stats/ShapeFactor"
 
 
