@@ -500,6 +500,7 @@ def _cmd_rul(args: argparse.Namespace) -> int:
             args.dataset_option, "--dataset-option", "walk_shape=16"
         )
         or None,
+        calibrate=args.calibrate,
     )
     _say(
         f"{summary['model']}: RMSE {summary['rmse']:.2f}, MAE {summary['mae']:.2f}, "
@@ -670,6 +671,12 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="pneumatic-leak simulation setting (repeat): n_train, n_test, max_cycles, "
         "t_end, walk_shape",
+    )
+    p.add_argument(
+        "--calibrate",
+        action="store_true",
+        help="rescale the model's intervals on held-out training units so that they "
+        "hold their level (conformal; estimates unchanged)",
     )
     p.add_argument(
         "--trained",

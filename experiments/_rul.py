@@ -532,16 +532,35 @@ def make_rul_model(
     return indicator, est
 
 
-def _fit_pipeline(model, features, train, *, seed, rul_cap, options, smoothing=10):
-    """A fitted :class:`pdmkit.rul.RULPipeline` for a workflow model, and its fit time."""
-    from pdmkit.rul import RULPipeline
+def _fit_pipeline(
+    model, features, train, *, seed, rul_cap, options, smoothing=10, calibrate=False
+):
+    """A fitted :class:`pdmkit.rul.RULPipeline` for a workflow model, and its fit time;
+    ``calibrate`` wraps the estimator in :class:`pdmkit.rul.ConformalRUL`."""
+    from pdmkit.rul import ConformalRUL, RULPipeline
 
     indicator, estimator = make_rul_model(
         model, features, seed=seed, rul_cap=rul_cap, options=options, smoothing=smoothing
     )
+    if calibrate:
+        estimator = ConformalRUL(estimator, random_state=seed)
     start = time.perf_counter()
     pipeline = RULPipeline(indicator, estimator).fit(train)
     return pipeline, time.perf_counter() - start
+
+
+def _calibration(pipeline) -> dict:
+    """The summary's ``calibrated`` entry (and the interval factors when calibrated)."""
+    factors = getattr(pipeline.model, "upper_factor_", None)
+    if factors is None:
+        return {"calibrated": False}
+    return {
+        "calibrated": True,
+        "interval_factors": {
+            "lower": pipeline.model.lower_factor_,
+            "upper": pipeline.model.upper_factor_,
+        },
+    }
 
 
 def _save_pipeline(pipeline, out: Path, summary: dict) -> None:
@@ -667,6 +686,7 @@ def run_rul(
     options: dict | None = None,
     n_trajectories: int = 4,
     dataset_options: dict | None = None,
+    calibrate: bool = False,
 ) -> dict[str, Any]:
     """Train a RUL model, predict the test units, and write JSON and an HTML report.
 
@@ -700,6 +720,9 @@ def run_rul(
     dataset_options : dict, optional
         For ``"pneumatic-leak"``: arguments of :func:`simulate_leak_dataset`
         (defaults :data:`LEAK_DEFAULTS`; ``cache_dir`` defaults to ``out_dir/cache``).
+    calibrate : bool, default False
+        Wrap the model in :class:`pdmkit.rul.ConformalRUL`: its intervals rescaled on
+        held-out training units to hold their level (estimates unchanged).
 
     Returns
     -------
@@ -750,10 +773,11 @@ def run_rul(
             options=options,
             n_trajectories=n_trajectories,
             dataset_options=dataset_options,
+            calibrate=calibrate,
         )
     name, train, test, true, cols = _dataset(dataset, features)
     pipeline, fit_seconds = _fit_pipeline(
-        model, cols, train, seed=seed, rul_cap=rul_cap, options=options
+        model, cols, train, seed=seed, rul_cap=rul_cap, options=options, calibrate=calibrate
     )
     indicator, estimator = pipeline.indicator, pipeline.model
     train_in, test_in = pipeline.transform(train), pipeline.transform(test)
@@ -786,6 +810,7 @@ def run_rul(
         "fit_seconds": round(fit_seconds, 2),
         "predict_seconds": round(predict_seconds, 2),
         "estimator": repr(estimator),
+        **_calibration(pipeline),
         "features": list(indicator.selected_)
         if indicator is not None
         else list(getattr(estimator, "features_", cols)),
@@ -879,10 +904,17 @@ def _indicator_plot(table: pd.DataFrame, estimator):
 # --------------------------------------------------------------------------- air leak
 
 
-def _leak_fit_predict(model, cols, train, test, seed, rul_cap, options):
+def _leak_fit_predict(model, cols, train, test, seed, rul_cap, options, calibrate):
     """Fit on ``train`` and follow every test unit through its life."""
     pipeline, fit_seconds = _fit_pipeline(
-        model, cols, train, seed=seed, rul_cap=rul_cap, options=options, smoothing=None
+        model,
+        cols,
+        train,
+        seed=seed,
+        rul_cap=rul_cap,
+        options=options,
+        smoothing=None,
+        calibrate=calibrate,
     )
     start = time.perf_counter()
     path = pipeline.predict_trajectory(test, every=1)
@@ -925,6 +957,7 @@ def _run_leak(
     options,
     n_trajectories,
     dataset_options,
+    calibrate,
 ):
     from pdmkit.experiments._report import Report
 
@@ -933,7 +966,7 @@ def _run_leak(
     data_seconds = time.perf_counter() - start
     life = test.groupby("unit", sort=False)["cycle"].max()
     pipeline, path, fit_s, pred_s = _leak_fit_predict(
-        model, cols, train, test, seed, rul_cap, options
+        model, cols, train, test, seed, rul_cap, options, calibrate
     )
     indicator, estimator = pipeline.indicator, pipeline.model
     table, metrics, acc, fractions = _leak_scores(path, life, rul_cap)
@@ -941,7 +974,7 @@ def _run_leak(
     true_col = "true/log10_c_leak"
     ceiling_in = [t.assign(**{true_col: np.log10(t["c_leak"])}) for t in (train, test)]
     _, true_path, _, _ = _leak_fit_predict(
-        model, [true_col], *ceiling_in, seed, rul_cap, options
+        model, [true_col], *ceiling_in, seed, rul_cap, options, calibrate
     )
     _, true_metrics, _, true_fractions = _leak_scores(true_path, life, rul_cap)
 
@@ -992,6 +1025,7 @@ def _run_leak(
         "fit_seconds": round(fit_s, 2),
         "predict_seconds": round(pred_s, 2),
         "estimator": repr(estimator),
+        **_calibration(pipeline),
         "features": list(indicator.selected_) if indicator is not None else list(cols),
     }
 

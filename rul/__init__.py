@@ -19,6 +19,8 @@ every point of each unit's history.
 - Survival models: :class:`ReliabilitySurvivalModel` (Weibull and friends, censoring),
   :class:`CovariateSurvivalModel` (proportional hazards with time-varying covariates).
 - A learned model: :class:`NeuralRULModel` (small torch LSTM / 1-D CNN over windows).
+- :class:`ConformalRUL`: any model's intervals rescaled, on held-out training units,
+  to hold their level.
 - :class:`RULPipeline`: a health indicator and a model in one object (what
   ``pdmkit rul`` saves and ``pdmkit rul --trained`` loads).
 - Metrics: :func:`rmse`, :func:`mae`, :func:`phm08_score`, :func:`interval_coverage`,
@@ -39,6 +41,7 @@ Examples
 0  new  29.0  40.0
 """
 
+from pdmkit.rul._conformal import ConformalRUL
 from pdmkit.rul._degradation import ExponentialDegradationModel, LinearDegradationModel
 from pdmkit.rul._indicators import (
     HealthIndicator,
@@ -69,6 +72,7 @@ from pdmkit.rul._wiener import GammaProcessDegradationModel, WienerDegradationMo
 from pdmkit.rul._wiener_noise import NoisyWienerDegradationModel
 
 __all__ = [
+    "ConformalRUL",
     "CovariateSurvivalModel",
     "ExponentialDegradationModel",
     "GammaProcessDegradationModel",

@@ -168,6 +168,15 @@ def check_fitted(estimator, attribute: str) -> None:
         )
 
 
+def check_rul_model(model, owner: str) -> None:
+    """A wrapper's ``model=`` must be a pdmkit RUL model (``predict_trajectory``)."""
+    if model is None or not hasattr(model, "predict_trajectory"):
+        raise TypeError(
+            f"{owner} needs model= a pdmkit RUL model (fit / predict / "
+            f"predict_trajectory); got {type(model).__name__}"
+        )
+
+
 def check_level(level) -> float:
     if isinstance(level, bool) or not isinstance(level, int | float | np.number):
         raise ValueError(f"level must be a number in (0, 1), got {level!r}")

@@ -11,7 +11,7 @@ from __future__ import annotations
 import pandas as pd
 from sklearn.base import BaseEstimator
 
-from pdmkit.rul._base import check_fitted
+from pdmkit.rul._base import check_fitted, check_rul_model
 
 
 class RULPipeline(BaseEstimator):
@@ -56,19 +56,12 @@ class RULPipeline(BaseEstimator):
         self.indicator = indicator
         self.model = model
 
-    def _check_model(self):
-        if self.model is None or not hasattr(self.model, "predict_trajectory"):
-            raise TypeError(
-                "RULPipeline needs model= a pdmkit RUL model (fit / predict / "
-                f"predict_trajectory); got {type(self.model).__name__}"
-            )
-
     def _inputs(self, table: pd.DataFrame) -> pd.DataFrame:
         return table if self.indicator is None else self.indicator.transform(table)
 
     def fit(self, table: pd.DataFrame, y=None):
         """Fit the indicator on ``table``, then the model on the indicator."""
-        self._check_model()
+        check_rul_model(self.model, "RULPipeline")
         data = table if self.indicator is None else self.indicator.fit_transform(table)
         self.model.fit(data)
         self.n_units_ = self.model.n_units_

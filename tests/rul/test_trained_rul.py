@@ -119,3 +119,30 @@ def test_bad_trained_inputs_are_named(tables_on_disk, tmp_path, capsys):
     assert "go together" in capsys.readouterr().err
     assert main(["rul", "--train", str(folder / "train.csv")]) == 2
     assert "go together" in capsys.readouterr().err
+
+
+def test_calibrate_keeps_estimates_and_rescales_intervals(tables_on_disk, tmp_path):
+    folder, *_ = tables_on_disk
+    args = ["rul", "--train", str(folder / "train.csv"), "--test"]
+    args += [str(folder / "test.parquet"), "--model", "linear-degradation"]
+    runs = {}
+    for flag in ([], ["--calibrate"]):
+        out = tmp_path / ("cal" if flag else "raw")
+        assert main([*args, *flag, "--json", str(out / "s.json"), "--out", str(out)]) == 0
+        runs[bool(flag)] = (
+            json.loads((out / "s.json").read_text()),
+            pd.read_parquet(out / "predictions.parquet"),
+        )
+    (raw, raw_pred), (cal, cal_pred) = runs[False], runs[True]
+    assert not raw["calibrated"] and cal["calibrated"]
+    factors = cal["interval_factors"]
+    np.testing.assert_array_equal(cal_pred["rul"], raw_pred["rul"])
+    np.testing.assert_allclose(
+        cal_pred["upper"] - cal_pred["rul"],
+        np.minimum(
+            factors["upper"] * (raw_pred["upper"] - raw_pred["rul"]),
+            125.0 - raw_pred["rul"],
+        ),
+        rtol=1e-9,
+        atol=1e-9,
+    )
