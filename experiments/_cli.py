@@ -624,7 +624,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_sensors)
 
     p = sub.add_parser("rul", help="train and evaluate a remaining-useful-life model")
-    p.add_argument("--dataset", default="cmapss-fd001", help="run-to-failure dataset")
+    p.add_argument(
+        "--dataset",
+        default="cmapss-fd001",
+        help="run-to-failure dataset: cmapss-fd001 (default, NASA C-MAPSS) or "
+        "pneumatic-leak (the twin's air-leak runs); or give --train/--test",
+    )
     p.add_argument(
         "--model",
         default="similarity",
@@ -643,7 +648,7 @@ def build_parser() -> argparse.ArgumentParser:
         ],
     )
     p.add_argument("--rul-cap", type=float, default=125.0, help="cap of RUL targets")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the estimators' draws")
     p.add_argument(
         "--train",
         type=Path,
@@ -692,8 +697,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="units' histories so far (CSV / Parquet: unit, time or cycle, the model's "
         "columns); with --trained",
     )
-    p.add_argument("--out", type=Path, default=Path("results/rul"))
-    p.add_argument("--json", type=Path)
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results/rul"),
+        help="output folder: rul.json, predictions.parquet, report.html, model.pdmkit",
+    )
+    p.add_argument("--json", type=Path, help="also write the JSON summary here")
     p.set_defaults(func=_cmd_rul)
 
     from pdmkit.experiments._identify import IDENTIFY_STRUCTURES
