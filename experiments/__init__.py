@@ -39,6 +39,7 @@ from pdmkit.experiments._rul import (
     predict_rul,
     run_rul,
     simulate_leak_dataset,
+    split_run_to_failure,
 )
 from pdmkit.experiments._runs import (
     RunDirectory,
@@ -83,4 +84,5 @@ __all__ = [
     "run_mismatch",
     "run_rul",
     "simulate_leak_dataset",
+    "split_run_to_failure",
 ]

@@ -480,13 +480,23 @@ def _cmd_rul(args: argparse.Namespace) -> int:
                 f"({level:g} % interval {row['lower']:.1f} to {row['upper']:.1f})"
             )
         return 0
-    if (args.train is None) != (args.test is None):
-        raise DataError("--train and --test go together (two long tables)")
+    if args.test is not None and args.train is None:
+        raise DataError("--test needs --train (the training units)")
     dataset = args.dataset
     if args.train is not None:
         from pdmkit.ensembles._readers import read_table
+        from pdmkit.experiments._rul import split_run_to_failure
 
-        dataset = (read_table(args.train), read_table(args.test))
+        train = read_table(args.train)
+        if args.test is None:  # hold out a quarter of the units, cut at random
+            dataset = split_run_to_failure(train, seed=args.seed)
+            _say(
+                f"{args.train}: {dataset[1]['unit'].nunique()} of "
+                f"{train['unit'].nunique()} units held out "
+                "as test histories, each cut at 10-90 % of its life"
+            )
+        else:
+            dataset = (train, read_table(args.test))
     summary = run_rul(
         dataset,
         args.model,
@@ -653,7 +663,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--train",
         type=Path,
         help="your own run-to-failure units: a long table (CSV / Parquet) with unit, "
-        "time or cycle and the sensor columns; with --test",
+        "time or cycle and the sensor columns; without --test a quarter of the units "
+        "is held out, each cut at 10-90 %% of its life",
     )
     p.add_argument(
         "--test",

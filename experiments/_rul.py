@@ -62,6 +62,7 @@ __all__ = [
     "predict_rul",
     "run_rul",
     "simulate_leak_dataset",
+    "split_run_to_failure",
 ]
 
 RUL_MODELS = {
@@ -389,6 +390,80 @@ def _leak_data(features, seed, options, out):
     else:
         cols = list(features)
     return train, test, cols, ranking
+
+
+def split_run_to_failure(
+    table: pd.DataFrame,
+    *,
+    test_fraction: float = 0.25,
+    cut: tuple[float, float] = (0.1, 0.9),
+    seed: int = 0,
+    unit: str = "unit",
+    time: str | None = None,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Split run-to-failure units into training units and cut test histories.
+
+    The usual case: one set of units run to failure and no separate test set. A
+    ``test_fraction`` of the units (at least one, at least two left for training) is
+    held out; each held-out unit's history is cut after a uniformly drawn fraction of
+    its life in ``cut`` (at least its first row, at most all but its last), and its
+    true RUL after the cut, ``rul_true_final``, is what remained, as C-MAPSS's test
+    files give it.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Long table of run-to-failure units (a unit's last row is its failure).
+    test_fraction : float, default 0.25
+    cut : (float, float), default (0.1, 0.9)
+        Range of the fraction of life after which a test history stops.
+    seed : int, default 0
+    unit, time : str
+        Key columns (``time`` default ``"time"``, else ``"cycle"``).
+
+    Returns
+    -------
+    (train, test) : tuple of pandas.DataFrame
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> from pdmkit.experiments import split_run_to_failure
+    >>> table = pd.DataFrame({"unit": np.repeat([1, 2, 3, 4], 10),
+    ...                       "cycle": np.tile(np.arange(1, 11), 4), "s1": 0.0})
+    >>> train, test = split_run_to_failure(table, seed=1)
+    >>> train["unit"].nunique(), test["unit"].nunique()
+    (3, 1)
+    >>> bool((test["cycle"].max() + test["rul_true_final"].iloc[0]) == 10)
+    True
+    """
+    from pdmkit.rul._base import resolve_keys
+
+    unit, time = resolve_keys(table, unit, time)
+    if not 0 < test_fraction < 1:
+        raise ValueError(f"test_fraction must be in (0, 1), got {test_fraction!r}")
+    lo, hi = (float(v) for v in cut)
+    if not 0 <= lo <= hi <= 1:
+        raise ValueError(f"cut must be (lo, hi) with 0 <= lo <= hi <= 1, got {cut!r}")
+    units = pd.unique(table[unit])
+    if len(units) < 3:
+        raise DataError(
+            f"splitting needs at least 3 run-to-failure units (2 to train, 1 to test); "
+            f"the table has {len(units)}"
+        )
+    rng = np.random.default_rng(seed)
+    n_test = min(max(1, round(test_fraction * len(units))), len(units) - 2)
+    held = set(rng.choice(units, size=n_test, replace=False).tolist())
+    parts = []
+    for _, part in table[table[unit].isin(held)].groupby(unit, sort=False):
+        part = part.sort_values(time)
+        t = part[time].to_numpy(dtype=float)
+        end = t[0] + rng.uniform(lo, hi) * (t[-1] - t[0])
+        keep = part[(t <= end)] if (t <= end).any() else part.iloc[:1]
+        keep = keep.iloc[: max(1, min(len(keep), len(part) - 1))]
+        parts.append(keep.assign(rul_true_final=t[-1] - float(keep[time].iloc[-1])))
+    train = table[~table[unit].isin(held)].reset_index(drop=True)
+    return train, pd.concat(parts, ignore_index=True)
 
 
 def _dataset(dataset, features):

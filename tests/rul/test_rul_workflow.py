@@ -74,3 +74,53 @@ def test_bad_inputs_give_clear_errors(tmp_path, rul_tables):
 
 def test_model_names_are_documented():
     assert {"similarity", "degradation", "survival", "neural"} <= set(RUL_MODELS)
+
+
+def test_split_holds_out_cut_units_with_their_true_rul(rul_tables):
+    from pdmkit.experiments import split_run_to_failure
+
+    full, _ = rul_tables(n_train=20)
+    train, test = split_run_to_failure(full, seed=4)
+    held = set(test["unit"])
+    assert len(held) == 5 and held.isdisjoint(train["unit"])
+    assert held | set(train["unit"]) == set(full["unit"])
+    life = full.groupby("unit")["cycle"].agg(["min", "max"])
+    for u, part in test.groupby("unit"):
+        first, last = life.loc[u]
+        cut = part["cycle"].max()
+        # the remaining life is what the unit had left after the cut
+        assert part["rul_true_final"].iloc[0] == last - cut
+        assert 0.1 * (last - first) <= cut - first <= 0.9 * (last - first) + 1
+        # the history is the unit's first rows, unchanged
+        pd.testing.assert_frame_equal(
+            part.drop(columns="rul_true_final").reset_index(drop=True),
+            full[(full["unit"] == u) & (full["cycle"] <= cut)].reset_index(drop=True),
+        )
+    again = split_run_to_failure(full, seed=4)
+    pd.testing.assert_frame_equal(again[1], test)
+
+
+def test_split_errors_are_named(rul_tables):
+    from pdmkit.experiments import split_run_to_failure
+
+    full, _ = rul_tables(n_train=5)
+    with pytest.raises(DataError, match="at least 3"):
+        split_run_to_failure(full[full["unit"] <= 2])
+    with pytest.raises(ValueError, match="test_fraction"):
+        split_run_to_failure(full, test_fraction=1.0)
+    with pytest.raises(ValueError, match="cut"):
+        split_run_to_failure(full, cut=(0.5, 0.2))
+    # few units: at least one held out, at least two kept
+    train, test = split_run_to_failure(full.loc[full["unit"] <= 3], test_fraction=0.9)
+    assert test["unit"].nunique() == 1 and train["unit"].nunique() == 2
+
+
+def test_cli_train_alone_holds_out_a_quarter(rul_tables, tmp_path):
+    from pdmkit.experiments._cli import main
+
+    full, _ = rul_tables(n_train=16)
+    full.to_csv(tmp_path / "units.csv", index=False)
+    args = ["rul", "--train", str(tmp_path / "units.csv"), "--model", "similarity"]
+    assert main([*args, "--json", str(tmp_path / "s.json"), "--out", str(tmp_path)]) == 0
+    summary = json.loads((tmp_path / "s.json").read_text())
+    assert summary["n_units"] == 4 and summary["n_train_units"] == 12

@@ -117,8 +117,8 @@ def test_bad_trained_inputs_are_named(tables_on_disk, tmp_path, capsys):
     assert "not a pdmkit model file" in capsys.readouterr().err
     assert main(["rul", "--trained", str(path)]) == 2
     assert "go together" in capsys.readouterr().err
-    assert main(["rul", "--train", str(folder / "train.csv")]) == 2
-    assert "go together" in capsys.readouterr().err
+    assert main(["rul", "--test", str(folder / "test.parquet")]) == 2
+    assert "--test needs --train" in capsys.readouterr().err
 
 
 def test_calibrate_keeps_estimates_and_rescales_intervals(tables_on_disk, tmp_path):
