@@ -77,3 +77,15 @@ def test_nonlinearity_blocks_and_errors():
         HammersteinWiener().fit(np.zeros(50), np.zeros(40))
     with pytest.raises(NotFittedError):
         HammersteinWiener().predict(np.zeros(50))
+
+
+def test_screened_starts_reach_the_cost_of_running_every_start_to_the_end():
+    rng = np.random.default_rng(3)
+    u = _steps(rng)
+    y = ss.lfilter([0.0, 0.2, 0.1], [1.0, -1.1, 0.35], _dead_zone(u, -0.2, 0.3))
+    y = np.clip(y, -0.6, 0.5) + 0.01 * rng.normal(size=y.size)
+    kw = {"nb": 2, "nf": 2, "nk": 1}
+    screened = HammersteinWiener("deadzone", "saturation", **kw).fit(u, y)
+    every = HammersteinWiener("deadzone", "saturation", screen_nfev=300, **kw).fit(u, y)
+    assert screened.cost_ <= every.cost_ * 1.02
+    assert screened.output_params_["upper"] == pytest.approx(0.5, abs=0.02)
