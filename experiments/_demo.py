@@ -665,8 +665,8 @@ def run_demo(
     )
     report.add_figure(
         rul_figure,
-        caption="Predicted (solid) and true (dashed) RUL of the test units; shaded: "
-        "within 10 % of the unit's life over its last half",
+        caption="Predicted (solid) and true (dashed) RUL of the test units, the model's "
+        "90 % interval dotted; shaded: within 10 % of the unit's life over its last half",
     )
 
     sensor_rows = comparison.summary()["sensors"]

@@ -1165,8 +1165,9 @@ def _run_leak(
     if shown:
         report.add_figure(
             _leak_trajectory_plot(table, shown),
-            caption="RUL against cycle for test units (true RUL dashed; shaded: "
-            "within 10 % of the unit's life over its last half)",
+            caption="RUL against cycle for test units (true RUL dashed; dotted: the "
+            "model's interval; shaded: within 10 % of the unit's life over its last "
+            "half)",
         )
     report.add_table(acc, caption="Per test unit, over the last half of its life")
     return _finish(report, summary, out, json_path)
@@ -1183,6 +1184,10 @@ def _leak_trajectory_plot(table: pd.DataFrame, units, ax=None):
         t, life = part["time"].to_numpy(), float(part["life"].iloc[0])
         ax.plot(t, part["rul"], color=color, label=f"unit {u} (life {life:g})")
         ax.plot(t, part["rul_true"], color=color, linestyle="--", linewidth=0.8)
+        if {"lower", "upper"} <= set(part.columns):  # the model's own interval
+            upper = np.minimum(part["upper"], 1.5 * life)  # an open end stays on the plot
+            for edge in (part["lower"], upper):
+                ax.plot(t, edge, color=color, linestyle=":", linewidth=0.8)
         half = part[part["last_half"]]
         ax.fill_between(
             half["time"],
