@@ -41,6 +41,7 @@ predicted within 10 % (see :func:`leak_accuracy`).
 from __future__ import annotations
 
 import hashlib
+import inspect
 import json
 import time
 from pathlib import Path
@@ -50,7 +51,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._atomic import atomic_path
-from pdmkit.errors import DataError
+from pdmkit.errors import DataError, did_you_mean
 
 __all__ = [
     "LEAK_DEFAULTS",
@@ -559,11 +560,39 @@ def make_rul_model(
         raise DataError(f"model must be one of {sorted(RUL_MODELS)}, got {model!r}")
     opts = dict(options or {})
     features = list(features)
-    if model == "neural":
-        kw = {"window": 40, "pad": "edge", "max_rul": rul_cap, "random_state": seed, **opts}
-        return None, rul.NeuralRULModel(features, **kw)
-    if model in ("survival", "reliability"):
-        return None, rul.ReliabilitySurvivalModel(max_rul=rul_cap, **opts)
+    cap = {"max_rul": rul_cap}
+    seeded = {**cap, "random_state": seed}
+    # the Wiener models are deterministic (quantiles by bisection, no draws)
+    table = {
+        "similarity": (rul.ResidualSimilarityModel, {"degree": 3, "k": 10, **cap}),
+        "residual": (rul.ResidualSimilarityModel, {"degree": 3, "k": 10, **cap}),
+        "pairwise": (rul.PairwiseSimilarityModel, {"k": 10, **cap}),
+        "hash": (rul.HashSimilarityModel, {"k": 10, **cap}),
+        "degradation": (rul.ExponentialDegradationModel, seeded),
+        "exponential-degradation": (rul.ExponentialDegradationModel, seeded),
+        "linear-degradation": (rul.LinearDegradationModel, seeded),
+        "wiener": (rul.WienerDegradationModel, {"transform": "auto", **cap}),
+        "wiener-noisy": (rul.NoisyWienerDegradationModel, {"transform": "auto", **cap}),
+        "gamma-process": (rul.GammaProcessDegradationModel, {"transform": "auto", **cap}),
+        "survival": (rul.ReliabilitySurvivalModel, cap),
+        "reliability": (rul.ReliabilitySurvivalModel, cap),
+        "covariate": (rul.CovariateSurvivalModel, {"covariates": "hi", **cap}),
+        "neural": (
+            rul.NeuralRULModel,
+            {"features": features, "window": 40, "pad": "edge", **seeded},
+        ),
+    }
+    cls, defaults = table[model]
+    known = set(inspect.signature(cls.__init__).parameters) - {"self"}
+    unknown = sorted(set(opts) - known)
+    if unknown:
+        raise DataError(
+            f"option(s) {unknown} are not settings of {cls.__name__} (model "
+            f"{model!r}){did_you_mean(unknown[0], known)}. Its settings: {sorted(known)}"
+        )
+    estimator = cls(**{**defaults, **opts})
+    if model in ("neural", "survival", "reliability"):  # they read the sensors / ages
+        return None, estimator
     # the Wiener models describe the raw increments (smoothing would correlate them;
     # the noisy one filters the noise itself); the others read a smoothed indicator
     smooth = model in (
@@ -574,37 +603,7 @@ def make_rul_model(
         "covariate",
     )
     indicator = rul.HealthIndicator(features, smoothing=smoothing if smooth else None)
-    if model in ("similarity", "residual"):
-        est = rul.ResidualSimilarityModel(
-            **{"degree": 3, "k": 10, "max_rul": rul_cap, **opts}
-        )
-    elif model == "pairwise":
-        est = rul.PairwiseSimilarityModel(**{"k": 10, "max_rul": rul_cap, **opts})
-    elif model == "hash":
-        est = rul.HashSimilarityModel(**{"k": 10, "max_rul": rul_cap, **opts})
-    elif model in ("degradation", "exponential-degradation"):
-        est = rul.ExponentialDegradationModel(
-            **{"max_rul": rul_cap, "random_state": seed, **opts}
-        )
-    elif model == "linear-degradation":
-        est = rul.LinearDegradationModel(
-            **{"max_rul": rul_cap, "random_state": seed, **opts}
-        )
-    elif model == "wiener":  # deterministic: quantiles by bisection, no draws
-        est = rul.WienerDegradationModel(
-            **{"max_rul": rul_cap, "transform": "auto", **opts}
-        )
-    elif model == "wiener-noisy":
-        est = rul.NoisyWienerDegradationModel(
-            **{"max_rul": rul_cap, "transform": "auto", **opts}
-        )
-    elif model == "gamma-process":
-        est = rul.GammaProcessDegradationModel(
-            **{"max_rul": rul_cap, "transform": "auto", **opts}
-        )
-    else:
-        est = rul.CovariateSurvivalModel("hi", **{"max_rul": rul_cap, **opts})
-    return indicator, est
+    return indicator, estimator
 
 
 def _fit_pipeline(
