@@ -149,9 +149,14 @@ def _group_options(
 def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
     """(ensemble or path/URL, groups, options, label, sensors, profile, read errors)."""
     from pdmkit.experiments._datasets import get_profile
+    from pdmkit.features._extract import GROUP_OPTIONS, _check_option_names
 
     groups = tuple(args.groups) if args.groups else ("stats", "spectral")
     extra = _group_options(getattr(args, "option", []) or [])
+    try:  # a misspelt --option is an input error (exit 2), before anything is loaded
+        _check_option_names(list(GROUP_OPTIONS), extra, where="pdmkit --option")
+    except TypeError as exc:
+        raise DataError(str(exc)) from None
     if args.dataset is not None:
         profile = get_profile(args.dataset)
         _say(f"loading dataset {profile.name!r}")

@@ -849,6 +849,11 @@ def run_rul(
             dataset_options=dataset_options,
             calibrate=calibrate,
         )
+    if dataset_options:
+        raise DataError(
+            f"dataset options {sorted(dataset_options)} are simulation settings of "
+            "'pneumatic-leak'; the other datasets take none"
+        )
     name, train, test, true, cols = _dataset(dataset, features)
     pipeline, fit_seconds = _fit_pipeline(
         model, cols, train, seed=seed, rul_cap=rul_cap, options=options, calibrate=calibrate

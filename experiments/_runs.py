@@ -415,7 +415,7 @@ def extract_features_run(
     )
 
     group_list = _check_groups(groups)
-    _check_option_names(group_list, options, where="extract_features_run")
+    _check_option_names(group_list, options, where="extract_features_run()")
     size = _check_batch_size(batch_size, allow_none=False)
     if on_error not in ("raise", "skip"):
         raise ValueError(f"on_error must be 'raise' or 'skip'; got {on_error!r}")

@@ -118,7 +118,7 @@ def _check_groups(groups) -> tuple[str, ...]:
 
 
 def _check_option_names(
-    groups: Sequence[str], options: dict, where: str = "extract"
+    groups: Sequence[str], options: dict, where: str = "extract()"
 ) -> None:
     unknown = [k for k in options if k not in _OPTION_GROUP]
     if unknown:
@@ -133,7 +133,7 @@ def _check_option_names(
             f"{g}: {', '.join(opts) or '(none)'}" for g, opts in GROUP_OPTIONS.items()
         )
         raise TypeError(
-            f"{where}() got unknown keyword argument(s) {', '.join(hints)}. "
+            f"{where}: unknown keyword argument(s) {', '.join(hints)}. "
             f"Options by group: {allowed}"
         )
     stray = [k for k in options if _OPTION_GROUP[k] not in groups]
@@ -811,7 +811,7 @@ def extract_ensemble(
     (['m00000'], ['m00001'])
     """
     group_list = _check_groups(groups)
-    _check_option_names(group_list, options, where="extract_ensemble")
+    _check_option_names(group_list, options, where="extract_ensemble()")
     batch_size = _check_batch_size(batch_size, allow_none=False)
     if on_error not in ("raise", "skip"):
         raise ValueError(f"on_error must be 'raise' or 'skip'; got {on_error!r}")

@@ -69,6 +69,8 @@ def test_bad_inputs_give_clear_errors(tmp_path, rul_tables):
         run_rul("cmapss-fd004", "similarity", tmp_path)
     with pytest.raises(DataError, match="did you mean 'degree'"):
         run_rul((train, test), "similarity", tmp_path, options={"degre": 2})
+    with pytest.raises(DataError, match="simulation settings of 'pneumatic-leak'"):
+        run_rul((train, test), "similarity", tmp_path, dataset_options={"n_test": 3})
     with pytest.raises(DataError, match="rul_true_final"):
         run_rul((train, test.drop(columns="rul_true_final")), "similarity", tmp_path)
     assert not (tmp_path / "rul.json").exists()
