@@ -27,6 +27,7 @@ from pdmkit.ensembles._datasets import (
     load_cwru,
     load_dataset,
     load_emps,
+    load_nasa_battery,
     load_silverbox,
 )
 from pdmkit.ensembles._distributed import (
@@ -71,6 +72,7 @@ __all__ = [
     "load_cwru",
     "load_dataset",
     "load_emps",
+    "load_nasa_battery",
     "load_silverbox",
     "parquet_partitions",
     "pneumatic_residuals",

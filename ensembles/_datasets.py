@@ -35,6 +35,7 @@ __all__ = [
     "load_cwru",
     "load_dataset",
     "load_emps",
+    "load_nasa_battery",
     "load_silverbox",
 ]
 
@@ -483,6 +484,96 @@ def load_emps(part: str = "estimation") -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------------------
+# NASA Li-ion battery ageing
+# --------------------------------------------------------------------------------------
+
+_BATTERY_SOURCE = (
+    "the NASA Prognostics Data Repository (Li-ion battery, Saha & Goebel 2007)"
+)
+BATTERY_CELLS = ("B0005", "B0006", "B0007", "B0018")
+#: End-of-life capacity (Ah) of the NASA cells: 30 % fade of the 2 Ah rating, where the
+#: experiments were meant to stop.
+BATTERY_EOL_AH = 1.4
+
+
+def load_nasa_battery(
+    cells: Sequence[str] | None = None, *, eol_capacity: float | None = BATTERY_EOL_AH
+) -> pd.DataFrame:
+    """NASA Li-ion battery ageing (cells B0005, B0006, B0007, B0018) as a long table.
+
+    Reads ``nasa_battery/<cell>_cycle_summary.csv``: one row per discharge of the
+    cell's charge / discharge ageing cycles at 24 °C (2 A constant-current discharges).
+    With ``eol_capacity`` a cell's life ends at its first discharge whose capacity is
+    below it (``failed`` True there, later rows dropped); a cell that never gets there
+    is right-censored (``failed`` False on all its rows: B0007 at 1.4 Ah, whose lowest
+    capacity is 1.4004 Ah).
+
+    Parameters
+    ----------
+    cells : sequence of str, optional
+        Cells to read (default all four).
+    eol_capacity : float or None, default 1.4
+        End-of-life capacity in Ah; None keeps every discharge and no ``failed``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``unit`` (cell name), ``cycle`` (discharge number, from 1), ``capacity`` (Ah),
+        ``soh`` (% of the first capacity), ``voltage`` (V, mean of the discharge),
+        ``temperature`` (°C), ``discharge_time`` (s) and, with ``eol_capacity``,
+        ``failed``.
+
+    References
+    ----------
+    B. Saha, K. Goebel, "Battery data set", NASA Prognostics Data Repository, 2007.
+
+    Examples
+    --------
+    >>> from pdmkit import data_dir
+    >>> if (data_dir("nasa_battery") / "B0005_cycle_summary.csv").is_file():
+    ...     cells = load_nasa_battery()
+    ...     ends = cells.groupby("unit")["cycle"].max().to_dict()
+    ...     assert ends == {"B0005": 125, "B0006": 109, "B0007": 168, "B0018": 97}
+    """
+    names = list(BATTERY_CELLS if cells is None else cells)
+    unknown = [c for c in names if c not in BATTERY_CELLS]
+    if unknown or not names:
+        raise DataError(f"cells must be some of {list(BATTERY_CELLS)}; got {names!r}")
+    folder = _folder("nasa_battery", _BATTERY_SOURCE)
+    parts = []
+    for cell in names:
+        file = _need(folder, [f"{cell}_cycle_summary.csv"], _BATTERY_SOURCE)
+        raw = read_table(file)
+        need = ["discharge", "capacity", "soh", "voltage", "temperature", "time"]
+        missing = [c for c in need if c not in raw.columns]
+        if missing:
+            raise DataError(
+                f"{file} lacks column(s) {missing}; expected {need} (a NASA battery "
+                "cycle summary)"
+            )
+        table = pd.DataFrame(
+            {
+                "unit": cell,
+                "cycle": raw["discharge"].astype(np.int64),
+                "capacity": raw["capacity"].astype(float),
+                "soh": raw["soh"].astype(float),
+                "voltage": raw["voltage"].astype(float),
+                "temperature": raw["temperature"].astype(float),
+                "discharge_time": raw["time"].astype(float),
+            }
+        ).sort_values("cycle", ignore_index=True)
+        if eol_capacity is not None:
+            below = np.flatnonzero(table["capacity"].to_numpy() < float(eol_capacity))
+            if below.size:
+                table = table.iloc[: below[0] + 1].copy()
+            table["failed"] = False
+            if below.size:
+                table.loc[table.index[-1], "failed"] = True
+        parts.append(table)
+    return pd.concat(parts, ignore_index=True)
+
+
+# --------------------------------------------------------------------------------------
 # registry
 # --------------------------------------------------------------------------------------
 
@@ -510,6 +601,12 @@ _REGISTRY: dict[str, tuple[Callable[..., Any], dict[str, Any], str]] = {
         "Silverbox Duffing oscillator circuit: V1 in, V2 out, 131072 samples at "
         "610.35 Hz (dict)",
     ),
+    "nasa-battery": (
+        load_nasa_battery,
+        {},
+        "NASA Li-ion cells B0005/6/7/18: capacity per discharge until 1.4 Ah (B0007 "
+        "censored), long table (DataFrame)",
+    ),
     "emps": (
         load_emps,
         {},
@@ -528,7 +625,7 @@ def load_dataset(name: str, **kwargs: Any) -> Any:
     ----------
     name : str
         ``"cwru"``, ``"cmapss-fd001"`` (train part, long table), ``"cascaded-tanks"``,
-        ``"silverbox"`` or ``"emps"``.
+        ``"silverbox"``, ``"emps"`` or ``"nasa-battery"`` (long table).
     **kwargs
         Passed on to the loader (e.g. ``frame_length=1024`` for ``"cwru"``,
         ``part="test"`` for ``"cmapss-fd001"``).
@@ -541,7 +638,7 @@ def load_dataset(name: str, **kwargs: Any) -> Any:
     Examples
     --------
     >>> sorted(DATASETS)
-    ['cascaded-tanks', 'cmapss-fd001', 'cwru', 'emps', 'silverbox']
+    ['cascaded-tanks', 'cmapss-fd001', 'cwru', 'emps', 'nasa-battery', 'silverbox']
     >>> load_dataset("hydraulic")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...

@@ -642,8 +642,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--dataset",
         default="cmapss-fd001",
-        help="run-to-failure dataset: cmapss-fd001 (default, NASA C-MAPSS) or "
-        "pneumatic-leak (the twin's air-leak runs); or give --train/--test",
+        help="run-to-failure dataset: cmapss-fd001 (default, NASA C-MAPSS), "
+        "pneumatic-leak (the twin's air-leak runs) or nasa-battery (Li-ion cells, "
+        "leave-one-cell-out, degradation models); or give --train/--test",
     )
     p.add_argument(
         "--model",

@@ -710,7 +710,7 @@ _RUL_MAX_CYCLES = 40
 
 def _air_leak_rul(out: Path, seed: int, recording_s: float):
     """The demo's RUL step: (summary, trajectory figure)."""
-    from pdmkit.experiments._rul import _leak_trajectory_plot, run_rul
+    from pdmkit.experiments._rul import _trajectory_plot, run_rul
 
     full = run_rul(
         "pneumatic-leak",
@@ -726,7 +726,7 @@ def _air_leak_rul(out: Path, seed: int, recording_s: float):
         },
     )
     table = pd.read_parquet(out / "predictions.parquet")
-    figure = _leak_trajectory_plot(table, list(pd.unique(table["unit"])))
+    figure = _trajectory_plot(table, list(pd.unique(table["unit"])))
     keys = (
         "model",
         "indicator",

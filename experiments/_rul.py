@@ -28,6 +28,9 @@ Every model's predictions are capped at ``rul_cap`` (125 cycles) and scored agai
 true RULs capped the same way, as the C-MAPSS literature does (the uncapped scores are
 reported too).
 
+``run_rul(dataset="nasa-battery", ...)`` runs the degradation models on the NASA Li-ion
+cells, leave-one-cell-out (:mod:`pdmkit.experiments._rul_battery`).
+
 ``run_rul(dataset="pneumatic-leak", ...)`` runs the same models on air-leak
 run-to-failure units of the pneumatic twin (:func:`simulate_leak_dataset`): the
 candidate indicators of each 10 s cycle are ranked by monotonicity, trendability and
@@ -474,7 +477,8 @@ def _dataset(dataset, features):
         if key not in ("cmapss-fd001", "cmapss"):
             raise DataError(
                 f"dataset {dataset!r} is not known to the RUL workflow; use "
-                "'cmapss-fd001', 'pneumatic-leak' or pass (train_table, test_table)"
+                "'cmapss-fd001', 'pneumatic-leak', 'nasa-battery' or pass "
+                "(train_table, test_table)"
             )
         from pdmkit.ensembles import load_cmapss
 
@@ -771,7 +775,8 @@ def run_rul(
         100 test engines stopped earlier, true RULs from ``RUL_FD001.txt``),
         ``"pneumatic-leak"`` (air-leak units of the pneumatic twin,
         :func:`simulate_leak_dataset`, scored over the last half of each test unit's
-        life), or a pair of long tables ``(train, test)`` with ``unit``,
+        life), ``"nasa-battery"`` (four Li-ion cells, leave-one-cell-out, the
+        degradation models only), or a pair of long tables ``(train, test)`` with ``unit``,
         ``time``/``cycle`` and the features, the test table holding ``rul_true_final``.
     model : str, default "similarity"
         One of :data:`RUL_MODELS` (``similarity``, ``degradation``, ``survival``,
@@ -836,7 +841,22 @@ def run_rul(
     from pdmkit.rul import rul_metrics
 
     out = Path(out_dir)
-    if isinstance(dataset, str) and dataset.lower().replace("_", "-") in _LEAK_NAMES:
+    key = dataset.lower().replace("_", "-") if isinstance(dataset, str) else None
+    if key in ("nasa-battery", "battery"):
+        from pdmkit.experiments._rul_battery import run_battery
+
+        if dataset_options:
+            raise DataError("'nasa-battery' takes no dataset options")
+        return run_battery(
+            model,
+            out,
+            json_path,
+            seed,
+            rul_cap=rul_cap,
+            options=options,
+            calibrate=calibrate,
+        )
+    if key in _LEAK_NAMES:
         return _run_leak(
             model,
             out,
@@ -1001,11 +1021,12 @@ def _leak_fit_predict(model, cols, train, test, seed, rul_cap, options, calibrat
     return pipeline, path, fit_seconds, predict_seconds
 
 
-def _leak_scores(path, life: pd.Series, rul_cap: float):
-    """(table of every prediction, headline metrics, per-unit accuracy, fractions)."""
+def _trajectory_scores(path, life: pd.Series, rul_cap: float):
+    """(table of every prediction, headline metrics, per-unit accuracy, fractions) of a
+    trajectory prediction (a RULPrediction or its table), over each unit's last half."""
     from pdmkit.rul import rul_metrics
 
-    table = path.to_pandas()
+    table = path.to_pandas() if hasattr(path, "to_pandas") else path.copy()
     table["life"] = life.reindex(table["unit"]).to_numpy(dtype=float)
     table["rul_true"] = table["life"] - table["time"]
     table["last_half"] = (table["time"] >= table["life"] / 2) & (
@@ -1048,14 +1069,14 @@ def _run_leak(
         model, cols, train, test, seed, rul_cap, options, calibrate
     )
     indicator, estimator = pipeline.indicator, pipeline.model
-    table, metrics, acc, fractions = _leak_scores(path, life, rul_cap)
+    table, metrics, acc, fractions = _trajectory_scores(path, life, rul_cap)
     # the same model on the true leak coefficient: what the random walk alone allows
     true_col = "true/log10_c_leak"
     ceiling_in = [t.assign(**{true_col: np.log10(t["c_leak"])}) for t in (train, test)]
     _, true_path, _, _ = _leak_fit_predict(
         model, [true_col], *ceiling_in, seed, rul_cap, options, calibrate
     )
-    _, true_metrics, _, true_fractions = _leak_scores(true_path, life, rul_cap)
+    _, true_metrics, _, true_fractions = _trajectory_scores(true_path, life, rul_cap)
 
     top = ranking.head(5)
     summary: dict[str, Any] = {
@@ -1168,7 +1189,7 @@ def _run_leak(
     shown = by_life[::step][: max(0, n_trajectories)]
     if shown:
         report.add_figure(
-            _leak_trajectory_plot(table, shown),
+            _trajectory_plot(table, shown),
             caption="RUL against cycle for test units (true RUL dashed; dotted: the "
             "model's interval; shaded: within 10 % of the unit's life over its last "
             "half)",
@@ -1177,7 +1198,7 @@ def _run_leak(
     return _finish(report, summary, out, json_path)
 
 
-def _leak_trajectory_plot(table: pd.DataFrame, units, ax=None):
+def _trajectory_plot(table: pd.DataFrame, units, ax=None):
     import matplotlib.pyplot as plt
 
     if ax is None:
