@@ -33,6 +33,7 @@ def test_registry_lists_the_datasets() -> None:
         "cascaded-tanks",
         "silverbox",
         "emps",
+        "nasa-battery",
     }
     assert all(isinstance(v, str) and v for v in pe.DATASETS.values())
     with pytest.raises(
