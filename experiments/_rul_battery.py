@@ -34,6 +34,7 @@ BATTERY_MODELS = (
 
 
 def _battery_estimator(model, seed, rul_cap, options, calibrate):
+    from pdmkit.ensembles._datasets import BATTERY_EOL_AH
     from pdmkit.experiments._rul import make_rul_model
     from pdmkit.rul import ConformalRUL, RULPipeline
 
@@ -42,8 +43,6 @@ def _battery_estimator(model, seed, rul_cap, options, calibrate):
             f"model {model!r} does not apply to 'nasa-battery' (four cells, one "
             f"indicator); use one of {list(BATTERY_MODELS)}"
         )
-    from pdmkit.ensembles._datasets import BATTERY_EOL_AH
-
     settings = {
         "indicator": "capacity",
         "threshold": BATTERY_EOL_AH,
