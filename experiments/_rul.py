@@ -879,7 +879,7 @@ def run_rul(
         model, cols, train, seed=seed, rul_cap=rul_cap, options=options, calibrate=calibrate
     )
     indicator, estimator = pipeline.indicator, pipeline.model
-    train_in, test_in = pipeline.transform(train), pipeline.transform(test)
+    test_in = pipeline.transform(test)
     start = time.perf_counter()
     pred = estimator.predict(test_in)
     predict_seconds = time.perf_counter() - start
@@ -969,7 +969,7 @@ def run_rul(
         )
     if indicator is not None:
         report.add_figure(
-            _indicator_plot(train_in, estimator),
+            _indicator_plot(pipeline.transform(train), estimator),
             caption="Health indicator of ten training units",
         )
     report.add_table(

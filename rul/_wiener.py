@@ -351,14 +351,8 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
 
     def _estimate_process(self, ss: float, dof: int) -> None:
         """Pooled diffusion and the drift prior from :attr:`unit_params_`."""
-        rows = self.unit_params_
-        if self.diffusion_var is not None:
-            s2 = float(self.diffusion_var)
-            if not (np.isfinite(s2) and s2 > 0):
-                raise ValueError(
-                    f"diffusion_var must be a positive number, got {self.diffusion_var!r}"
-                )
-        else:
+        s2 = self._given_diffusion()
+        if s2 is None:
             if dof <= 0:
                 raise DataError(
                     "no training unit has 3 or more samples; the diffusion variance "
@@ -371,20 +365,39 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
                     "training unit (no diffusion); pass diffusion_var= to set it"
                 )
         self.diffusion_var_ = s2
+        self._set_drift_prior(s2 / self.unit_params_["elapsed"].to_numpy())
+
+    def _given_diffusion(self) -> float | None:
+        """``diffusion_var`` checked (None when it is to be estimated)."""
+        if self.diffusion_var is None:
+            return None
+        s2 = float(self.diffusion_var)
+        if not (np.isfinite(s2) and s2 > 0):
+            raise ValueError(
+                f"diffusion_var must be a positive number, got {self.diffusion_var!r}"
+            )
+        return s2
+
+    def _set_drift_prior(self, estimation_var) -> None:
+        """``drift_mean_``, ``drift_var_``: given, or the mean and the variance of the
+        training units' drifts (:attr:`unit_params_`) less ``estimation_var``, the
+        variance of each unit's drift estimate (floored at 1e-3 of the sample
+        variance)."""
         if self.prior is not None:
             m0, v0 = self._check_prior(self.prior)
         else:
-            if len(rows) < 2:
-                raise DataError(
-                    f"{len(rows)} training unit(s) with 2 or more samples; estimating the "
-                    "drift prior needs at least 2 - pass prior={'mean': m0, 'var': v0}"
-                )
             drifts = self.unit_params_["drift"].to_numpy()
-            elapsed = self.unit_params_["elapsed"].to_numpy()
+            if len(drifts) < 2:
+                raise DataError(
+                    f"{len(drifts)} training unit(s) with 2 or more samples; estimating "
+                    "the drift prior needs at least 2 - pass prior={'mean': m0, 'var': v0}"
+                )
             m0 = float(drifts.mean())
             sample = float(drifts.var(ddof=1))
-            explained = float(np.mean(s2 / elapsed))
-            v0 = max(sample - explained, 1e-3 * sample, 1e-12 * (m0**2 + s2))
+            explained = float(np.mean(estimation_var))
+            v0 = max(
+                sample - explained, 1e-3 * sample, 1e-12 * (m0**2 + self.diffusion_var_)
+            )
         self.drift_mean_, self.drift_var_ = m0, v0
         self._warn_non_positive_drift(m0)
 
@@ -394,7 +407,7 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
                 f"the mean drift of {self.indicator!r} towards the threshold is {m0:g} "
                 "(not positive); most RULs will be inf - check direction=",
                 UserWarning,
-                stacklevel=5,
+                stacklevel=6,
             )
 
     @staticmethod

@@ -185,11 +185,12 @@ n_units_
 
     # -------------------------------------------------------------- fitting
     def _fit_process(self, units) -> None:
-        paths = [(np.diff(u.t), np.diff(self._z(u))) for u in units if len(u) >= 2]
+        units = [u for u in units if len(u) >= 2]
+        paths = [(np.diff(u.t), np.diff(self._z(u))) for u in units]
         sigma2, tau2 = self._estimate_variances(paths)
         self.diffusion_var_, self.measurement_var_ = sigma2, tau2
         rows = []
-        for u, (dt, dy) in zip([u for u in units if len(u) >= 2], paths, strict=True):
+        for u, (dt, dy) in zip(units, paths, strict=True):
             drift, var, _ = _gls_drift(dt, dy, sigma2, tau2)
             rows.append(
                 {
@@ -204,31 +205,11 @@ n_units_
         self.unit_params_ = pd.DataFrame(
             rows, columns=["unit", "drift", "drift_var", "elapsed", "n", "end"]
         )
-        if self.prior is not None:
-            m0, v0 = self._check_prior(self.prior)
-        else:
-            if len(rows) < 2:
-                raise DataError(
-                    f"{len(rows)} training unit(s) with 2 or more samples; estimating the "
-                    "drift prior needs at least 2 - pass prior={'mean': m0, 'var': v0}"
-                )
-            drifts = self.unit_params_["drift"].to_numpy()
-            sample = float(drifts.var(ddof=1))
-            explained = float(self.unit_params_["drift_var"].mean())
-            m0 = float(drifts.mean())
-            v0 = max(sample - explained, 1e-3 * sample, 1e-12 * (m0**2 + sigma2))
-        self.drift_mean_, self.drift_var_ = m0, v0
-        self._warn_non_positive_drift(m0)
+        self._set_drift_prior(self.unit_params_["drift_var"].to_numpy())
 
     def _estimate_variances(self, paths) -> tuple[float, float]:
         """``(sigma^2, tau^2)``: given, or restricted maximum likelihood."""
-        given_s2, given_t2 = self.diffusion_var, self.measurement_var
-        if given_s2 is not None:
-            given_s2 = float(given_s2)
-            if not (np.isfinite(given_s2) and given_s2 > 0):
-                raise ValueError(
-                    f"diffusion_var must be a positive number, got {self.diffusion_var!r}"
-                )
+        given_s2, given_t2 = self._given_diffusion(), self.measurement_var
         if isinstance(given_t2, str):
             if given_t2 != "auto":
                 raise ValueError(
@@ -255,8 +236,8 @@ n_units_
         dt_all = np.concatenate([dt for dt, _ in usable])
         resid = np.concatenate([dy - dt * dy.sum() / dt.sum() for dt, dy in usable])
         total = float(np.mean(resid**2))
-        scale = float(np.mean(np.concatenate([dy for _, dy in usable]) ** 2))
-        if not total > 1e-20 * scale:  # rounding error of an exact straight line
+        size = float(np.mean(np.concatenate([dy for _, dy in usable]) ** 2))
+        if not total > 1e-20 * size:  # rounding error of an exact straight line
             raise DataError(
                 f"indicator {self.indicator!r} grows at a constant rate in every "
                 "training unit (no diffusion, no noise); pass diffusion_var= and "
@@ -265,10 +246,10 @@ n_units_
         start_s2 = given_s2 if given_s2 is not None else 0.5 * total / dt_all.mean()
         start_t2 = given_t2 if given_t2 is not None else 0.25 * total
         free = [given_s2 is None, given_t2 is None]
-        scale = np.log([start_s2, start_t2])
+        log_start = np.log([start_s2, start_t2])
 
         def unpack(theta):
-            values = scale.copy()
+            values = log_start.copy()
             values[free] = theta
             return np.exp(values)
 
@@ -279,7 +260,7 @@ n_units_
             except np.linalg.LinAlgError:
                 return np.inf
 
-        x0 = scale[free]
+        x0 = log_start[free]
         bounds = [(v - 30.0, v + 30.0) for v in x0]
         res = minimize(negative_log_likelihood, x0, method="L-BFGS-B", bounds=bounds)
         s2, t2 = unpack(res.x)
