@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import re
 import struct
 import zipfile
 import zlib
@@ -64,7 +65,9 @@ def _drop_trailing_empty(table: pd.DataFrame) -> pd.DataFrame:
     return table.drop(columns=empty) if empty else table
 
 
-def _single_column_blanks(path: Path, table: pd.DataFrame, options: dict) -> pd.DataFrame:
+def _single_column_blanks(
+    path: Path, table: pd.DataFrame, options: dict, compressed: bool
+) -> pd.DataFrame:
     """A one-column CSV keeps its empty values.
 
     pandas skips blank lines, and in a one-column file an empty (or whitespace-only)
@@ -74,21 +77,22 @@ def _single_column_blanks(path: Path, table: pd.DataFrame, options: dict) -> pd.
     """
     if table.shape[1] != 1 or "skip_blank_lines" in options:
         return table
-    full = _drop_trailing_empty(pd.read_csv(path, skip_blank_lines=False, **options))
-    if full.shape[1] != 1:
-        return table
-    col = full.iloc[:, 0]
-    if not pd.api.types.is_numeric_dtype(col):  # whitespace-only values are empty
-        col = col.mask(col.map(lambda v: isinstance(v, str) and not v.strip()))
-    present = np.flatnonzero(col.notna().to_numpy())
-    if present.size == 0:
-        return table
-    col = col.iloc[: present[-1] + 1].reset_index(drop=True)
-    if len(col) == len(table):
-        return table
-    if pd.api.types.is_numeric_dtype(table.iloc[:, 0]):
-        col = pd.to_numeric(col)
-    return col.to_frame(name=table.columns[0])
+    interior_blank = compressed or re.search(  # no second parse for most files
+        rb"\n[ \t]*\r?\n", path.read_bytes().rstrip()
+    )
+    if interior_blank:
+        full = _drop_trailing_empty(pd.read_csv(path, skip_blank_lines=False, **options))
+        if full.shape[1] == 1:
+            col = full.iloc[:, 0]
+            if not pd.api.types.is_numeric_dtype(col):  # whitespace-only is empty
+                col = col.mask(col.map(lambda v: isinstance(v, str) and not v.strip()))
+            if pd.api.types.is_numeric_dtype(table.iloc[:, 0]):
+                col = pd.to_numeric(col)
+            table = col.to_frame(name=table.columns[0])
+    # missing values after the last one present were blank lines at the end
+    present = np.flatnonzero(table.iloc[:, 0].notna().to_numpy())
+    end = present[-1] + 1 if present.size else 0
+    return table if end == len(table) else table.iloc[:end].reset_index(drop=True)
 
 
 def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
@@ -99,8 +103,8 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
     through :func:`pandas.read_parquet`. Columns named ``Unnamed: k`` that hold nothing
     (left by a delimiter at the end of every line) are dropped. In a one-column CSV an
     empty line between values is a missing value (NaN), not a skipped line, so the
-    samples after it keep their positions; empty lines after the last value are not
-    rows.
+    samples after it keep their positions; empty lines (and missing values) after the
+    last value are not rows.
 
     Parameters
     ----------
@@ -166,7 +170,7 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
         ) from None
     table = _drop_trailing_empty(table)
     if kind == "csv":
-        table = _single_column_blanks(path, table, options)
+        table = _single_column_blanks(path, table, options, bool(compression))
     if len(table) == 0:
         raise DataError(
             f"{path} holds no rows (columns: {list(table.columns)}); expected a table "
