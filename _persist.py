@@ -31,6 +31,7 @@ them is ever executed or unpickled.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import io
@@ -38,6 +39,7 @@ import json
 import math
 import os
 import zipfile
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -46,48 +48,135 @@ import numpy as np
 from pdmkit._atomic import atomic_path
 from pdmkit.errors import ModelError
 
-__all__ = ["load_model", "save_model"]
+__all__ = ["file_sha256", "load_model", "object_registry", "save_model"]
 
 FORMAT = "pdmkit.model"
 FORMAT_VERSION = 1
-#: Packages whose classes a model file may name (rebuilt objects and skops types).
-OBJECT_PACKAGES = ("pdmkit.", "sklearn.")
-SKOPS_PACKAGES = ("sklearn.", "numpy.", "scipy.", "pdmkit.")
-TORCH_PACKAGES = ("pdmkit.", "torch.nn.")
 _MEMBERS = {"manifest.json", "model.skops", "state.json", "arrays.npz", "tensors.pt"}
+#: Deepest JSON nesting a model file may have (real models stay under 60).
+MAX_JSON_DEPTH = 200
+
+#: The pdmkit classes a model file may rebuild, by exact ``module.qualname``.
+PDMKIT_CLASSES = (
+    "pdmkit.features._ranking.FeatureRanking",
+    "pdmkit.features._ranking.SelectTopRanked",
+    "pdmkit.rul._base.Unit",
+    "pdmkit.rul._conformal.ConformalRUL",
+    "pdmkit.rul._degradation.ExponentialDegradationModel",
+    "pdmkit.rul._degradation.LinearDegradationModel",
+    "pdmkit.rul._indicators.HealthIndicator",
+    "pdmkit.rul._indicators.RegimeNormalizer",
+    "pdmkit.rul._neural.NeuralRULModel",
+    "pdmkit.rul._pipeline.RULPipeline",
+    "pdmkit.rul._result.RULPrediction",
+    "pdmkit.rul._similarity.HashSimilarityModel",
+    "pdmkit.rul._similarity.PairwiseSimilarityModel",
+    "pdmkit.rul._similarity.ResidualSimilarityModel",
+    "pdmkit.rul._survival.CovariateSurvivalModel",
+    "pdmkit.rul._survival.ReliabilitySurvivalModel",
+    "pdmkit.rul._wiener.GammaProcessDegradationModel",
+    "pdmkit.rul._wiener.WienerDegradationModel",
+    "pdmkit.rul._wiener_noise.NoisyWienerDegradationModel",
+)
+#: scikit-learn's compiled helpers that fitted estimators hold (beside the estimators
+#: themselves, which come from ``sklearn.utils.discovery.all_estimators``).
+SKLEARN_HELPERS = (
+    "sklearn.tree._tree.Tree",
+    "sklearn.neighbors._kd_tree.KDTree",
+    "sklearn.neighbors._ball_tree.BallTree",
+)
+#: Classes rebuilt by calling them with arguments from the file (the rest are made
+#: with ``cls.__new__`` and given their state).
+_CONSTRUCTED_WITH_ARGS = frozenset({"sklearn.tree._tree.Tree"})
+#: Functions skops may reference inside a scikit-learn estimator (score functions).
+SKOPS_FUNCTIONS = tuple(
+    f"sklearn.feature_selection._univariate_selection.{name}"
+    for name in ("f_classif", "f_regression", "chi2", "r_regression", "f_oneway")
+) + tuple(
+    f"sklearn.feature_selection._mutual_info.{name}"
+    for name in ("mutual_info_classif", "mutual_info_regression")
+)
 
 
-# --------------------------------------------------------------------------- helpers
+# --------------------------------------------------------------------------- registry
 def _qualname(cls: type) -> str:
     return f"{cls.__module__}.{cls.__qualname__}"
 
 
-def _allowed(name: str, packages: tuple[str, ...]) -> bool:
-    return name.startswith(packages) and "<" not in name
+def _resolve_exact(name: str) -> type:
+    """The class defined as ``name``; pdmkit's own strings only, never a file's."""
+    module_name, _, qualname = name.rpartition(".")
+    obj: Any = importlib.import_module(module_name)
+    for attr in qualname.split("."):
+        obj = getattr(obj, attr)
+    if not isinstance(obj, type) or _qualname(obj) != name:
+        raise RuntimeError(f"the registry entry {name} is not a class defined there")
+    return obj
 
 
-def _import_class(name: str, packages: tuple[str, ...], where: str) -> type:
-    """The class ``module.Qual.Name``, only from ``packages``; never a function."""
-    if not isinstance(name, str) or not _allowed(name, packages):
-        raise ModelError(
-            f"{where} names the class {name!r}, which is not allowed: a model file may "
-            f"only rebuild classes of {', '.join(p.rstrip('.') for p in packages)}"
-        )
-    parts = name.split(".")
-    for cut in range(len(parts) - 1, 0, -1):
-        try:
-            obj: Any = importlib.import_module(".".join(parts[:cut]))
-        except ImportError:
-            continue
-        try:
-            for attr in parts[cut:]:
-                obj = getattr(obj, attr)
-        except AttributeError:
-            break
-        if isinstance(obj, type):
-            return obj
-        break
-    raise ModelError(f"{where} names the class {name!r}, which this pdmkit does not have")
+@functools.cache
+def object_registry() -> dict[str, type]:
+    """The exact classes a model file may name, ``module.qualname`` -> class.
+
+    pdmkit's estimators (:data:`PDMKIT_CLASSES`), every scikit-learn estimator
+    (``sklearn.utils.discovery.all_estimators``), its tree / neighbour helpers and
+    its distance metrics (those that hold no Python function). A name is looked up
+    as a whole string: nothing in a file is imported, split or followed.
+
+    Returns
+    -------
+    dict of str to type
+
+    Examples
+    --------
+    >>> registry = object_registry()
+    >>> "pdmkit.rul._pipeline.RULPipeline" in registry
+    True
+    >>> "subprocess.Popen" in registry, "builtins.eval" in registry
+    (False, False)
+    """
+    from sklearn.metrics import _dist_metrics
+    from sklearn.utils.discovery import all_estimators
+
+    names = [*PDMKIT_CLASSES, *SKLEARN_HELPERS]
+    registry = {name: _resolve_exact(name) for name in names}
+    for _, cls in all_estimators():
+        registry[_qualname(cls)] = cls
+    for cls in vars(_dist_metrics).values():
+        if (
+            isinstance(cls, type)
+            and issubclass(cls, _dist_metrics.DistanceMetric)
+            and "PyFunc" not in cls.__name__
+            and cls.__module__ == _dist_metrics.__name__
+        ):
+            registry[_qualname(cls)] = cls
+    return registry
+
+
+@functools.cache
+def torch_registry() -> dict[str, type]:
+    """The torch modules a ``kind: torch`` model file may name (exact names).
+
+    Every ``torch.nn.Module`` subclass that ``torch.nn`` exports; constructed on the
+    ``meta`` device first, so a config that declares huge layers costs nothing.
+    """
+    import torch
+
+    return {
+        _qualname(cls): cls
+        for cls in vars(torch.nn).values()
+        if isinstance(cls, type) and issubclass(cls, torch.nn.Module)
+    }
+
+
+def _registered(name: Any, registry: dict[str, type], where: str) -> type:
+    if isinstance(name, str) and name in registry:
+        return registry[name]
+    raise ModelError(
+        f"{where} names the class {str(name)[:120]!r}, which is not one a pdmkit model "
+        "file may rebuild (see pdmkit._persist.object_registry); refused. Do not load "
+        "this file"
+    )
 
 
 def _versions() -> dict[str, str]:
@@ -241,7 +330,7 @@ class _Encoder:
     def _object(self, value: Any, path: str) -> dict:
         cls = type(value)
         name = _qualname(cls)
-        if not _allowed(name, OBJECT_PACKAGES):
+        if name not in object_registry():
             raise self._refuse(value, path)
         if isinstance(value, type) or (callable(value) and not hasattr(value, "__dict__")):
             raise self._refuse(value, path)
@@ -250,7 +339,12 @@ class _Encoder:
             reduced = value.__reduce_ex__(4)
         except TypeError:
             reduced = None
-        if isinstance(reduced, tuple) and len(reduced) >= 2 and reduced[0] is cls:
+        if (
+            isinstance(reduced, tuple)
+            and len(reduced) >= 2
+            and reduced[0] is cls
+            and name in _CONSTRUCTED_WITH_ARGS
+        ):
             # extension types that need constructor arguments (sklearn's Tree)
             args = list(reduced[1])
             state = reduced[2] if len(reduced) > 2 else None
@@ -275,8 +369,26 @@ class _Encoder:
         return ModelError(
             f"cannot save {path}: a {_qualname(type(value))} is not a type a model file "
             "can hold safely (numbers, strings, numpy arrays, pandas tables, torch "
-            f"tensors, and objects of {', '.join(OBJECT_PACKAGES)} classes)"
+            "tensors, pdmkit's and scikit-learn's estimators: see object_registry())"
         )
+
+
+def _tree_args_ok(args: Any) -> bool:
+    """``Tree(n_features, n_classes, n_outputs)`` with sizes that agree (its C code
+    trusts them)."""
+    if not (isinstance(args, list) and len(args) == 3):
+        return False
+    n_features, n_classes, n_outputs = args
+    return (
+        isinstance(n_features, int | np.integer)
+        and isinstance(n_outputs, int | np.integer)
+        and isinstance(n_classes, np.ndarray)
+        and n_classes.dtype.kind in "iu"
+        and n_classes.shape == (n_outputs,)
+        and 0 < n_outputs
+        and 0 <= n_features < 2**31
+        and bool(np.all(n_classes >= 1))
+    )
 
 
 class _Decoder:
@@ -340,9 +452,14 @@ class _Decoder:
                 )
             return dist(*node["args"], **node["kwds"])
         if t == "object" and "args" in node:
-            cls = _import_class(node["class"], OBJECT_PACKAGES, self.where)
+            cls = _registered(node["class"], object_registry(), self.where)
+            if node["class"] not in _CONSTRUCTED_WITH_ARGS:
+                raise ModelError(
+                    f"{self.where}: state.json asks to call {node['class']} with "
+                    "arguments; only scikit-learn's Tree is rebuilt that way. Refused"
+                )
             args = self.decode(node["args"])
-            if not isinstance(args, list):
+            if not _tree_args_ok(args):
                 raise ModelError(
                     f"{self.where}: the arguments of {node['class']} are damaged"
                 )
@@ -356,7 +473,7 @@ class _Decoder:
                 ) from None
             return obj
         if t == "object":
-            cls = _import_class(node["class"], OBJECT_PACKAGES, self.where)
+            cls = _registered(node["class"], object_registry(), self.where)
             state = self.decode(node["state"])
             if not isinstance(state, dict) and not _has_setstate(cls):
                 raise ModelError(f"{self.where}: the state of {node['class']} is damaged")
@@ -435,10 +552,11 @@ def save_model(obj: Any, path: str | os.PathLike, *, config: dict | None = None)
     }
     if _is_torch_module(obj):
         name = _qualname(type(obj))
-        if not _allowed(name, TORCH_PACKAGES):
+        if name not in torch_registry():
             raise ModelError(
-                f"cannot save a torch module of class {name}: it must be a class of "
-                f"{', '.join(TORCH_PACKAGES)} that load_model can import and rebuild"
+                f"cannot save a torch module of class {name}: only the modules of "
+                "torch.nn are saved this way (see torch_registry()); give your own "
+                "module's estimator __getstate__ / __setstate__ that keep its weights"
             )
         if config is None and hasattr(obj, "get_config"):
             config = obj.get_config()
@@ -488,12 +606,116 @@ def _skops_bytes(obj: Any) -> bytes | None:
 
 
 # --------------------------------------------------------------------------- load
-def _read_members(path: Path) -> tuple[dict[str, Any], dict[str, bytes]]:
+def _zip_entries(zf: zipfile.ZipFile, where: str, what: str, budget: int) -> list:
+    """The entries of an untrusted archive, after checking their declared sizes.
+
+    The sum of the declared (decompressed) sizes must stay under ``budget``; reading
+    is then bounded too, because :mod:`zipfile` stops at the declared size and a
+    member that decompresses to more fails its CRC check.
+    """
+    infos = zf.infolist()
+    declared = sum(info.file_size for info in infos)
+    if declared > budget:
+        raise ModelError(
+            f"{where}: {what} declares {declared / 2**20:.0f} MiB once decompressed, "
+            f"over the {budget / 2**20:.0f} MiB a model file may hold; refused (a "
+            "decompression bomb, or raise $PDMKIT_MAX_MODEL_BYTES for a real model "
+            "this large)"
+        )
+    return infos
+
+
+def _check_npy_headers(blob: bytes, where: str, what: str, budget: int) -> None:
+    """Refuse ``.npy`` entries of an archive whose header declares more than they hold."""
+    with zipfile.ZipFile(io.BytesIO(blob)) as zf:
+        for info in _zip_entries(zf, where, what, budget):
+            if not info.filename.endswith(".npy"):
+                continue
+            with zf.open(info) as handle:
+                try:
+                    version = np.lib.format.read_magic(handle)
+                    read_header = (
+                        np.lib.format.read_array_header_1_0
+                        if version == (1, 0)
+                        else np.lib.format.read_array_header_2_0
+                    )
+                    shape, _, dtype = read_header(handle)
+                except (ValueError, SyntaxError, TypeError) as exc:
+                    raise ModelError(
+                        f"{where}: {what} member {info.filename} has a damaged array "
+                        f"header ({exc})"
+                    ) from None
+            nbytes = math.prod(shape) * dtype.itemsize
+            if nbytes > info.file_size:
+                raise ModelError(
+                    f"{where}: {what} member {info.filename} declares an array of "
+                    f"{nbytes} bytes {shape} but holds {info.file_size}; refused"
+                )
+
+
+def _json_depth(text: str) -> int:
+    """Deepest nesting of ``[``/``{`` in JSON text (strings skipped), without parsing."""
+    import re
+
+    bare = re.sub(r'"(?:[^"\\]|\\.)*"', "", text)
+    steps = np.frombuffer(bare.encode(), dtype=np.uint8)
+    change = np.isin(steps, (ord("["), ord("{"))).astype(np.int64) - np.isin(
+        steps, (ord("]"), ord("}"))
+    )
+    return int(np.cumsum(change).max(initial=0))
+
+
+def _parse_json(blob: bytes, where: str, member: str) -> Any:
+    try:
+        text = blob.decode()
+    except UnicodeDecodeError as exc:
+        raise ModelError(f"{where}: {member} is not UTF-8 text ({exc})") from None
+    depth = _json_depth(text)
+    if depth > MAX_JSON_DEPTH:
+        raise ModelError(
+            f"{where}: {member} nests {depth} levels deep, over the {MAX_JSON_DEPTH} a "
+            "model file may have; refused"
+        )
+    try:
+        return json.loads(text)
+    except (ValueError, RecursionError) as exc:
+        raise ModelError(f"{where}: {member} is not valid JSON ({exc})") from None
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """The SHA-256 of a file's bytes, read in blocks (the integrity check users keep).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "x.bin"
+    >>> _ = path.write_bytes(b"abc")
+    >>> file_sha256(path)[:16]
+    'ba7816bf8f01cfea'
+    """
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _read_members(path: Path, expect_sha256: str | None) -> tuple[dict, dict[str, bytes]]:
+    from pdmkit._config import max_bytes
+
     where = str(path)
     if not path.is_file():
         from pdmkit.errors import DataNotFoundError
 
         raise DataNotFoundError(f"{path} does not exist; expected a pdmkit model file")
+    if expect_sha256 is not None:
+        found = file_sha256(path)
+        if found != expect_sha256.strip().lower():
+            raise ModelError(
+                f"{where} has SHA-256 {found}, not the expected {expect_sha256}: it is "
+                "not the file that was saved. Do not load it"
+            )
+    budget = max_bytes("model")
     try:
         with zipfile.ZipFile(path) as zf:
             names = zf.namelist()
@@ -505,20 +727,18 @@ def _read_members(path: Path) -> tuple[dict[str, Any], dict[str, bytes]]:
                 )
             if len(set(names)) != len(names):
                 raise ModelError(f"{where} holds duplicate members: tampered with")
+            _zip_entries(zf, where, "the archive", budget)
             data = {n: zf.read(n) for n in names}
     except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError) as exc:
         raise ModelError(
             f"{where} is not a pdmkit model file (not a readable zip archive: {exc}); "
             "was it written by pdmkit.save_model, and copied whole?"
         ) from None
-    except (ValueError, NotImplementedError) as exc:  # bad CRC, unknown compression
+    except (ValueError, NotImplementedError, zlib.error) as exc:  # bad CRC, bad deflate
         raise ModelError(f"{where} is damaged ({exc}); save the model again") from None
     if "manifest.json" not in data:
         raise ModelError(f"{where} lacks manifest.json; not a pdmkit model file")
-    try:
-        manifest = json.loads(data.pop("manifest.json"))
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise ModelError(f"{where}: manifest.json is not valid JSON ({exc})") from None
+    manifest = _parse_json(data.pop("manifest.json"), where, "manifest.json")
     if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
         raise ModelError(f"{where}: manifest.json is not a pdmkit model manifest")
     if not isinstance(manifest.get("format_version"), int) or (
@@ -545,7 +765,10 @@ def _read_members(path: Path) -> tuple[dict[str, Any], dict[str, bytes]]:
 
 
 def _load_npz(blob: bytes, where: str) -> dict[str, np.ndarray]:
+    from pdmkit._config import max_bytes
+
     try:
+        _check_npy_headers(blob, where, "arrays.npz", max_bytes("model"))
         with np.load(io.BytesIO(blob), allow_pickle=False) as npz:
             return {k: npz[k] for k in npz.files}
     except ValueError as exc:
@@ -555,7 +778,7 @@ def _load_npz(blob: bytes, where: str) -> dict[str, np.ndarray]:
                 "unpickles model files"
             ) from None
         raise ModelError(f"{where}: arrays.npz is damaged ({exc})") from None
-    except (OSError, EOFError, zipfile.BadZipFile) as exc:
+    except (OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         raise ModelError(f"{where}: arrays.npz is damaged ({exc})") from None
 
 
@@ -578,12 +801,21 @@ def _load_tensors(blob: bytes, where: str) -> dict[str, Any]:
     return tensors
 
 
-def load_model(path: str | os.PathLike) -> Any:
+def load_model(path: str | os.PathLike, *, expect_sha256: str | None = None) -> Any:
     """Load a model saved by :func:`save_model`, after checking it.
+
+    A model file is data: loading it never runs code from it (see
+    ``docs/model_files.md`` for the format and the threat model). Classes are taken
+    only from an exact registry (:func:`object_registry`), sizes are checked before
+    anything is decompressed, and nesting is bounded.
 
     Parameters
     ----------
     path : str or path-like
+    expect_sha256 : str, optional
+        The SHA-256 of the file as you saved it (``pdmkit rul`` prints it and writes
+        it to its JSON summary). The checksums inside the file only catch damage; a
+        hash kept apart from the file proves it is the one you saved.
 
     Returns
     -------
@@ -595,9 +827,9 @@ def load_model(path: str | os.PathLike) -> Any:
     pdmkit.errors.DataNotFoundError
         The file does not exist.
     pdmkit.errors.ModelError
-        Not a model file; a checksum mismatch (changed bytes); unexpected members; a
-        pickled payload; a class outside the allowed packages (the message names the
-        file and the problem).
+        Not a model file; a hash or checksum mismatch; unexpected members; a pickled
+        payload; a class outside the registry; sizes over the ceiling
+        (``$PDMKIT_MAX_MODEL_BYTES``); the message names the file and the problem.
 
     Examples
     --------
@@ -611,7 +843,7 @@ def load_model(path: str | os.PathLike) -> Any:
     """
     path = Path(path)
     where = str(path)
-    manifest, data = _read_members(path)
+    manifest, data = _read_members(path, expect_sha256)
     kind = manifest.get("kind")
     expected = {
         "skops": {"model.skops"},
@@ -623,56 +855,80 @@ def load_model(path: str | os.PathLike) -> Any:
     missing = expected[kind] - set(data)
     if missing:
         raise ModelError(f"{where} lacks {sorted(missing)} for a model of kind {kind!r}")
-    if kind == "skops":
-        return _load_skops(data["model.skops"], where)
     try:
-        state = json.loads(data["state.json"])
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise ModelError(f"{where}: state.json is not valid JSON ({exc})") from None
-    tensors = _load_tensors(data["tensors.pt"], where) if "tensors.pt" in data else {}
-    if kind == "torch":
-        cls = _import_class(manifest.get("class"), TORCH_PACKAGES, where)
-        import torch
-
-        if not issubclass(cls, torch.nn.Module):
-            raise ModelError(f"{where}: {manifest['class']} is not a torch module")
-        config = state.get("config") if isinstance(state, dict) else None
-        if not isinstance(config, dict):
-            raise ModelError(f"{where}: state.json lacks the module's config")
-        try:
-            module = cls(**config)
-            module.load_state_dict(tensors)
-        except (TypeError, RuntimeError) as exc:
+        if kind == "skops":
+            return _load_skops(data["model.skops"], where)
+        state = _parse_json(data["state.json"], where, "state.json")
+        tensors = _load_tensors(data["tensors.pt"], where) if "tensors.pt" in data else {}
+        if kind == "torch":
+            return _load_torch_module(manifest, state, tensors, where)
+        arrays = _load_npz(data["arrays.npz"], where)
+        if not (isinstance(state, dict) and state.get("t") == "object"):
+            raise ModelError(f"{where}: state.json does not describe an object")
+        if state.get("class") != manifest.get("class"):
             raise ModelError(
-                f"{where}: cannot rebuild {manifest['class']} from its config and "
-                f"weights ({str(exc).splitlines()[0]})"
-            ) from None
-        module.eval()
-        return module
-    arrays = _load_npz(data["arrays.npz"], where)
-    if not (isinstance(state, dict) and state.get("t") == "object"):
-        raise ModelError(f"{where}: state.json does not describe an object")
-    if state.get("class") != manifest.get("class"):
+                f"{where}: state.json rebuilds {state.get('class')!r} but the manifest "
+                f"says {manifest.get('class')!r}; the file was tampered with"
+            )
+        return _Decoder(arrays, tensors, where).decode(state)
+    except (RecursionError, MemoryError) as exc:
+        raise ModelError(f"{where}: refused ({type(exc).__name__})") from None
+
+
+def _load_torch_module(manifest: dict, state: Any, tensors: dict, where: str) -> Any:
+    import torch
+
+    cls = _registered(manifest.get("class"), torch_registry(), where)
+    config = state.get("config") if isinstance(state, dict) else None
+    if not isinstance(config, dict) or not all(isinstance(k, str) for k in config):
+        raise ModelError(f"{where}: state.json lacks the module's config")
+    try:
+        with torch.device("meta"):  # shapes only: a huge declared layer costs nothing
+            shapes = {k: tuple(v.shape) for k, v in cls(**config).state_dict().items()}
+        if shapes != {k: tuple(v.shape) for k, v in tensors.items()}:
+            raise ModelError(
+                f"{where}: the weights in tensors.pt do not have the shapes that "
+                f"{manifest['class']}(**config) declares; refused"
+            )
+        module = cls(**config)
+        module.load_state_dict(tensors)
+    except (TypeError, RuntimeError, ValueError) as exc:
         raise ModelError(
-            f"{where}: state.json rebuilds {state.get('class')!r} but the manifest "
-            f"says {manifest.get('class')!r}; the file was tampered with"
-        )
-    return _Decoder(arrays, tensors, where).decode(state)
+            f"{where}: cannot rebuild {manifest['class']} from its config and "
+            f"weights ({str(exc).splitlines()[0]})"
+        ) from None
+    module.eval()
+    return module
+
+
+@functools.cache
+def skops_trusted_types() -> frozenset[str]:
+    """The exact type and function names a skops payload may ask for.
+
+    scikit-learn's estimators and helpers from :func:`object_registry` and the
+    univariate score functions (:data:`SKOPS_FUNCTIONS`); never a prefix.
+    """
+    return frozenset(object_registry()) | frozenset(SKOPS_FUNCTIONS)
 
 
 def _load_skops(blob: bytes, where: str) -> Any:
     import skops.io as sio
 
+    from pdmkit._config import max_bytes
+
     try:
+        _check_npy_headers(blob, where, "model.skops", max_bytes("model"))
         untrusted = sio.get_untrusted_types(data=blob)
+    except ModelError:
+        raise
     except Exception as exc:  # skops raises many types on a damaged archive
         raise ModelError(f"{where}: the skops payload is damaged ({exc})") from None
-    refused = [t for t in untrusted if not _allowed(t, SKOPS_PACKAGES)]
+    refused = [t for t in untrusted if t not in skops_trusted_types()]
     if refused:
         raise ModelError(
             f"{where} asks to rebuild the type(s) {refused[:5]}, which are not allowed: "
-            f"only types of {', '.join(p.rstrip('.') for p in SKOPS_PACKAGES)} are "
-            "trusted. Do not load this file"
+            "only scikit-learn's estimators and score functions are trusted (see "
+            "pdmkit._persist.skops_trusted_types). Do not load this file"
         )
     try:
         return sio.load(io.BytesIO(blob), trusted=list(untrusted))

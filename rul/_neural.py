@@ -413,10 +413,22 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         weights = state.get("models_")
         self.__dict__.update(state)
         if weights is not None:
+            import torch
+
             n_inputs = len(self.features_) + int(bool(self.time_feature))
+            shape = (self.arch, n_inputs, int(self.window), int(self.hidden))
+            with torch.device("meta"):  # shapes only: a loaded state is untrusted
+                declared = {k: v.shape for k, v in _network(*shape).state_dict().items()}
             nets = []
             for w in weights:
-                net = _network(self.arch, n_inputs, int(self.window), int(self.hidden))
+                if not isinstance(w, dict) or declared != {
+                    k: getattr(v, "shape", None) for k, v in w.items()
+                }:
+                    raise ValueError(
+                        "the stored weights do not have the shapes the model's settings "
+                        f"(arch, inputs, window, hidden = {shape}) declare"
+                    )
+                net = _network(*shape)
                 net.load_state_dict(w)
                 net.eval()
                 nets.append(net)
