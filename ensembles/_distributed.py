@@ -20,6 +20,8 @@ import contextlib
 import json
 import logging
 import os
+import time
+import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,7 +31,9 @@ from pdmkit.ensembles._ensemble import Ensemble
 from pdmkit.errors import DataError, DataNotFoundError
 
 __all__ = [
+    "LOST_TASK_ATTEMPTS",
     "Partition",
+    "WorkerLostError",
     "dask_client",
     "dask_map",
     "dask_stream",
@@ -147,6 +151,91 @@ def _in_flight_limit(c: Any) -> int:
     return max(2, 2 * threads)
 
 
+#: How many times :func:`dask_stream` sends one task to the cluster when the worker
+#: running it, or holding its input, dies (the scheduler itself also re-runs a task up
+#: to ``distributed.scheduler.allowed-failures`` times, default 3, before giving up on
+#: it with ``KilledWorker``). A task that kills every worker it runs on (a member that
+#: runs the worker out of memory, a crash in native code) ends as a
+#: :class:`WorkerLostError` after this many workers died with it.
+LOST_TASK_ATTEMPTS = 3
+
+#: Pauses (seconds) between attempts to send a task's input to the workers while a
+#: worker that just died is still listed by the scheduler.
+SCATTER_RETRY_DELAYS = (0.1, 0.3, 1.0, 2.0, 4.0)
+
+
+class WorkerLostError(ConnectionError):
+    """A Dask task was lost with its worker too often: it probably kills its workers.
+
+    A :class:`ConnectionError` (the workers' connections closed under it), so the
+    ``pdmkit`` command reports it in one line with exit status 2.
+    """
+
+
+def _describe(i: int, item: Any) -> str:
+    """A short name of work item ``i`` for messages (partition, batch of members)."""
+    if isinstance(item, Partition):
+        return f"partition {item.index} of {item.root} (members {item.start}:{item.stop})"
+    ids = getattr(item, "member_ids", None)
+    if ids is not None and len(ids):
+        first, last = str(ids[0]), str(ids[-1])
+        span = first if len(ids) == 1 else f"{first}..{last}"
+        return f"batch {i} ({len(ids)} member(s), {span})"
+    return f"task {i}"
+
+
+#: The advice that ends a WorkerLostError message.
+_LOST_HINT = (
+    "it probably makes the worker run out of memory or crash: use a smaller batch "
+    "size, give the workers more memory, or check its members in-process"
+)
+
+#: Dask's reasons for cancelling a task whose input was lost with its worker.
+_PLAIN_LOSSES = ("already forgotten", "lost dependencies", "unknown")
+
+
+class _QuietLostTasks(logging.Filter):
+    """Drop the scheduler's errors about :func:`dask_stream`'s tasks and inputs lost
+    with a worker ("... lose scattered data, which can't be recovered", "Couldn't
+    gather keys"): they are computed again. Only a scheduler in this process (a
+    ``LocalCluster``) logs here."""
+
+    MESSAGES = ("scattered data", "Couldn't gather keys")
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.keys: set[str] = set()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        text = str(record.msg)
+        if not self.keys or not any(m in text for m in self.MESSAGES):
+            return True
+        message = record.getMessage()
+        return not any(k in message for k in self.keys)
+
+
+def _scatter(c: Any, item: Any) -> Any:
+    """``item`` sent to a worker: a future, or the item itself when it is a scalar."""
+    if isinstance(item, int | float | str | bytes | type(None)):
+        return item
+    delays = iter(SCATTER_RETRY_DELAYS)
+    while True:
+        try:
+            # a list of one: scatter would split a dict or list into futures per entry
+            [future] = c.scatter([item], hash=False)
+            return future
+        except TimeoutError as exc:  # (an OSError) the scheduler waited for a worker
+            raise WorkerLostError(
+                f"no Dask worker is running to take a task's input ({exc}); start "
+                "workers for the scheduler, or run in-process"
+            ) from None
+        except OSError:  # CommClosedError: the worker chosen has just died
+            delay = next(delays, None)
+            if delay is None:
+                raise
+            time.sleep(delay)
+
+
 def dask_stream(
     c: Any, func: Callable[..., Any], items: Iterable[Any], **kwargs: Any
 ) -> Iterator[tuple[int, Any]]:
@@ -156,6 +245,13 @@ def dask_stream(
     thread are in flight, and each item is sent to the cluster only when its task is
     submitted, so neither this process nor the workers hold all items at once.
 
+    A task lost with a worker that died (killed, out of memory, its machine gone) is
+    sent again, with its item, to the workers left (a ``RuntimeWarning`` says so): the
+    results are those of a run where no worker died. An item whose task was lost
+    :data:`LOST_TASK_ATTEMPTS` times, or that the scheduler gave up on
+    (``KilledWorker``), raises :class:`WorkerLostError`. An exception raised by
+    ``func`` is raised here at once, with its own type; it is not retried.
+
     Examples
     --------
     >>> from distributed import Client, LocalCluster  # doctest: +SKIP
@@ -163,37 +259,83 @@ def dask_stream(
     ...     sorted(dask_stream(c, abs, [-1, -2]))
     [(0, 1), (1, 2)]
     """
-    from distributed import as_completed
+    from concurrent.futures import CancelledError
+
+    from distributed import KilledWorker, as_completed
 
     limit = _in_flight_limit(c)
     iterator = iter(enumerate(items))
     pending = as_completed([], loop=c.loop)
-    index: dict[Any, int] = {}
+    # future -> (position, item, attempt): the item stays here until its result is in,
+    # so that a task lost with its worker (and the scattered input with it) can be
+    # sent again; at most ``limit`` items are held
+    index: dict[Any, tuple[int, Any, int]] = {}
+    quiet = _QuietLostTasks()
+    keys: dict[Any, tuple[str, ...]] = {}  # future -> its key and its input's
+
+    def submit(i: int, item: Any, attempt: int) -> None:
+        data = _scatter(c, item)
+        future = c.submit(func, data, pure=False, **kwargs)
+        keys[future] = (str(future.key),) + ((str(data.key),) if data is not item else ())
+        quiet.keys.update(keys[future])
+        index[future] = (i, item, attempt)
+        pending.add(future)
+
+    def done(future: Any) -> None:
+        future.release()
+        quiet.keys.difference_update(keys.pop(future, ()))
 
     def submit_next() -> bool:
         try:
             i, item = next(iterator)
         except StopIteration:
             return False
-        if not isinstance(item, int | float | str | bytes | type(None)):
-            # a list of one: scatter would split a dict or list into futures per entry
-            [item] = c.scatter([item], hash=False)
-        future = c.submit(func, item, pure=False, **kwargs)
-        index[future] = i
-        pending.add(future)
+        submit(i, item, 1)
         return True
 
-    for _ in range(limit):
-        if not submit_next():
-            break
+    def lost(future: Any, i: int, item: Any, attempt: int, reason: str) -> None:
+        done(future)
+        what = _describe(i, item)
+        if attempt >= LOST_TASK_ATTEMPTS:
+            said = "" if reason in _PLAIN_LOSSES else f" (Dask: {reason})"
+            raise WorkerLostError(
+                f"{what} was lost {attempt} times with a Dask worker that died{said}; "
+                f"{_LOST_HINT}"
+            )
+        warnings.warn(
+            f"a Dask worker died; {what} is computed again "
+            f"(attempt {attempt + 1} of {LOST_TASK_ATTEMPTS})",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        submit(i, item, attempt + 1)
+
+    scheduler_log = logging.getLogger("distributed.scheduler")
+    scheduler_log.addFilter(quiet)
     try:
+        for _ in range(limit):
+            if not submit_next():
+                break
         for future in pending:
-            result = future.result()  # raises the task's exception with its type
-            i = index.pop(future)
-            future.release()
+            i, item, attempt = index.pop(future)
+            if future.status == "error":
+                exc = future.exception()
+                if isinstance(exc, KilledWorker):  # the scheduler's retries are spent
+                    done(future)
+                    raise WorkerLostError(
+                        f"{_describe(i, item)} killed every Dask worker that ran it "
+                        f"({exc.allowed_failures + 1} died running it); {_LOST_HINT}"
+                    ) from None
+            try:
+                result = future.result()  # raises the task's exception with its type
+            except CancelledError as exc:  # its worker died with the task's input
+                lost(future, i, item, attempt, getattr(exc, "reason", None) or "unknown")
+                continue
+            done(future)
             yield i, result
             submit_next()
     finally:
+        scheduler_log.removeFilter(quiet)
         for future in index:
             future.cancel()
 

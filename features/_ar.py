@@ -47,7 +47,7 @@ def resolve_ar_options(order=AR_DEFAULT_ORDER, n_samples: int | None = None) -> 
     {'order': 6}
     """
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
-        raise ValueError(f"ar order must be an integer >= 1; got {order!r}")
+        raise DataError(f"ar order must be an integer >= 1; got {order!r}")
     if n_samples is not None and n_samples <= 3 * order:
         raise DataError(
             f"members have {n_samples} samples; an AR({order}) model needs more than "

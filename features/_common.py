@@ -70,7 +70,7 @@ def to_rows(x, axis: int = -1, name: str = "x") -> tuple[np.ndarray, tuple[int, 
     try:
         arr = np.moveaxis(arr, axis, -1)
     except np.exceptions.AxisError:
-        raise ValueError(
+        raise DataError(
             f"axis={axis} is out of range for {name} with {arr.ndim} dimension(s) "
             f"(shape {arr.shape}); use axis=-1 for samples on the last axis"
         ) from None

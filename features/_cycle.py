@@ -159,7 +159,7 @@ def _per_member(value, name: str, *, positive: bool) -> np.ndarray:
         ok = bool(np.all(arr > 0))
     if not ok:
         what = "a positive time in s" if positive else "a time in s"
-        raise ValueError(
+        raise DataError(
             f"{name} must be {what} (a number, or one per member); got {value!r}"
         )
     return arr
@@ -178,7 +178,7 @@ def resolve_cycle_options(
 ) -> dict:
     """Validate the cycle options (names as the extract group spells them with prefix)."""
     if period is None:
-        raise ValueError(
+        raise DataError(
             f"the cycle group needs the cycle period: pass {prefix}period= the time of one "
             "machine cycle in s (e.g. cycle_period=2.0 for a piston commanded up and down "
             "every 2 s)"
@@ -196,7 +196,7 @@ def resolve_cycle_options(
         or np.any(ph >= 1)
         or np.any(np.diff(ph) <= 0)
     ):
-        raise ValueError(
+        raise DataError(
             f"{prefix}phases must be increasing fractions of the period in [0, 1) where "
             f"segments begin, e.g. (0.0, 0.5) for two half-cycles; got {phases!r}"
         )
@@ -212,12 +212,12 @@ def resolve_cycle_options(
         or np.any(np.diff(lv) <= 0)
     ):
         name = "cycle_levels" if prefix else "levels"
-        raise ValueError(
+        raise DataError(
             f"{name} must be increasing fractions in (0, 1] of the way from a segment's "
             f"start level to its target, e.g. (0.1, 0.5, 0.9); got {levels!r}"
         )
     if len({_level_tag(f) for f in lv}) != lv.size:
-        raise ValueError(
+        raise DataError(
             f"levels {levels!r} are too close to tell apart in column names (0.0001 % "
             "apart at least)"
         )
@@ -225,7 +225,7 @@ def resolve_cycle_options(
         n_windows = -1
     if n_windows < 0:
         name = "cycle_windows" if prefix else "n_windows"
-        raise ValueError(
+        raise DataError(
             f"{name} must be a whole number of phase windows per cycle (0 for none); "
             f"got {n_windows!r}"
         )
@@ -236,7 +236,7 @@ def resolve_cycle_options(
         except (TypeError, ValueError):
             a, b = math.nan, math.nan
         if not (math.isfinite(a) and math.isfinite(b) and a < b):
-            raise ValueError(
+            raise DataError(
                 "event_windows must be (begin, end) pairs in s relative to the peak with "
                 f"begin < end, e.g. ((-0.01, -0.002), (0.002, 0.01)); got {w!r}"
             )
@@ -257,7 +257,7 @@ def _segment_starts(n_samples: int, fs: float, period: float, start: float, p0, 
     span = (p1 - p0) * period * fs  # samples in a segment
     length = math.floor(span + _TOL)
     if length < 2:
-        raise ValueError(
+        raise DataError(
             f"a segment of {(p1 - p0) * period:g} s holds {span:.3g} samples at fs={fs:g} "
             "Hz; segments need at least 2 samples (raise the sampling rate, lengthen the "
             "period or use fewer phases)"
@@ -399,7 +399,7 @@ def _cycle_rows(x: np.ndarray, fs: float, period: float, start: float, opts: dic
         if i0.size == 0:
             raise _no_segment(n, fs, period, start, 0)
         if length < n_win:
-            raise ValueError(
+            raise DataError(
                 f"a cycle of {length} samples cannot be cut into {n_win} phase windows; "
                 "use fewer windows"
             )
@@ -418,7 +418,7 @@ def _cycle_feature_rows(x: np.ndarray, fs: float, opts: dict) -> dict[str, np.nd
     period = np.broadcast_to(opts["period"], (m,))
     start = np.broadcast_to(opts["start"], (m,))
     if period.shape != (m,) or start.shape != (m,):
-        raise ValueError(
+        raise DataError(
             f"cycle period / start have {opts['period'].size} / {opts['start'].size} "
             f"values for {m} members; pass one value, or one per member"
         )
@@ -604,7 +604,7 @@ def cycle_average(
     fs = check_fs(fs)
     opts = resolve_cycle_options(fs, period=period, start=start, n_windows=0)
     if opts["period"].size != 1 or opts["start"].size != 1:
-        raise ValueError(
+        raise DataError(
             "cycle_average takes one period and one start for all members (the result "
             "has one phase grid); average groups of members with equal periods apart"
         )
@@ -614,9 +614,9 @@ def cycle_average(
     if n_points is None:
         n_points = max(1, round(step))
     if isinstance(n_points, bool) or not isinstance(n_points, int | np.integer):
-        raise ValueError(f"n_points must be a positive integer; got {n_points!r}")
+        raise DataError(f"n_points must be a positive integer; got {n_points!r}")
     if n_points < 1:
-        raise ValueError(f"n_points must be a positive integer; got {n_points!r}")
+        raise DataError(f"n_points must be a positive integer; got {n_points!r}")
     rows, batch_shape = to_rows(x, axis, "x")
     check_finite(rows, "x")
     n = rows.shape[1]

@@ -23,6 +23,7 @@ import numpy as np
 import scipy.fft
 import scipy.signal
 
+from pdmkit.errors import DataError
 from pdmkit.features._common import check_finite, check_fs, from_rows, to_rows
 
 __all__ = [
@@ -80,7 +81,7 @@ def bearing_frequencies(
     """
     shaft = float(shaft_hz)
     if not np.isfinite(shaft) or shaft <= 0:
-        raise ValueError(
+        raise DataError(
             f"shaft_hz must be a positive rotation frequency in Hz, got {shaft_hz!r}"
         )
     _check_geometry(n_balls, ball_diameter, pitch_diameter, contact_angle_deg)
@@ -101,7 +102,7 @@ def _check_geometry(n_balls, ball_diameter, pitch_diameter, contact_angle_deg) -
         or not isinstance(n_balls, int | np.integer)
         or n_balls < 1
     ):
-        raise ValueError(f"n_balls must be a positive integer, got {n_balls!r}")
+        raise DataError(f"n_balls must be a positive integer, got {n_balls!r}")
     for name, value in (
         ("ball_diameter", ball_diameter),
         ("pitch_diameter", pitch_diameter),
@@ -109,14 +110,14 @@ def _check_geometry(n_balls, ball_diameter, pitch_diameter, contact_angle_deg) -
         if not (
             isinstance(value, int | float | np.number) and np.isfinite(value) and value > 0
         ):
-            raise ValueError(f"{name} must be a positive length in metres, got {value!r}")
+            raise DataError(f"{name} must be a positive length in metres, got {value!r}")
     if ball_diameter >= pitch_diameter:
-        raise ValueError(
+        raise DataError(
             f"ball_diameter ({ball_diameter}) must be smaller than pitch_diameter "
             f"({pitch_diameter}); did you swap them?"
         )
     if not (np.isfinite(contact_angle_deg) and 0 <= contact_angle_deg < 90):
-        raise ValueError(
+        raise DataError(
             f"contact_angle_deg must be in [0, 90) degrees, got {contact_angle_deg!r}"
         )
 
@@ -286,14 +287,14 @@ def _check_band(band, fs: float) -> tuple[float, float] | None:
     try:
         lo, hi = (float(v) for v in band)
     except (TypeError, ValueError):
-        raise ValueError(
+        raise DataError(
             f"band must be a (lo, hi) pair in Hz or None, got {band!r}"
         ) from None
     nyq = fs / 2.0
     if not (np.isfinite(lo) and np.isfinite(hi) and 0 <= lo < hi):
-        raise ValueError(f"band {band!r}: expected 0 <= lo < hi in Hz")
+        raise DataError(f"band {band!r}: expected 0 <= lo < hi in Hz")
     if lo >= nyq:
-        raise ValueError(
+        raise DataError(
             f"band {band!r}: its lower edge must lie below the Nyquist frequency "
             f"{nyq:g} Hz (fs={fs:g} Hz)"
         )
@@ -392,29 +393,29 @@ def resolve_envelope_options(
         missing = [
             n for n, v in (("bearing", bearing), ("shaft_hz", shaft_hz)) if v is None
         ]
-        raise ValueError(
+        raise DataError(
             f"the envelope group needs the bearing geometry and the shaft speed; missing "
             f"{' and '.join(missing)}. Pass bearing=BearingGeometry(...) (e.g. "
             "pdmkit.features.CWRU_DRIVE_END) and shaft_hz=rpm / 60"
         )
     if not callable(getattr(bearing, "frequencies", None)):
-        raise ValueError(
+        raise DataError(
             "bearing must be a pdmkit.features.BearingGeometry, got "
             f"{type(bearing).__name__}"
         )
     shaft = np.asarray(shaft_hz, dtype=float)
     if shaft.ndim > 1 or not np.all(np.isfinite(shaft)) or np.any(shaft <= 0):
-        raise ValueError(
+        raise DataError(
             "shaft_hz must be a positive shaft frequency in Hz (a number, or one per "
             f"member), got {shaft_hz!r}"
         )
     if not (isinstance(tolerance, Real) and 0 <= tolerance < 0.5):
-        raise ValueError(
+        raise DataError(
             "tolerance must be the half-width of each band as a fraction of its centre "
             f"frequency, in [0, 0.5), got {tolerance!r}"
         )
     if isinstance(n_harmonics, bool) or not isinstance(n_harmonics, int) or n_harmonics < 1:
-        raise ValueError(
+        raise DataError(
             f"envelope n_harmonics must be a positive integer, got {n_harmonics!r}"
         )
     return {
@@ -433,7 +434,7 @@ def _envelope_feature_rows(
     freqs, spec = _envelope_rows(x, fs, options["band"])
     shaft = np.broadcast_to(options["shaft_hz"], (m,))
     if shaft.shape != (m,):
-        raise ValueError(f"shaft_hz has {options['shaft_hz'].size} values for {m} members")
+        raise DataError(f"shaft_hz has {options['shaft_hz'].size} values for {m} members")
     df = freqs[1] - freqs[0] if len(freqs) > 1 else fs
     # defect frequencies scale with the shaft speed: compute them at 1 Hz once
     per_hz = options["bearing"].frequencies(1.0)
@@ -525,7 +526,7 @@ def envelope_features(
     shaft = options["shaft_hz"]
     if shaft.ndim == 1:
         if shaft.size != rows.shape[0]:
-            raise ValueError(
+            raise DataError(
                 f"shaft_hz has {shaft.size} values but x has {rows.shape[0]} members; "
                 "pass one speed, or one per member"
             )

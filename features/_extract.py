@@ -104,16 +104,14 @@ def _check_groups(groups) -> tuple[str, ...]:
     try:
         groups = tuple(groups)
     except TypeError:
-        raise ValueError(
+        raise DataError(
             f"groups must be a sequence of group names from {list(GROUPS)}, got {groups!r}"
         ) from None
     unknown = [g for g in groups if g not in GROUP_OPTIONS]
     if unknown:
-        raise ValueError(
-            f"unknown feature group(s) {unknown}; known groups: {list(GROUPS)}"
-        )
+        raise DataError(f"unknown feature group(s) {unknown}; known groups: {list(GROUPS)}")
     if not groups:
-        raise ValueError(f"groups is empty; pick at least one of {list(GROUPS)}")
+        raise DataError(f"groups is empty; pick at least one of {list(GROUPS)}")
     return tuple(dict.fromkeys(groups))  # drop repeats, keep order
 
 
@@ -139,7 +137,7 @@ def _check_option_names(
     stray = [k for k in options if _OPTION_GROUP[k] not in groups]
     if stray:
         needs = sorted({_OPTION_GROUP[k] for k in stray})
-        raise ValueError(
+        raise DataError(
             f"option(s) {stray} belong to group(s) {needs}, which are not in "
             f"groups={list(groups)}; add the group or drop the option"
         )
@@ -149,9 +147,9 @@ def _check_batch_size(batch_size, allow_none: bool) -> int | None:
     if batch_size is None and allow_none:
         return None
     if isinstance(batch_size, bool) or not isinstance(batch_size, int | np.integer):
-        raise ValueError(f"batch_size must be a positive integer, got {batch_size!r}")
+        raise DataError(f"batch_size must be a positive integer, got {batch_size!r}")
     if batch_size < 1:
-        raise ValueError(f"batch_size must be a positive integer, got {batch_size}")
+        raise DataError(f"batch_size must be a positive integer, got {batch_size}")
     return int(batch_size)
 
 
@@ -163,7 +161,7 @@ def _check_workers(workers) -> int:
         or not isinstance(workers, int | np.integer)
         or workers < 1
     ):
-        raise ValueError(
+        raise DataError(
             f"workers must be a positive number of threads, or None / -1 for all cores; "
             f"got {workers!r}"
         )
@@ -190,7 +188,7 @@ def _resolve(groups, options: dict, n_samples: int, n_members: int, fs: float) -
         elif group == "harmonic":
             nh = given.get("n_harmonics", 6)
             if isinstance(nh, bool) or not isinstance(nh, int | np.integer) or nh < 2:
-                raise ValueError(
+                raise DataError(
                     "n_harmonics must be an integer >= 2 (fundamental + harmonics), "
                     f"got {nh!r}"
                 )
@@ -208,7 +206,7 @@ def _resolve(groups, options: dict, n_samples: int, n_members: int, fs: float) -
             )
             shaft = resolved["shaft_hz"]
             if shaft.ndim == 1 and shaft.size != n_members:
-                raise ValueError(
+                raise DataError(
                     f"shaft_hz has {shaft.size} values but signals has {n_members} "
                     "members; pass one speed, or one per member"
                 )
@@ -226,7 +224,7 @@ def _resolve(groups, options: dict, n_samples: int, n_members: int, fs: float) -
             )
             for name in ("period", "start"):
                 if resolved[name].ndim == 1 and resolved[name].size != n_members:
-                    raise ValueError(
+                    raise DataError(
                         f"cycle_{name} has {resolved[name].size} values but signals has "
                         f"{n_members} members; pass one value, or one per member"
                     )
@@ -303,7 +301,7 @@ def _as_members(signals, axis: int) -> np.ndarray:
     try:
         arr = np.moveaxis(arr, axis, -1)
     except np.exceptions.AxisError:
-        raise ValueError(
+        raise DataError(
             f"axis={axis} is out of range for signals of shape {arr.shape}; the samples "
             "axis is -1 (default) or 0 for a (samples x members) array"
         ) from None
@@ -814,7 +812,7 @@ def extract_ensemble(
     _check_option_names(group_list, options, where="extract_ensemble()")
     batch_size = _check_batch_size(batch_size, allow_none=False)
     if on_error not in ("raise", "skip"):
-        raise ValueError(f"on_error must be 'raise' or 'skip'; got {on_error!r}")
+        raise DataError(f"on_error must be 'raise' or 'skip'; got {on_error!r}")
     if signals is not None:
         if isinstance(signals, str):
             signals = [signals]

@@ -134,7 +134,7 @@ class FeatureRanking:
         ['x']
         """
         if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 0:
-            raise ValueError(f"k must be a non-negative integer, got {k!r}")
+            raise DataError(f"k must be a non-negative integer, got {k!r}")
         scored = self.scores[self.scores.notna()]
         return [str(f) for f in scored.index[: int(k)]]
 
@@ -529,7 +529,7 @@ def rank_features(
     1.0
     """
     if method not in METHODS:
-        raise ValueError(f"method must be one of {list(METHODS)}, got {method!r}")
+        raise DataError(f"method must be one of {list(METHODS)}, got {method!r}")
     if not isinstance(table, pd.DataFrame):
         raise DataError(
             f"table must be a pandas DataFrame of features, got {type(table).__name__}; "
@@ -557,7 +557,7 @@ def rank_features(
         )
 
     if labels is not None:
-        raise ValueError(
+        raise DataError(
             f"method={method!r} ranks run-to-failure paths and takes no labels; pass "
             "unit= and time= columns (or use method='kruskal' / 'anova')"
         )
@@ -599,7 +599,7 @@ def _validate(estimator, X, y):
         from sklearn.utils.validation import validate_data
     except ImportError:  # pragma: no cover - scikit-learn < 1.6
         if y is None:
-            raise ValueError(
+            raise DataError(
                 f"{type(estimator).__name__} requires y to be passed, "
                 "but the target y is None"
             ) from None
@@ -716,12 +716,12 @@ class SelectTopRanked(SelectorMixin, BaseEstimator):
         """
         k = self.k
         if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
-            raise ValueError(f"k must be a positive integer, got {k!r}")
+            raise DataError(f"k must be a positive integer, got {k!r}")
         limit = self.max_correlation
         if limit is not None and not (isinstance(limit, int | float) and 0 < limit <= 1):
-            raise ValueError(f"max_correlation must be in (0, 1] or None, got {limit!r}")
+            raise DataError(f"max_correlation must be in (0, 1] or None, got {limit!r}")
         if self.method not in _SUPERVISED:
-            raise ValueError(
+            raise DataError(
                 f"method must be one of {list(_SUPERVISED)} for SelectTopRanked, got "
                 f"{self.method!r} (the prognostic metrics need units and time: use "
                 "rank_features)"
@@ -730,7 +730,7 @@ class SelectTopRanked(SelectorMixin, BaseEstimator):
         X = np.asarray(X, dtype=float)
         codes, n_classes = _group_codes(np.asarray(y))
         if n_classes < 2:
-            raise ValueError(
+            raise DataError(
                 f"y has {n_classes} class; SelectTopRanked needs at least two classes "
                 "to rank the features"
             )

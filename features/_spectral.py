@@ -60,9 +60,9 @@ def _demean(segments: np.ndarray) -> np.ndarray:
 
 def _check_int(value, name: str, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+        raise DataError(f"{name} must be an integer >= {minimum}, got {value!r}")
     if value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value}")
+        raise DataError(f"{name} must be an integer >= {minimum}, got {value}")
     return int(value)
 
 
@@ -91,21 +91,21 @@ def resolve_spectral_options(
         noverlap = nperseg // 2
     noverlap = _check_int(noverlap, "noverlap", 0)
     if noverlap >= nperseg:
-        raise ValueError(f"noverlap must be less than nperseg={nperseg}, got {noverlap}")
+        raise DataError(f"noverlap must be less than nperseg={nperseg}, got {noverlap}")
     n_peaks = _check_int(n_peaks, "n_peaks", 0)
     if detrend not in _DETRENDS:
-        raise ValueError(f"detrend must be one of {_DETRENDS}, got {detrend!r}")
+        raise DataError(f"detrend must be one of {_DETRENDS}, got {detrend!r}")
     freqs = np.fft.rfftfreq(nperseg, 1.0 / fs)
     parsed = []
     for band in () if bands is None else bands:
         try:
             lo, hi = (float(v) for v in band)
         except (TypeError, ValueError):
-            raise ValueError(
+            raise DataError(
                 f"bands must be a sequence of (lo, hi) pairs in Hz, got the item {band!r}"
             ) from None
         if not (np.isfinite(lo) and np.isfinite(hi) and 0 <= lo < hi):
-            raise ValueError(f"band {band!r}: expected 0 <= lo < hi (Hz)")
+            raise DataError(f"band {band!r}: expected 0 <= lo < hi (Hz)")
         inside = int(np.count_nonzero((freqs >= lo) & (freqs <= hi)))
         if inside < 2:
             raise DataError(
@@ -116,7 +116,7 @@ def resolve_spectral_options(
         parsed.append((lo, hi))
     names = [band_name(lo, hi) for lo, hi in parsed]
     if len(set(names)) != len(names):
-        raise ValueError(f"bands holds duplicates: {list(bands)}")
+        raise DataError(f"bands holds duplicates: {list(bands)}")
     return {
         "nperseg": nperseg,
         "noverlap": noverlap,

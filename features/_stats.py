@@ -32,6 +32,7 @@ import numpy as np
 import scipy.fft
 import scipy.signal
 
+from pdmkit.errors import DataError
 from pdmkit.features._common import check_finite, check_fs, from_rows, to_rows
 
 __all__ = ["HARMONIC_FEATURES", "STATS_FEATURES", "harmonic", "stats"]
@@ -298,9 +299,9 @@ def harmonic(x, fs: float, *, n_harmonics: int = 6, axis: int = -1):
     """
     fs = check_fs(fs)
     if isinstance(n_harmonics, bool) or not isinstance(n_harmonics, int | np.integer):
-        raise ValueError(f"n_harmonics must be an integer >= 2, got {n_harmonics!r}")
+        raise DataError(f"n_harmonics must be an integer >= 2, got {n_harmonics!r}")
     if n_harmonics < 2:
-        raise ValueError(f"n_harmonics must be >= 2 (fundamental + 1), got {n_harmonics}")
+        raise DataError(f"n_harmonics must be >= 2 (fundamental + 1), got {n_harmonics}")
     rows, batch_shape = to_rows(x, axis, "x")
     check_finite(rows, "x")
     out = _harmonic_rows(rows, fs, int(n_harmonics))
