@@ -18,6 +18,7 @@ __all__ = [
     "ConvergenceWarning",
     "DataError",
     "DataNotFoundError",
+    "DataWarning",
     "ModelError",
     "NotFittedError",
     "did_you_mean",
@@ -42,6 +43,14 @@ class NotFittedError(ValueError, AttributeError):
 
 class ConvergenceWarning(RuntimeWarning):
     """An iterative fit stopped before meeting its tolerance."""
+
+
+class DataWarning(UserWarning):
+    """Input data was read, but not as written: pdmkit reinterpreted part of it.
+
+    The message names the file, says what was done and how to say what was meant
+    (e.g. a CSV without a header line read with generated column names).
+    """
 
 
 def did_you_mean(name: object, choices: Iterable[object]) -> str:

@@ -427,11 +427,9 @@ class Partition:
 
 
 def _read_url_manifest(url: str) -> dict[str, Any]:
-    import fsspec
+    from pdmkit.ensembles._parquet import FORMAT, MANIFEST, url_filesystem
 
-    from pdmkit.ensembles._parquet import FORMAT, MANIFEST
-
-    fs, root = fsspec.core.url_to_fs(url)
+    fs, root = url_filesystem(url)
     file = f"{root.rstrip('/')}/{MANIFEST}"
     try:
         with fs.open(file, "rb") as f:
@@ -525,8 +523,12 @@ def _read_rows(url: str, columns: list[str], first: int, last: int) -> Any:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
+    from pdmkit.ensembles._parquet import check_declared_sizes
+
     with _open(url) as source:
         reader = pq.ParquetFile(source, buffer_size=1 << 20, pre_buffer=False)
+        # sizes declared before anything is decoded: a bomb costs only its own part
+        check_declared_sizes(reader.metadata, url, columns=columns, per_row_group=True)
         groups, offset, skip = [], 0, None
         for g in range(reader.metadata.num_row_groups):
             n = reader.metadata.row_group(g).num_rows

@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._atomic import atomic_dir
+from pdmkit._config import max_bytes
 from pdmkit.ensembles._ensemble import (
     MEMBER,
     Ensemble,
@@ -32,6 +33,7 @@ from pdmkit.ensembles._ensemble import (
     _names_list,
     _positive_int,
 )
+from pdmkit.ensembles._readers import _one_line, _too_big
 from pdmkit.errors import DataError, DataNotFoundError
 
 __all__ = ["iter_parquet", "read_parquet", "write_parquet", "write_parquet_batches"]
@@ -256,6 +258,220 @@ def write_parquet_batches(batches: Iterable[Ensemble], path: str | os.PathLike) 
 # reading
 # --------------------------------------------------------------------------------------
 
+#: Bytes one value of each Parquet physical type takes once decoded (at most: pandas
+#: widens 32-bit numbers to 64 bits); text adds its own bytes to the offsets.
+_DECODED_WIDTH = {"BOOLEAN": 1, "INT32": 8, "INT64": 8, "INT96": 12, "FLOAT": 8}
+
+
+def declared_sizes(metadata: Any, columns: Sequence[str] | None = None) -> dict[str, list]:
+    """Decompressed bytes each row group of each top-level column declares.
+
+    Read from the file's footer only: per column chunk the larger of its uncompressed
+    size and its value count times the decoded width of its type. A file can declare
+    less than it holds only by lying about its own page sizes, which pyarrow checks
+    while decoding.
+
+    Parameters
+    ----------
+    metadata : pyarrow.parquet.FileMetaData
+    columns : sequence of str, optional
+        Top-level columns to count (default: all).
+
+    Returns
+    -------
+    dict of str to list of int
+        Column name -> bytes per row group.
+
+    Examples
+    --------
+    >>> import io, pyarrow as pa, pyarrow.parquet as pq
+    >>> buffer = io.BytesIO()
+    >>> pq.write_table(pa.table({"x": np.zeros(1000)}), buffer)
+    >>> declared_sizes(pq.read_metadata(io.BytesIO(buffer.getvalue())))["x"][0] >= 8000
+    True
+    """
+    fields = [f.name for f in metadata.schema.to_arrow_schema()]
+    out: dict[str, list] = {}
+    for g in range(metadata.num_row_groups):
+        group = metadata.row_group(g)
+        for i in range(group.num_columns):
+            chunk = group.column(i)
+            leaf = chunk.path_in_schema
+            name = max(
+                (f for f in fields if leaf == f or leaf.startswith(f + ".")),
+                key=len,
+                default=leaf.split(".")[0],
+            )
+            if columns is not None and name not in columns:
+                continue
+            kind = chunk.physical_type
+            if kind == "FIXED_LEN_BYTE_ARRAY":
+                width = metadata.schema.column(i).length or 8
+            else:
+                width = _DECODED_WIDTH.get(kind, 8)  # DOUBLE, and text offsets
+            size = max(int(chunk.total_uncompressed_size), int(chunk.num_values) * width)
+            out.setdefault(name, [0] * metadata.num_row_groups)[g] += size
+    return out
+
+
+def check_declared_sizes(
+    metadata: Any,
+    where: str,
+    *,
+    columns: Sequence[str] | None = None,
+    per_row_group: bool = False,
+) -> dict[str, int]:
+    """Refuse a Parquet file whose columns declare more than ``max_bytes("member")``.
+
+    Parameters
+    ----------
+    metadata : pyarrow.parquet.FileMetaData
+    where : str
+        The file, for the message.
+    columns : sequence of str, optional
+        Top-level columns that will be read (default: all).
+    per_row_group : bool, default False
+        Check each row group of each column (an ensemble part file, read a row group
+        at a time, whose members are rows) instead of each whole column (a table).
+
+    Returns
+    -------
+    dict of str to int
+        Column name -> declared bytes (all row groups).
+
+    Raises
+    ------
+    pdmkit.errors.DataError
+        A column (or one of its row groups) declares more than the ceiling.
+
+    Examples
+    --------
+    >>> import io, pyarrow as pa, pyarrow.parquet as pq
+    >>> buffer = io.BytesIO()
+    >>> pq.write_table(pa.table({"x": np.zeros(10)}), buffer)
+    >>> meta = pq.read_metadata(io.BytesIO(buffer.getvalue()))
+    >>> check_declared_sizes(meta, "x.parquet")["x"] >= 80
+    True
+    """
+    limit = max_bytes("member")
+    sizes = declared_sizes(metadata, columns)
+    for name, groups in sizes.items():
+        if per_row_group:
+            for g, n in enumerate(groups):
+                if n > limit:
+                    raise _too_big(f"{where}: row group {g} of column {name!r}", n, limit)
+        elif sum(groups) > limit:
+            raise _too_big(f"{where}: column {name!r}", sum(groups), limit)
+    return {name: sum(groups) for name, groups in sizes.items()}
+
+
+def _quiet_stderr() -> Any:
+    """Silence file descriptor 2 (C libraries print there: libhdfs lists every
+    libjvm it did not find) for the duration of a ``with`` block."""
+    import contextlib
+    import sys
+    import tempfile
+
+    @contextlib.contextmanager
+    def quiet():
+        try:
+            sys.stderr.flush()
+            saved = os.dup(2)
+        except (OSError, ValueError):  # no real descriptor 2: nothing to silence
+            yield
+            return
+        try:
+            with tempfile.TemporaryFile() as sink:
+                os.dup2(sink.fileno(), 2)
+                try:
+                    yield
+                finally:
+                    os.dup2(saved, 2)
+        finally:
+            os.close(saved)
+
+    return quiet()
+
+
+def url_filesystem(url: str) -> tuple[Any, str]:
+    """The fsspec filesystem of ``url`` and the path on it.
+
+    Raises a one-line :class:`~pdmkit.errors.DataError` naming the URL and the package
+    to install when the URL's protocol is unknown or its backend is not installed (or
+    cannot start), instead of fsspec's ImportError / ValueError / OSError.
+
+    Parameters
+    ----------
+    url : str
+        An fsspec URL (``file:///data/ens``, ``s3://bucket/ens``, ...).
+
+    Returns
+    -------
+    (fsspec.AbstractFileSystem, str)
+
+    Raises
+    ------
+    pdmkit.errors.DataError
+        Unknown protocol, or its backend package is missing.
+
+    Examples
+    --------
+    >>> url_filesystem("file:///tmp")[1]
+    '/tmp'
+    >>> url_filesystem("nosuch://bucket/ens")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.DataError: nosuch://bucket/ens: no filesystem is known for the protocol 'nosuch'...
+    """  # noqa: E501
+    import re
+
+    try:
+        import fsspec
+        from fsspec.registry import known_implementations
+    except ImportError:
+        raise DataError(
+            f"{url}: reading a URL needs the package fsspec (pip install fsspec); or "
+            "give a local path"
+        ) from None
+    protocol = url.split("://", 1)[0].split("::")[-1]
+    known = known_implementations.get(protocol, {})
+    package = str(known.get("class", "")).split(".")[0]
+    needs = str(known.get("err", "")).rstrip(".")
+    if package and package != "fsspec":
+        install = f"pip install {package}"
+    else:  # a backend of fsspec itself that needs other packages
+        names = re.findall(r'"([A-Za-z0-9_.\-\[\]]+)"', needs)
+        install = f"pip install {' '.join(names)}" if names else ""
+    try:
+        with _quiet_stderr():
+            return fsspec.core.url_to_fs(url)
+    except ImportError as exc:
+        what = needs or str(exc)
+        raise DataError(
+            f"{url}: the {protocol}:// filesystem is not installed ({what}); "
+            f"{install + ', or ' if install else ''}copy the data to a local directory "
+            "and give its path"
+        ) from None
+    except ValueError as exc:
+        if "Protocol not known" not in str(exc):
+            raise DataError(
+                f"{url} is not a valid URL ({_one_line(exc)}); check its spelling"
+            ) from None
+        raise DataError(
+            f"{url}: no filesystem is known for the protocol {protocol!r}; check the "
+            "URL's spelling (file://, s3://, gcs://, abfs://, http://, ...) or give a "
+            "local path"
+        ) from None
+    except (OSError, RuntimeError, TypeError) as exc:
+        hint = f" ({needs})" if needs else ""
+        found = (str(exc).strip().splitlines() or [""])[0]
+        raise DataError(
+            f"{url}: the {protocol}:// filesystem cannot start{hint}: "
+            f"{type(exc).__name__}: {found}; install what it needs"
+            f"{' (' + install + ')' if install else ''}, or copy the data to a local "
+            "directory and give its path"
+        ) from None
+
 
 def read_manifest(path: str | os.PathLike) -> dict[str, Any]:
     """Read and check the manifest of a pdmkit Parquet dataset.
@@ -402,9 +618,17 @@ def read_parquet(
     for entry in manifest["files"]:
         file = path / entry["name"]
         try:
+            check_declared_sizes(
+                pq.read_metadata(file),
+                str(file),
+                columns=[MEMBER, *cols, *sigs],
+                per_row_group=True,
+            )
             table = pq.read_table(file, columns=[MEMBER, *cols, *sigs])
         except (pa.ArrowException, OSError) as exc:
-            raise DataError(f"cannot read {file} ({exc}); the dataset is damaged") from None
+            raise DataError(
+                f"cannot read {file} ({_one_line(exc)}); the dataset is damaged"
+            ) from None
         parts.append(_table_to_ensemble(table, manifest, sigs, cols, str(file)))
     if len(parts) == 1:
         return parts[0]
@@ -468,6 +692,12 @@ def iter_parquet(
         file = path / entry["name"]
         try:
             reader = pq.ParquetFile(file)
+            check_declared_sizes(
+                reader.metadata,
+                str(file),
+                columns=[MEMBER, *cols, *sigs],
+                per_row_group=True,
+            )
             batches = reader.iter_batches(batch_size=size, columns=[MEMBER, *cols, *sigs])
             for batch in batches:
                 if batch.num_rows == 0:
@@ -482,7 +712,9 @@ def iter_parquet(
                     rest = table.slice(size)
                     buffer, buffered = rest.to_batches(), rest.num_rows
         except (pa.ArrowException, OSError) as exc:
-            raise DataError(f"cannot read {file} ({exc}); the dataset is damaged") from None
+            raise DataError(
+                f"cannot read {file} ({_one_line(exc)}); the dataset is damaged"
+            ) from None
     if buffered:
         table = pa.Table.from_batches(buffer)
         yield _table_to_ensemble(table, manifest, sigs, cols, str(path))

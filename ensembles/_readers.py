@@ -1,31 +1,87 @@
 """Readers for the file formats recordings come in: CSV / Parquet tables, MATLAB, NumPy.
 
-Every reader raises :class:`pdmkit.errors.DataNotFoundError` for a missing file and
-:class:`pdmkit.errors.DataError` for one it cannot read, with the path in the message;
-never a bare ``KeyError``, ``zipfile.BadZipFile`` or pickle error.
+Recordings are untrusted input. Every reader
+
+- raises :class:`pdmkit.errors.DataNotFoundError` for a missing file and
+  :class:`pdmkit.errors.DataError` for one it cannot read, with the path (and the array,
+  variable or column) in a one-line message; never a bare ``KeyError``,
+  ``zipfile.BadZipFile``, ``zlib.error`` or pickle error;
+- checks the sizes a file *declares* before reading it, against
+  :func:`pdmkit._config.max_bytes` ``("member")`` (1 GiB by default,
+  ``$PDMKIT_MAX_MEMBER_BYTES``): the ``.npy`` header of every ``.npz`` array and its zip
+  entry size, the variable shapes of a ``.mat`` file and the decompressed size of each
+  of its compressed variables, the column-chunk sizes of a Parquet file, the
+  decompressed text of a CSV file. A small file that declares (or decompresses to) a
+  huge array is refused before anything is allocated;
+- never unpickles anything.
 """
 
 from __future__ import annotations
 
+import bz2
+import contextlib
+import gzip
+import lzma
+import math
 import os
-import pickle
 import re
 import struct
+import warnings
 import zipfile
 import zlib
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 import pandas as pd
 
-from pdmkit.errors import DataError, DataNotFoundError
+from pdmkit._config import _LIMIT_ENV, max_bytes
+from pdmkit.errors import DataError, DataNotFoundError, DataWarning
 
 __all__ = ["read_mat", "read_members", "read_npz", "read_table"]
 
 _CSV = (".csv", ".tsv", ".txt")
 _COMPRESSED = (".gz", ".bz2", ".zip", ".xz", ".zst")
 _PARQUET = (".parquet", ".pq")
+#: Errors a damaged compressed stream raises while it is read.
+_DECOMPRESS_ERRORS = (
+    OSError,  # gzip.BadGzipFile
+    EOFError,
+    zlib.error,
+    lzma.LZMAError,
+    zipfile.BadZipFile,
+    ValueError,
+    struct.error,
+)
+
+
+# --------------------------------------------------------------------------- sizes
+def _size(n: int) -> str:
+    """``n`` bytes for a message: ``'2 GiB'``, ``'3.5 MiB'``, ``'512 bytes'``."""
+    for unit, scale in (("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
+        if n >= scale:
+            return f"{n / scale:.3g} {unit}"
+    return f"{n} bytes"
+
+
+def _one_line(exc: BaseException) -> str:
+    """An exception's text on one line (pandas' parser errors end in a newline)."""
+    return " ".join(str(exc).split())
+
+
+def _why(exc: BaseException) -> str:
+    """``'Type: text'`` of an exception, on one line."""
+    return f"{type(exc).__name__}: {_one_line(exc)}"
+
+
+def _too_big(what: str, found: int, limit: int, verb: str = "declares") -> DataError:
+    """The one-line refusal of an array (or file) larger than the member ceiling."""
+    return DataError(
+        f"{what} {verb} {_size(found)} decompressed, more than the {_size(limit)} pdmkit "
+        "reads from one member file; refused before reading it. If the file is genuine, "
+        f"raise the ceiling: {_LIMIT_ENV['member']}={found}"
+    )
 
 
 def _existing_file(path: str | os.PathLike, what: str) -> Path:
@@ -37,6 +93,7 @@ def _existing_file(path: str | os.PathLike, what: str) -> Path:
     return path
 
 
+# --------------------------------------------------------------------------- tables
 def _table_kind(path: Path) -> tuple[str, str]:
     """('csv' | 'parquet', compression suffix or '')."""
     suffixes = [s.lower() for s in path.suffixes]
@@ -53,6 +110,99 @@ def _table_kind(path: Path) -> tuple[str, str]:
         f"read_table takes {', '.join(_CSV + _PARQUET)} (CSV optionally compressed "
         f"{', '.join(_COMPRESSED)}). Rename the file or read it with pandas directly."
     )
+
+
+@contextlib.contextmanager
+def _open_text_bytes(path: Path, compression: str) -> Iterator[IO[bytes]]:
+    """The bytes of a (possibly compressed) text file, decompressed as they are read."""
+    if not compression:
+        with path.open("rb") as f:
+            yield f
+    elif compression == ".gz":
+        with gzip.open(path, "rb") as f:
+            yield f
+    elif compression == ".bz2":
+        with bz2.open(path, "rb") as f:
+            yield f
+    elif compression == ".xz":
+        with lzma.open(path, "rb") as f:
+            yield f
+    elif compression == ".zip":
+        with zipfile.ZipFile(path) as archive:
+            entries = [i for i in archive.infolist() if not i.is_dir()]
+            if len(entries) != 1:
+                raise DataError(
+                    f"{path} holds {len(entries)} files; a zipped table holds exactly "
+                    "one. Unzip it and read the table you mean"
+                )
+            with archive.open(entries[0]) as f:
+                yield f
+    else:  # .zst
+        try:
+            import zstandard
+        except ImportError:
+            raise DataError(
+                f"{path} is zstd-compressed; reading it needs the package zstandard "
+                "(pip install zstandard), or decompress it first"
+            ) from None
+        with path.open("rb") as raw, zstandard.ZstdDecompressor().stream_reader(raw) as f:
+            yield f
+
+
+def _text_bytes(path: Path, compression: str, limit: int) -> int:
+    """Bytes of text in the file after decompression, counted up to ``limit + 1``."""
+    if not compression:
+        return path.stat().st_size
+    total = 0
+    try:
+        with _open_text_bytes(path, compression) as f:
+            while total <= limit:
+                chunk = f.read(1 << 20)
+                if not chunk:
+                    break
+                total += len(chunk)
+    except _DECOMPRESS_ERRORS as exc:
+        raise DataError(
+            f"cannot decompress {path} ({_why(exc)}); the file is damaged "
+            f"or not {compression[1:]}-compressed"
+        ) from None
+    return total
+
+
+def _first_line(path: Path, compression: str) -> str:
+    """The first non-blank line of a text file (for messages; at most 60 characters)."""
+    try:
+        with _open_text_bytes(path, compression) as f:
+            for raw in f:
+                line = raw.decode("utf-8", "replace").strip()
+                if line:
+                    return line if len(line) <= 60 else line[:57] + "..."
+    except (DataError, *_DECOMPRESS_ERRORS):
+        pass
+    return ""
+
+
+def _csv_line(
+    path: Path, compression: str, row: int, header_lines: int, blanks: bool
+) -> int:
+    """The line number (from 1, as an editor shows it) of data row ``row`` (from 0).
+
+    pandas skips blank lines (``blanks=False``) except where a one-column file keeps
+    them as missing values (``blanks=True``). Falls back to counting without blank
+    lines when the file cannot be scanned.
+    """
+    wanted = header_lines + row + 1
+    seen = 0
+    try:
+        with _open_text_bytes(path, compression) as f:
+            for number, raw in enumerate(f, start=1):
+                if raw.strip() or (blanks and seen >= header_lines):
+                    seen += 1
+                    if seen == wanted:
+                        return number
+    except (DataError, *_DECOMPRESS_ERRORS):
+        pass
+    return wanted
 
 
 def _drop_trailing_empty(table: pd.DataFrame) -> pd.DataFrame:
@@ -95,6 +245,230 @@ def _single_column_blanks(
     return table if end == len(table) else table.iloc[:end].reset_index(drop=True)
 
 
+#: A number as a CSV cell writes it (what a header-less file's first line holds).
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+
+def _headerless(columns: pd.Index) -> bool:
+    """True when every column name pandas took from the first line is a number.
+
+    pandas' own header of a frame without column names (``0,1,...,n-1``, as
+    ``DataFrame(array).to_csv()`` writes it) is a header, not data.
+    """
+    names = [str(c) for c in columns]
+    given = [n for n in names if not n.startswith("Unnamed: ")]
+    if not given or not all(_NUMBER.fullmatch(n.strip()) for n in given):
+        return False
+    return names != [str(i) for i in range(len(names))]
+
+
+def _reread_headerless(
+    path: Path, table: pd.DataFrame, options: dict, compression: str
+) -> tuple[pd.DataFrame, dict]:
+    """Read a CSV whose first line is data again, with generated column names."""
+    names, k = [], 0
+    for c in table.columns:
+        if isinstance(c, str) and c.startswith("Unnamed: ") and table[c].isna().all():
+            names.append(c)  # a trailing delimiter's empty column, dropped below
+        else:
+            names.append(f"column_{k}")
+            k += 1
+    shown = ", ".join(names[:k]) if k <= 3 else f"column_0 ... column_{k - 1}"
+    warnings.warn(
+        f"{path}: the first line ({_first_line(path, compression)!r}) holds only numbers, "
+        f"so it is read as data, not as column names; the {k} column(s) are named "
+        f"{shown}. Add a header line to the file, or pass names=[...] to read_table "
+        "(header=0 if that line is a header)",
+        DataWarning,
+        stacklevel=5,
+    )
+    options = {**options, "header": None, "names": names}
+    return pd.read_csv(path, **options), options
+
+
+def _mixed_columns(
+    path: Path, table: pd.DataFrame, options: dict, where: Callable[[int], str]
+) -> None:
+    """Refuse a column that holds numbers in some cells and text in others.
+
+    A column of text only is a label / condition column and stays; a column pandas
+    could not parse as numbers because a few cells are text would silently turn a
+    sensor into a label (or be dropped).
+    """
+    dtype, converters = options.get("dtype"), options.get("converters") or {}
+    for c in table.columns:
+        col = table[c]
+        if (
+            pd.api.types.is_numeric_dtype(col)
+            or pd.api.types.is_bool_dtype(col)
+            or pd.api.types.is_datetime64_any_dtype(col)
+            or c in converters
+            or (dtype is not None and (not isinstance(dtype, dict) or c in dtype))
+        ):
+            continue
+        cells = col.astype("string").str.strip()
+        filled = cells.notna() & cells.ne("")
+        number = filled & pd.to_numeric(cells.where(filled), errors="coerce").notna()
+        text = filled & ~number
+        n_number, n_text = int(number.sum()), int(text.sum())
+        if not (n_number and n_text):
+            continue
+        odd = text if n_text <= n_number else number
+        row = int(np.flatnonzero(odd.to_numpy(dtype=bool))[0])
+        value = str(col.iloc[row])
+        value = value if len(value) <= 40 else value[:37] + "..."
+        if n_text <= n_number:
+            raise DataError(
+                f"{path}: column {c!r} mixes numbers and text: {n_number} cell(s) are "
+                f"numbers, {n_text} not (the first at {where(row)}: {value!r}); a sensor "
+                "column holds numbers only. Correct that cell, leave it empty for a "
+                f"missing value, or pass na_values=[{value!r}] if it marks one"
+            )
+        raise DataError(
+            f"{path}: column {c!r} mixes text and numbers: {n_text} cell(s) are text, "
+            f"{n_number} are numbers (the first at {where(row)}: {value!r}); a label "
+            "column holds text only and a sensor column numbers only. Correct the cells, "
+            f"or pass dtype={{{c!r}: str}} to read them all as text"
+        )
+
+
+def _header_lines(options: dict) -> int:
+    """Lines above the first data row (for line numbers in messages)."""
+    header = options.get("header", "infer")
+    skip = options.get("skiprows")
+    lines = skip if isinstance(skip, int) else 0  # a list or callable: not counted
+    if header is None or (header == "infer" and options.get("names") is not None):
+        return lines
+    return lines + (int(header) + 1 if isinstance(header, int) else 1)
+
+
+def _read_csv(
+    path: Path, compression: str, options: dict
+) -> tuple[pd.DataFrame, Callable[[int], str]]:
+    limit = max_bytes("member")
+    size = _text_bytes(path, compression, limit)
+    if size > limit:
+        verb = "holds" if not compression else "decompresses to at least"
+        raise _too_big(f"{path}: the CSV text", size, limit, verb)
+    if not compression:
+        with path.open("rb") as f:
+            head = f.read(1 << 16)
+        if b"\x00" in head:
+            raise DataError(
+                f"{path} is not a text CSV file (it holds NUL bytes); check the file or "
+                "its extension"
+            )
+    if (path.suffixes[-2] if compression else path.suffix).lower() == ".tsv":
+        options.setdefault("sep", "\t")
+    table = pd.read_csv(path, **options)
+    if "header" not in options and "names" not in options and _headerless(table.columns):
+        table, options = _reread_headerless(path, table, options, compression)
+    table = _drop_trailing_empty(table)
+    table = _single_column_blanks(path, table, options, bool(compression))
+    header_lines = _header_lines(options)
+    blanks = table.shape[1] == 1 and "skip_blank_lines" not in options
+
+    def where(row: int) -> str:
+        return f"line {_csv_line(path, compression, row, header_lines, blanks)}"
+
+    if len(table):
+        _mixed_columns(path, table, options, where)
+    return table, where
+
+
+def _string_bytes(file: Any, names: list[str]) -> dict[str, int]:
+    """Bytes the text columns ``names`` of a Parquet file take once decoded.
+
+    Read dictionary-encoded (the dictionary and one index per row), so a file that
+    repeats one long string on every row cannot make this allocate its decoded size.
+    """
+    import pyarrow.compute as pc
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(file, columns=names, read_dictionary=names)
+    out = {}
+    for name in names:
+        total = 0
+        for chunk in table.column(name).chunks:
+            lengths = pc.fill_null(pc.binary_length(chunk.dictionary), 0)
+            lengths = lengths.to_numpy(zero_copy_only=False).astype(np.int64)
+            index = pc.fill_null(chunk.indices, 0).to_numpy(zero_copy_only=False)
+            if lengths.size:
+                total += int(lengths[index].sum())
+        out[name] = total
+    return out
+
+
+def _check_parquet_table(path: Path, columns: Any) -> None:
+    """Refuse a Parquet table whose declared (or decoded text) size is over the ceiling."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from pdmkit.ensembles._parquet import check_declared_sizes
+
+    limit = max_bytes("member")
+    with pq.ParquetFile(path) as reader:
+        wanted = None if columns is None else [str(c) for c in columns]
+        sizes = check_declared_sizes(reader.metadata, str(path), columns=wanted)
+        text = [
+            f.name
+            for f in reader.schema_arrow
+            if (wanted is None or f.name in wanted)
+            and (pa.types.is_string(f.type) or pa.types.is_large_string(f.type))
+        ]
+    if text:
+        for name, n in _string_bytes(path, text).items():
+            sizes[name] = n + sizes.get(name, 0)
+            if n > limit:
+                raise _too_big(f"{path}: text column {name!r}", n, limit, "decodes to")
+    total = sum(sizes.values())
+    if total > limit:
+        raise _too_big(f"{path}: its {len(sizes)} column(s) together", total, limit)
+
+
+def _read_table(
+    path: str | os.PathLike, options: dict
+) -> tuple[pd.DataFrame, Callable[[int], str]]:
+    """``(table, where)``: ``where(row)`` says where data row ``row`` is in the file."""
+    import pyarrow as pa
+
+    path = _existing_file(path, "a CSV or Parquet table")
+    kind, compression = _table_kind(path)
+    options = dict(options)
+    try:
+        if kind == "csv":
+            table, where = _read_csv(path, compression, options)
+        else:
+            _check_parquet_table(path, options.get("columns"))
+            table = pd.read_parquet(path, **options)
+
+            def where(row: int) -> str:
+                return f"row {row + 1}"
+
+    except pd.errors.EmptyDataError:
+        raise DataError(
+            f"{path} is empty; expected a table with a header and rows"
+        ) from None
+    except UnicodeDecodeError as exc:
+        raise DataError(
+            f"cannot read {path} as CSV: it is not UTF-8 text ({_one_line(exc)}); pass "
+            "the encoding, e.g. read_table(path, encoding='latin-1')"
+        ) from None
+    except DataError:
+        raise
+    except (ValueError, OSError, pa.ArrowException, EOFError, *_DECOMPRESS_ERRORS) as exc:
+        raise DataError(
+            f"cannot read {path} as {kind.upper()} ({_why(exc)}); the file "
+            "is damaged or not what its extension says"
+        ) from None
+    if len(table) == 0:
+        raise DataError(
+            f"{path} holds no rows (columns: {list(table.columns)}); expected a table "
+            "with data"
+        )
+    return table, where
+
+
 def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
     """Read a CSV or Parquet table into a DataFrame.
 
@@ -105,6 +479,24 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
     empty line between values is a missing value (NaN), not a skipped line, so the
     samples after it keep their positions; empty lines (and missing values) after the
     last value are not rows.
+
+    The file is untrusted input:
+
+    - A CSV without a header line (every name pandas would take from the first line is
+      a number, as in PRONOSTIA's ``acc_*.csv`` snapshots) is read with that line as
+      data and the columns named ``column_0``, ``column_1``, ...; a
+      :class:`pdmkit.errors.DataWarning` names the file. A first line ``0,1,...,n-1``
+      (pandas' own header of unnamed columns) stays a header. Pass ``names=`` or
+      ``header=`` to decide yourself.
+    - A CSV column in which some non-empty cells are numbers and others are not is a
+      :class:`pdmkit.errors.DataError` naming the column and the first odd cell with its
+      line number (a column of text only is a label column and stays). Pass
+      ``na_values=`` for a marker of missing values, or ``dtype=`` to read a column as
+      text.
+    - Sizes are checked before reading, against ``max_bytes("member")`` (1 GiB by
+      default, ``$PDMKIT_MAX_MEMBER_BYTES``): the text of a CSV after decompression; the
+      decompressed size each column of a Parquet file declares (and the decoded size of
+      its text columns), and their sum.
 
     Parameters
     ----------
@@ -122,8 +514,14 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
     pdmkit.errors.DataNotFoundError
         The file does not exist.
     pdmkit.errors.DataError
-        Unknown extension, a binary or damaged file, or a table without rows (the
-        message names the file).
+        Unknown extension, a binary or damaged file, a table without rows, a column
+        mixing numbers and text, or a file larger than the ceiling (the message names
+        the file, and the column where there is one).
+
+    Warns
+    -----
+    pdmkit.errors.DataWarning
+        A CSV without a header line was given generated column names.
 
     Examples
     --------
@@ -134,55 +532,162 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
        time  flow
     0   0.0   1.5
     1   0.1   1.7
-    """
-    import pyarrow as pa
-
-    path = _existing_file(path, "a CSV or Parquet table")
-    kind, compression = _table_kind(path)
-    if kind == "csv" and not compression:
-        with path.open("rb") as f:
-            head = f.read(1 << 16)
-        if b"\x00" in head:
-            raise DataError(
-                f"{path} is not a text CSV file (it holds NUL bytes); check the file or "
-                "its extension"
-            )
-        if path.suffix.lower() == ".tsv":
-            options.setdefault("sep", "\t")
-    try:
-        if kind == "csv":
-            table = pd.read_csv(path, **options)
-        else:
-            table = pd.read_parquet(path, **options)
-    except pd.errors.EmptyDataError:
-        raise DataError(
-            f"{path} is empty; expected a table with a header and rows"
-        ) from None
-    except UnicodeDecodeError as exc:
-        raise DataError(
-            f"cannot read {path} as CSV: it is not UTF-8 text ({exc}); pass the encoding, "
-            "e.g. read_table(path, encoding='latin-1')"
-        ) from None
-    except (ValueError, OSError, pa.ArrowException, EOFError) as exc:
-        raise DataError(
-            f"cannot read {path} as {kind.upper()} ({type(exc).__name__}: {exc}); the file "
-            "is damaged or not what its extension says"
-        ) from None
-    table = _drop_trailing_empty(table)
-    if kind == "csv":
-        table = _single_column_blanks(path, table, options, bool(compression))
-    if len(table) == 0:
-        raise DataError(
-            f"{path} holds no rows (columns: {list(table.columns)}); expected a table "
-            "with data"
-        )
-    return table
+    >>> _ = path.write_text("time,flow\\n0.0,1.5\\n0.1,err\\n0.2,1.6\\n")
+    >>> read_table(path)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.DataError: ...run.csv: column 'flow' mixes numbers and text: 2 cell(s) are numbers, 1 not (the first at line 3: 'err'); ...
+    """  # noqa: E501
+    return _read_table(path, options)[0]
 
 
+# --------------------------------------------------------------------------- MATLAB
 def _is_hdf5_mat(path: Path) -> bool:
     with path.open("rb") as f:
         head = f.read(520)
     return head.startswith(b"MATLAB 7.3") or head[512:520] == b"\x89HDF\r\n\x1a\n"
+
+
+_MI_MATRIX, _MI_COMPRESSED = 14, 15
+#: Bytes per element of the numeric MATLAB classes (mxCHAR: numpy's 4-byte unicode).
+_MAT_WIDTH = {4: 4, 6: 8, 7: 4, 8: 1, 9: 1, 10: 2, 11: 2, 12: 4, 13: 4, 14: 8, 15: 8}
+#: Bytes per element of the classes scipy's whosmat names (v4 files).
+_MAT4_WIDTH = {
+    "double": 8,
+    "single": 4,
+    "int32": 4,
+    "int16": 2,
+    "uint16": 2,
+    "uint8": 1,
+    "char": 4,
+}
+
+
+def _mat5_header(content: bytes, endian: str) -> tuple[str, tuple[int, ...], int] | None:
+    """``(name, dims, declared bytes)`` of a miMATRIX element's content, or None."""
+    pos = 0
+
+    def element() -> bytes:
+        nonlocal pos
+        mdtype, n = struct.unpack_from(endian + "II", content, pos)
+        if mdtype >> 16:  # small element: size in the upper half, data in the tag
+            n = mdtype >> 16
+            data, pos = content[pos + 4 : pos + 4 + n], pos + 8
+        else:
+            data, pos = content[pos + 8 : pos + 8 + n], pos + 8 + n + (-n % 8)
+        return data
+
+    try:
+        flags = struct.unpack_from(endian + "I", element())[0]
+        raw = element()
+        dims = struct.unpack(endian + f"{len(raw) // 4}i", raw[: len(raw) // 4 * 4])
+        name = element().decode("latin-1")
+    except struct.error:
+        return None
+    if any(d < 0 for d in dims):
+        return None
+    width = _MAT_WIDTH.get(flags & 0xFF, 0) * (2 if flags >> 11 & 1 else 1)
+    return name, dims, math.prod(dims) * width
+
+
+def _check_mat5_header(path: Path, content: bytes, endian: str, k: int) -> str:
+    """The name (for messages) of variable ``k``; refuses a declared size over the limit."""
+    header = _mat5_header(content, endian)
+    if header is None:
+        return f"#{k + 1}"
+    name, dims, declared = header
+    limit = max_bytes("member")
+    if declared > limit:
+        raise _too_big(f"{path}: variable {name!r} (shape {dims})", declared, limit)
+    return repr(name)
+
+
+def _inflated(f: IO[bytes], n: int) -> Iterator[bytes]:
+    """The zlib stream in the next ``n`` bytes of ``f``, decompressed a MiB at a time."""
+    inflate = zlib.decompressobj()
+    left = n
+    while left > 0 and not inflate.eof:
+        # small reads first: the header is decoded before damage further on stops it
+        data = f.read(min(left, 256 if n - left < 4096 else 1 << 16))
+        if not data:
+            return
+        left -= len(data)
+        while True:
+            out = inflate.decompress(data, 1 << 20)
+            if out:
+                yield out
+            data = inflate.unconsumed_tail
+            if not data and len(out) < 1 << 20:
+                break
+
+
+def _check_mat_sizes(path: Path, limit: int) -> None:
+    """Refuse a .mat file whose variables declare or decompress to more than ``limit``.
+
+    Walks the top-level elements of a v5 file without scipy: a compressed variable is
+    inflated and counted (never kept), so one that decompresses to gigabytes costs
+    only time, bounded by the ceiling. v4 files (never compressed) are checked from the
+    shapes scipy's ``whosmat`` lists.
+    """
+    size = path.stat().st_size
+    with path.open("rb") as f:
+        head = f.read(128)
+        endian = {b"IM": "<", b"MI": ">"}.get(head[126:128])
+        if len(head) < 128 or endian is None:
+            from scipy.io import whosmat
+
+            try:  # a v4 file, or not a .mat: loadmat says what is wrong
+                listed = whosmat(path)
+            except Exception:  # loadmat says what is wrong with it
+                return
+            for name, shape, kind in listed:
+                declared = math.prod(shape) * _MAT4_WIDTH.get(kind, 8)
+                if declared > limit:
+                    raise _too_big(
+                        f"{path}: variable {name!r} ({kind} of shape {shape})",
+                        declared,
+                        limit,
+                    )
+            return
+        pos, total, k = 128, 0, 0
+        while pos + 8 <= size:
+            f.seek(pos)
+            mdtype, n = struct.unpack(endian + "II", f.read(8))
+            if mdtype >> 16 or mdtype not in (_MI_MATRIX, _MI_COMPRESSED):
+                return  # damaged: loadmat says so
+            budget = limit - total
+            if mdtype == _MI_COMPRESSED:
+                verb, used, content, header = "decompresses to at least", 0, b"", None
+                try:
+                    for out in _inflated(f, n):  # counted, never kept
+                        used += len(out)
+                        if header is None:
+                            content += out[: 4096 - len(content)]
+                            if len(content) >= 4096:  # the miMATRIX tag, then its header
+                                header = _check_mat5_header(path, content[8:], endian, k)
+                        if used > budget:
+                            break
+                except zlib.error as exc:
+                    partial = _mat5_header(content[8:], endian)
+                    name = header or (repr(partial[0]) if partial else f"#{k + 1}")
+                    raise DataError(
+                        f"{path}: variable {name} is damaged: its compressed data does "
+                        f"not decompress (zlib.error: {_one_line(exc)}); re-save or "
+                        "re-copy the file"
+                    ) from None
+                if header is None:
+                    header = _check_mat5_header(path, content[8:], endian, k)
+            else:
+                content, used, verb = f.read(min(n, 4096)), n, "holds"
+                header = _check_mat5_header(path, content, endian, k)
+            if used > budget:
+                name = f"variable {header}"
+                if used > limit:
+                    raise _too_big(f"{path}: {name}", used, limit, verb)
+                raise _too_big(f"{path}: its variables together", total + used, limit, verb)
+            total += used
+            pos += 8 + n
+            k += 1
 
 
 def read_mat(path: str | os.PathLike) -> dict[str, Any]:
@@ -192,6 +697,11 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
     are squeezed (a ``(n, 1)`` column becomes a 1-D array, a ``1x1`` value a scalar),
     structs become dicts; the ``__header__``, ``__version__`` and ``__globals__`` entries
     are left out.
+
+    Sizes are checked before scipy reads anything, against ``max_bytes("member")``
+    (1 GiB by default, ``$PDMKIT_MAX_MEMBER_BYTES``): the shape and class each variable
+    declares, the size each compressed variable decompresses to (counted, not kept),
+    and the sum over the variables.
 
     Parameters
     ----------
@@ -207,8 +717,9 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
     pdmkit.errors.DataNotFoundError
         The file does not exist.
     pdmkit.errors.DataError
-        A v7.3 (HDF5) file, which scipy cannot read (the message says so), or a damaged
-        / non-MATLAB file, or one without variables.
+        A v7.3 (HDF5) file, which scipy cannot read (the message says so), a damaged
+        / non-MATLAB file, one without variables, or a variable (or the variables
+        together) larger than the ceiling.
 
     Examples
     --------
@@ -229,6 +740,7 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
             f"{path} is a MATLAB v7.3 (HDF5) file, which scipy.io.loadmat cannot read; "
             "re-save it in MATLAB with save(..., '-v7'), or read it with h5py"
         )
+    _check_mat_sizes(path, max_bytes("member"))
     try:
         raw = loadmat(path, simplify_cells=True)
     except NotImplementedError:
@@ -250,7 +762,7 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
         MemoryError,  # a damaged header can claim a huge array
     ) as exc:
         raise DataError(
-            f"cannot read {path} as a MATLAB file ({type(exc).__name__}: {exc}); the file "
+            f"cannot read {path} as a MATLAB file ({_why(exc)}); the file "
             "is damaged or not a .mat file"
         ) from None
     data = {k: v for k, v in raw.items() if not k.startswith("__")}
@@ -259,26 +771,61 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
     return data
 
 
-def _npz_member(archive: Any, key: str, path: Path, errors: tuple) -> np.ndarray:
+# --------------------------------------------------------------------------- NumPy
+_ZIP_ERRORS = (*_DECOMPRESS_ERRORS, NotImplementedError, RuntimeError)  # method, password
+
+
+def _npy_header(
+    archive: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path, key: str
+) -> tuple[tuple[int, ...], np.dtype, int]:
+    """``(shape, dtype, header length)`` an ``.npy`` entry declares; its data unread."""
+    fmt = np.lib.format
     try:
-        return archive[key]
-    except ValueError as exc:
-        if "pickle" in str(exc):
-            raise DataError(
-                f"array {key!r} in {path} holds Python objects (pickled data); pdmkit "
-                "reads numeric arrays only (allow_pickle=False). Re-save it with a "
-                "numeric dtype"
-            ) from None
-        raise DataError(f"cannot read array {key!r} of {path} ({exc})") from None
-    except errors as exc:
+        with archive.open(info) as f:
+            version = fmt.read_magic(f)
+            if version == (1, 0):
+                shape, _, dtype = fmt.read_array_header_1_0(f)
+            elif version in ((2, 0), (3, 0)):  # 3.0 differs only in the text encoding
+                shape, _, dtype = fmt.read_array_header_2_0(f)
+            else:
+                raise ValueError(f"unknown .npy format version {version}")
+            return tuple(shape), dtype, f.tell()
+    except zlib.error as exc:
         raise DataError(
-            f"cannot read array {key!r} of {path} ({type(exc).__name__}: {exc}); "
-            "the archive is damaged"
+            f"{path}: array {key!r} is damaged: its compressed data does not decompress "
+            f"(zlib.error: {_one_line(exc)}); re-save or re-copy the archive"
+        ) from None
+    except _ZIP_ERRORS as exc:
+        raise DataError(
+            f"{path}: array {key!r} has no valid .npy header ({type(exc).__name__}: "
+            f"{_one_line(exc)}); the archive is damaged or was not written by numpy.savez"
+        ) from None
+
+
+def _npz_array(archive: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path, key: str):
+    try:
+        with archive.open(info) as f:
+            return np.lib.format.read_array(f, allow_pickle=False)
+    except zlib.error as exc:
+        raise DataError(
+            f"{path}: array {key!r} is damaged: its compressed data does not decompress "
+            f"(zlib.error: {_one_line(exc)}); re-save or re-copy the archive"
+        ) from None
+    except _ZIP_ERRORS as exc:
+        raise DataError(
+            f"{path}: array {key!r} cannot be read ({_why(exc)}); the "
+            "archive is damaged; re-save or re-copy it"
         ) from None
 
 
 def read_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
     """Read all arrays of a NumPy ``.npz`` archive, refusing pickled objects.
+
+    Before any array is read, the ``.npy`` header of every entry is read (a few hundred
+    bytes) and the size it declares (shape x item size) is checked: against
+    ``max_bytes("member")`` (1 GiB by default, ``$PDMKIT_MAX_MEMBER_BYTES``), for each
+    array and for their sum, and against the size of the zip entry. An archive of a few
+    MB whose entry inflates to gigabytes is refused without allocating them.
 
     Parameters
     ----------
@@ -294,8 +841,10 @@ def read_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
     pdmkit.errors.DataNotFoundError
         The file does not exist.
     pdmkit.errors.DataError
-        A damaged or non-npz file, an archive without arrays, or an array of Python
-        objects (``allow_pickle=False``: loading pickles can run arbitrary code).
+        A damaged or non-npz file (a corrupt compressed entry names the array), an
+        archive without arrays or with an entry that is no ``.npy`` array, an array of
+        Python objects (``allow_pickle=False``: loading pickles can run arbitrary code),
+        or an array (or the arrays together) larger than the ceiling.
 
     Examples
     --------
@@ -306,33 +855,57 @@ def read_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
     {'DE': (4, 1), 'FE': (4, 1)}
     """
     path = _existing_file(path, "a NumPy .npz archive")
-    errors = (
-        ValueError,
-        OSError,
-        EOFError,
-        zipfile.BadZipFile,
-        zlib.error,
-        pickle.UnpicklingError,
-        KeyError,
-    )
+    limit = max_bytes("member")
     out: dict[str, np.ndarray] = {}
-    # open the file here: numpy leaves its own handle open when the archive is broken
     with path.open("rb") as handle:
-        try:
-            loaded = np.load(handle, allow_pickle=False)
-        except errors as exc:
-            raise DataError(
-                f"cannot read {path} as a NumPy .npz archive ({type(exc).__name__}: "
-                f"{exc}); the file is damaged or not an .npz"
-            ) from None
-        if not isinstance(loaded, np.lib.npyio.NpzFile):
+        if handle.read(6) == b"\x93NUMPY":
             raise DataError(
                 f"{path} is a single .npy array, not an .npz archive; read it with "
                 "numpy.load"
             )
-        with loaded:
-            for key in loaded.files:
-                out[key] = _npz_member(loaded, key, path, errors)
+        handle.seek(0)
+        try:
+            archive = zipfile.ZipFile(handle)
+        except _ZIP_ERRORS as exc:
+            raise DataError(
+                f"cannot read {path} as a NumPy .npz archive ({type(exc).__name__}: "
+                f"{_one_line(exc)}); the file is damaged or not an .npz"
+            ) from None
+        with archive:
+            entries, total = [], 0
+            for info in archive.infolist():
+                if info.is_dir():
+                    continue
+                if not info.filename.endswith(".npy"):
+                    raise DataError(
+                        f"{path}: entry {info.filename!r} is not a .npy array; an .npz "
+                        "archive (numpy.savez) holds .npy entries only. Re-save it with "
+                        "numpy.savez"
+                    )
+                key = info.filename[: -len(".npy")]
+                shape, dtype, header = _npy_header(archive, info, path, key)
+                if dtype.hasobject:
+                    raise DataError(
+                        f"array {key!r} in {path} holds Python objects (pickled data); "
+                        "pdmkit reads numeric arrays only (allow_pickle=False). Re-save "
+                        "it with a numeric dtype"
+                    )
+                declared = math.prod(shape) * dtype.itemsize
+                what = f"{path}: array {key!r} ({dtype} of shape {shape})"
+                if declared > limit:
+                    raise _too_big(what, declared, limit)
+                if info.file_size < header + declared:
+                    raise DataError(
+                        f"{what} declares {_size(declared)} of data, but its zip entry "
+                        f"holds {_size(max(info.file_size - header, 0))}; the archive is "
+                        "damaged (truncated?). Re-save or re-copy it"
+                    )
+                total += declared
+                entries.append((key, info))
+            if total > limit:
+                raise _too_big(f"{path}: its {len(entries)} arrays together", total, limit)
+            for key, info in entries:
+                out[key] = _npz_array(archive, info, path, key)
     if not out:
         raise DataError(f"{path} holds no arrays")
     return out
@@ -344,6 +917,86 @@ _FS_NAMES = ("fs", "Fs", "FS", "sampling_rate", "sample_rate")
 #: Names of a time column in a CSV / Parquet member file.
 _TIME_NAMES = ("time", "t", "Time", "TIME")
 _MEMBER_ERRORS = ("member", "signal", "source", "error")
+#: How far a time step may differ from the median step: 1 % of it, or one unit of the
+#: last decimal the time stamps are written with when that is more and at most half a
+#: step (stamps rounded to microseconds at 25.6 kHz step 39 or 40 us).
+_TIME_JITTER = 0.01
+
+
+def _stamp_resolution(t: np.ndarray) -> float:
+    """The decimal step time stamps were written with (``1e-6`` for ``0.000039``), or 0."""
+    for d in range(10):
+        scaled = t * 10.0**d
+        if np.allclose(scaled, np.round(scaled), rtol=1e-12, atol=1e-6):
+            return 10.0**-d
+    return 0.0
+
+
+def _time_rate(path: Path, column: pd.Series, where: Callable[[int], str]) -> float | None:
+    """The sampling rate a time column states, after checking it increases uniformly.
+
+    Numbers are seconds; text is parsed as timestamps. A missing, repeated, decreasing
+    or uneven time stamp is a DataError naming the file and the first bad row.
+    """
+    name = column.name
+    if pd.api.types.is_datetime64_any_dtype(column):
+        stamps = column
+    elif pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
+        stamps = None
+    else:
+        with warnings.catch_warnings():  # "could not infer format": parsed one by one
+            warnings.simplefilter("ignore", UserWarning)
+            stamps = pd.to_datetime(column, errors="coerce")
+        if stamps.isna().all():
+            raise DataError(
+                f"{path}: time column {name!r} holds {str(column.iloc[0])!r} at "
+                f"{where(0)}; expected seconds (numbers) or timestamps. Rename the "
+                "column if it is no time, or drop it and pass fs= (--fs)"
+            )
+    if stamps is None:
+        t = column.to_numpy(dtype=float)
+    else:
+        t = (stamps - stamps.dropna().iloc[0]).dt.total_seconds().to_numpy(dtype=float)
+
+    def shown(i: int) -> str:
+        return f"{t[i]:g} s" if stamps is None else repr(str(column.iloc[i]))
+
+    missing = np.flatnonzero(~np.isfinite(t))
+    if missing.size:
+        k = int(missing[0])
+        raise DataError(
+            f"{path}: time column {name!r} has no valid time at {where(k)} (found "
+            f"{str(column.iloc[k])!r}); every row needs its time stamp. Fill it in, or "
+            "drop the time column and pass fs= (--fs)"
+        )
+    if len(t) < 2:
+        return None
+    dt = np.diff(t)
+    back = np.flatnonzero(dt <= 0)
+    if back.size:
+        k = int(back[0]) + 1
+        verb = "repeats" if dt[k - 1] == 0 else "goes back"
+        raise DataError(
+            f"{path}: time {verb} at {where(k)}: {shown(k)} after {shown(k - 1)} on the "
+            "row before; time must increase from row to row. Remove the repeated rows or "
+            "sort them, or drop the time column and pass fs= (--fs)"
+        )
+    step = float(np.median(dt))
+    tol = _TIME_JITTER * step
+    quantum = _stamp_resolution(t)
+    if quantum <= step / 2:  # stamps rounded to a finer decimal than the step
+        tol = max(tol, 1.001 * quantum)
+    uneven = np.flatnonzero(np.abs(dt - step) > tol)
+    if uneven.size:
+        k = int(uneven[0]) + 1
+        raise DataError(
+            f"{path}: time is not uniform at {where(k)}: {shown(k)} is {dt[k - 1]:g} s "
+            f"after the row before, the median step is {step:g} s (steps may differ by "
+            f"{100 * tol / step:.2g} % of it); a member is one uniformly sampled "
+            "recording. Resample it to a uniform grid or split it at the gap, or drop the "
+            "time column and pass fs= (--fs)"
+        )
+    return (len(t) - 1) / float(t[-1] - t[0])
 
 
 def _member_arrays(path: Path) -> tuple[dict[str, np.ndarray], float | None, dict]:
@@ -352,6 +1005,7 @@ def _member_arrays(path: Path) -> tuple[dict[str, np.ndarray], float | None, dic
     if suffix in (".mat", ".npz"):
         data = read_mat(path) if suffix == ".mat" else read_npz(path)
         signals, fs, conditions = {}, None, {}
+        limit = max_bytes("member")
         for key, value in data.items():
             arr = np.asarray(value)
             if key in _FS_NAMES and arr.size == 1 and arr.dtype.kind in "iuf":
@@ -362,18 +1016,22 @@ def _member_arrays(path: Path) -> tuple[dict[str, np.ndarray], float | None, dic
                         f"{path}: variable {key!r} has shape {arr.shape}; a member "
                         "file holds 1-D signals (or n x 1 columns)"
                     )
+                if arr.size * 8 > limit:  # as float64, before the copy is made
+                    raise _too_big(
+                        f"{path}: signal {key!r} ({arr.size} samples as float64)",
+                        arr.size * 8,
+                        limit,
+                        "takes",
+                    )
                 signals[key] = arr.reshape(-1).astype(np.float64)
             elif arr.size == 1 and arr.dtype.kind in "USiufb":
                 conditions[key] = arr.reshape(-1)[0].item()
         return signals, fs, conditions
-    table = read_table(path)
+    table, where = _read_table(path, {})
     fs = None
     time = next((c for c in _TIME_NAMES if c in table.columns), None)
     if time is not None:
-        t = pd.to_numeric(table.pop(time), errors="coerce").to_numpy(dtype=float)
-        dt = np.diff(t)
-        if len(dt) and np.isfinite(dt).all() and (dt > 0).all():
-            fs = 1.0 / float(np.median(dt))
+        fs = _time_rate(path, table.pop(time), where)
     signals, conditions = {}, {}
     for c in table.columns:
         column = table[c]
@@ -405,10 +1063,23 @@ def read_members(
     ``fs`` gives the sampling rate, other scalars are conditions). The member id is the
     file name without its extension.
 
-    With ``on_error="skip"`` a file that cannot be read, a member lacking a signal
-    named in ``signals``, a signal with NaN or inf samples, or a sampling rate that
-    differs from ``fs`` (default: the most common rate of the files) leaves that member
-    out and adds a row to the errors table; the other members are read.
+    Member files are untrusted input, read by :func:`read_table`, :func:`read_mat` and
+    :func:`read_npz` with their checks (sizes declared before reading against
+    ``max_bytes("member")``, header-less CSV files, columns mixing numbers and text),
+    plus:
+
+    - a time column must increase uniformly: a missing, repeated or decreasing time
+      stamp, or a step that differs from the median step by more than 1 % of it (or by
+      more than one unit of the last decimal the stamps are written with, when that is
+      larger: stamps rounded to microseconds stay uniform at 25.6 kHz), is an error
+      naming the file and the line. The rate is the number of steps over the span;
+    - a signal must fit the ceiling as float64 samples.
+
+    With ``on_error="skip"`` a file that cannot be read or fails a check, a member
+    lacking a signal named in ``signals``, a signal with NaN or inf samples, or a
+    sampling rate that differs from ``fs`` (default: the most common rate of the files)
+    leaves that member out and adds a row to the errors table (with the reason); the
+    other members are read as if the bad file were not there.
 
     Parameters
     ----------

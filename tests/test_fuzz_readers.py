@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import re
 
 import numpy as np
 import pandas as pd
@@ -70,11 +71,41 @@ def test_csv_of_any_shape_and_encoding(tmp_path, frame, encoding):
     if table is not None:
         assert len(table) > 0  # an empty table is a DataError, never an empty frame
     if encoding == "utf-8":
-        rows = _rows_a_csv_can_hold(frame)
-        if rows:
+        # a first line of numbers only is data, not a header: one more row
+        headerless = _numbers_only(frame.columns)
+        rows = _rows_a_csv_can_hold(frame) + headerless
+        if rows and _mixes_numbers_and_text(frame, headerless):
+            assert table is None  # a column of numbers with a text cell is refused
+        elif rows:
             assert table is not None and len(table) == rows
         else:
             assert table is None
+
+
+#: A number as a CSV cell holds it (the strategy's text cells hold no digits).
+_NUMBER = re.compile(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?")
+
+
+def _numbers_only(names) -> bool:
+    """Whether the header line holds numbers only (and is not pandas' own 0,1,...)."""
+    names = [str(n) for n in names]
+    return all(_NUMBER.fullmatch(n) for n in names) and names != [
+        str(i) for i in range(len(names))
+    ]
+
+
+def _mixes_numbers_and_text(frame: pd.DataFrame, headerless: bool) -> bool:
+    """Whether a column's CSV cells hold numbers and (non-blank) text together."""
+    for name in frame.columns:
+        cells = frame[name].tolist() + ([name] if headerless else [])
+        numbers = [
+            isinstance(v, int | float) or _NUMBER.fullmatch(str(v))
+            for v in cells
+            if not _blank(v)
+        ]
+        if any(numbers) and not all(numbers):
+            return True
+    return False
 
 
 def _blank(value) -> bool:
