@@ -15,13 +15,27 @@ A model file is plain Python (no pdmkit import needed) that defines::
 :func:`load_model_file` executes the file and checks every part of the contract, raising
 :class:`~pdmkit.errors.ModelError` with a message that names the file and the problem.
 An :class:`OdeModel` can also be built directly in Python.
+
+A model file is Python code, run with the user's rights: it can do anything the user
+can. Trust it like code you would run. :func:`load_model_file` first imports it and
+evaluates ``rhs`` in a child process with a time limit (``model_timeout``, 30 s), so a
+file that hangs, exits or crashes there is reported as a :class:`ModelError` instead of
+hanging or ending pdmkit; only then is it loaded in pdmkit's own process, where a
+``sys.exit`` from the model's code also becomes a :class:`ModelError`.
 """
 
 from __future__ import annotations
 
+import functools
 import inspect
+import json
 import math
+import numbers
 import os
+import signal
+import subprocess
+import sys
+import threading
 import traceback
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -332,6 +346,8 @@ class OdeModel:
         where = _where(self.origin)
         try:
             out = self.rhs(t, x, u, p)
+        except ModelError:
+            raise  # already explained (e.g. the model called exit)
         except Exception as exc:
             raise ModelError(
                 f"{where}: rhs raised {type(exc).__name__}: {exc}"
@@ -357,11 +373,21 @@ class OdeModel:
             )
         return {k: out[k] for k in self.states}
 
-    def check(self) -> OdeModel:
+    def check(self, data: Any = None) -> OdeModel:
         """Evaluate the model at its initial state (inputs 0) and on a small batch.
 
         Raises :class:`ModelError` when ``rhs`` raises, returns the wrong keys, gives a
-        non-finite derivative at the initial state, or fails on numpy arrays.
+        non-finite derivative at the initial state, or fails on numpy arrays. With
+        ``data``, ``rhs`` is also evaluated at the initial state with the data's first
+        input samples (one numpy batch): each derivative must be finite and have the
+        batch's shape.
+
+        Parameters
+        ----------
+        data : DataFrame or dict of array-like, optional
+            A recording with one column per input (and ``time``); only its first
+            samples are used. Rows with a missing or non-finite input are skipped (the
+            data checks of the fit report them).
 
         Returns
         -------
@@ -406,10 +432,54 @@ class OdeModel:
                     f"{where}: with arrays of {n} members, rhs returned shape {shape} for "
                     f"{k!r}; it must work element-wise (shape ({n},))."
                 )
+        if data is not None:
+            self._check_first_samples(_first_rows(data))
         return self
 
+    def _check_first_samples(self, rows: list[dict[str, float]]) -> None:
+        """``rhs`` at the initial state with the data's first input samples, batched."""
+        where = _where(self.origin)
+        used = [(i, r) for i, r in enumerate(rows) if all(k in r for k in self.inputs)]
+        if not used:
+            return
+        n = len(used)
+        t = used[0][1].get("time", 0.0)
+        xb = {k: np.full(n, v) for k, v in self.initial.items()}
+        ub = {k: np.array([r[k] for _, r in used]) for k in self.inputs}
+        pb = {k: np.full(n, v) for k, v in self.params.items()}
+        with np.errstate(all="ignore"):  # non-finite results are reported below
+            db = self.derivatives(xb, ub, pb, t)
+        for k, v in db.items():
+            try:
+                arr = np.asarray(v, dtype=float)
+            except (TypeError, ValueError):
+                raise ModelError(
+                    f"{where}: rhs returned a non-numeric derivative for {k!r} at the "
+                    f"initial state with the data's first input samples: {v!r}."
+                ) from None
+            if arr.shape not in ((), (n,)):
+                raise ModelError(
+                    f"{where}: with the data's first {n} input samples as arrays, rhs "
+                    f"returned shape {arr.shape} for {k!r}; it must work element-wise "
+                    f"(shape ({n},))."
+                )
+            bad = np.flatnonzero(~np.isfinite(np.broadcast_to(arr, (n,))))
+            if bad.size:
+                row, r = used[int(bad[0])]
+                at = ", ".join(f"{name}={r[name]:g}" for name in self.inputs)
+                when = f"time {r['time']:g} s, " if "time" in r else ""
+                raise ModelError(
+                    f"{where}: the derivative of {k!r} is "
+                    f"{np.broadcast_to(arr, (n,))[bad[0]]} at the initial state "
+                    f"{self.initial} with the data's input sample {row} ({when}{at}); "
+                    "check divisions and ** of negative numbers, the input units, or set "
+                    "INITIAL."
+                )
 
-def _model_from_namespace(ns: Mapping[str, Any], origin: str, name: str) -> OdeModel:
+
+def _model_from_namespace(
+    ns: Mapping[str, Any], origin: str, name: str, data: Any = None
+) -> OdeModel:
     where = _where(origin)
     for key in ("STATES", "OUTPUTS", "PARAMS", "rhs"):
         if key not in ns:
@@ -420,51 +490,447 @@ def _model_from_namespace(ns: Mapping[str, Any], origin: str, name: str) -> OdeM
                 "rhs": "def rhs(t, x, u, p): return {...}",
             }[key]
             raise ModelError(f"{where}: missing {key}; define it, e.g. `{hint}`.")
+    rhs = ns["rhs"]
     return OdeModel(
         ns["STATES"],
         ns.get("INPUTS", {}),
         ns["OUTPUTS"],
         ns["PARAMS"],
-        ns["rhs"],
+        _exit_guard(rhs, origin) if callable(rhs) else rhs,
         free=ns.get("FREE", ()),
         initial=ns.get("INITIAL"),
         name=name,
         origin=origin,
-    ).check()
+    ).check(data)
 
 
-def _load_source(source: str, origin: str, name: str) -> OdeModel:
-    where = _where(origin)
+def _compile(source: str, origin: str) -> Any:
+    """Compile the file's text (this runs none of its code); syntax errors named."""
     try:
-        code = compile(source, origin, "exec")
+        return compile(source, origin, "exec")
     except SyntaxError as exc:
         raise ModelError(
-            f"{where}: syntax error on line {exc.lineno}: {exc.msg}"
+            f"{_where(origin)}: syntax error on line {exc.lineno}: {exc.msg}"
             + (f" `{exc.text.strip()}`" if exc.text else "")
         ) from exc
+
+
+def _run_code(code: Any, origin: str, name: str, data: Any = None) -> OdeModel:
+    """Execute a compiled model file in this process and build the checked model."""
+    where = _where(origin)
     ns: dict[str, Any] = {"__name__": "pdmkit_user_model", "__file__": origin}
     try:
         exec(code, ns)
+    except SystemExit as exc:
+        raise ModelError(
+            _exit_message(where, exc.code, _STAGES["import"], _user_frame(exc, origin))
+        ) from exc
     except Exception as exc:
         raise ModelError(
             f"{where}: running the file raised {type(exc).__name__}: {exc}"
             f"{_user_frame(exc, origin)}."
         ) from exc
-    return _model_from_namespace(ns, origin, name)
+    return _model_from_namespace(ns, origin, name, data)
 
 
-def load_model_file(path: str | os.PathLike) -> OdeModel:
+def _load_source(source: str, origin: str, name: str, data: Any = None) -> OdeModel:
+    """Load model-file text in this process (no child check, no time limit)."""
+    return _run_code(_compile(source, origin), origin, name, data)
+
+
+# --------------------------------------------------------------------------- exit guard
+def _exit_status(code: object) -> int:
+    """The process exit status ``sys.exit(code)`` would give."""
+    if code is None:
+        return 0
+    return int(code) if isinstance(code, int) else 1
+
+
+def _exit_message(where: str, code: object, what: str, frame: str = "") -> str:
+    said = "" if code is None or isinstance(code, int) else f" with {str(code)[:200]!r}"
+    return (
+        f"{where} called exit (status {_exit_status(code)}{said}) while {what}{frame}; a "
+        "model file must define the model and return, never end the program: remove the "
+        "sys.exit / os._exit / quit() call."
+    )
+
+
+def _exit_guard(rhs: Callable, origin: str) -> Callable:
+    """``rhs`` with a ``SystemExit`` from the model's code turned into a ModelError."""
+    where = _where(origin)
+
+    @functools.wraps(rhs)
+    def guarded(t, x, u, p):
+        try:
+            return rhs(t, x, u, p)
+        except SystemExit as exc:
+            raise ModelError(
+                _exit_message(
+                    where, exc.code, "pdmkit was evaluating rhs", _user_frame(exc, origin)
+                )
+            ) from exc
+
+    return guarded
+
+
+# --------------------------------------------------------------------------- child check
+#: How many of the data's first samples ``rhs`` is evaluated on before any fit.
+_N_FIRST = 5
+
+#: Default time limit (s) for importing a model file and evaluating ``rhs`` in the child.
+MODEL_TIMEOUT = 30.0
+
+_STAGES = {
+    "start": "starting the Python process that checks it",
+    "import": "running the file (its top level)",
+    "rhs": "evaluating rhs at the initial state (all inputs 0, then the data's first "
+    "input samples)",
+    "arrays": "evaluating rhs on numpy arrays at the initial state",
+}
+
+
+def _first_rows(data: Any, n: int = _N_FIRST) -> list[dict[str, float]]:
+    """The first ``n`` rows of a table as dicts column -> finite float (others left out)."""
+    if data is None:
+        return []
+    try:
+        columns = list(data.columns) if hasattr(data, "columns") else list(data.keys())
+    except (AttributeError, TypeError):
+        return []
+    rows: list[dict[str, float]] = []
+    for c in columns:
+        if not isinstance(c, str):
+            continue
+        try:
+            col = data[c]
+            col = col.iloc[:n] if hasattr(col, "iloc") else col[:n]
+            v = np.asarray(col).astype(np.float64)
+        except (TypeError, ValueError, KeyError, IndexError):
+            continue
+        if v.ndim != 1:
+            continue
+        rows += [{} for _ in range(v.size - len(rows))]
+        for i, x in enumerate(v.tolist()):
+            if math.isfinite(x):
+                rows[i][c] = x
+    return rows
+
+
+# The child: a bare interpreter (no pdmkit, no numpy unless the model imports it) that
+# imports the model file and calls rhs with the arguments pdmkit's own check passes,
+# then reports on a private copy of its stdout, one line per stage and one result line.
+_CHILD = r"""
+import json, math, os, sys
+from collections.abc import Mapping
+
+_res = os.fdopen(os.dup(1), "w", encoding="utf-8")
+os.dup2(2, 1)  # what the model prints goes to stderr, never into the report
+
+
+def _say(kind, payload=None):
+    _res.write(kind + " " + json.dumps(payload) + "\n")
+    _res.flush()
+
+
+def _watch_parent():
+    # the parent holds stdin open while it waits: end of file means it is gone
+    try:
+        while os.read(0, 4096):
+            pass
+    except OSError:
+        pass
+    os._exit(70)
+
+
+def _frame(exc, origin):
+    import traceback
+
+    for f in reversed(traceback.extract_tb(exc.__traceback__)):
+        if f.filename == origin:
+            return [f.lineno, (f.line or "").strip()]
+    return None
+
+
+def _text(obj):
+    try:
+        return str(obj)[:2000]
+    except Exception:
+        return "<unprintable>"
+
+
+def _float(v):
+    v = float(v)
+    if not math.isfinite(v):
+        raise ValueError(v)
+    return v
+
+
+def _n_args(f):
+    code = getattr(f, "__code__", None)
+    plain = type(f) is type(_float) and not hasattr(f, "__wrapped__")
+    if code is not None and plain and not hasattr(f, "__signature__"):
+        return (code.co_argcount + code.co_kwonlyargcount + bool(code.co_flags & 4)
+                + bool(code.co_flags & 8))
+    import inspect
+
+    try:
+        return len(inspect.signature(f).parameters)
+    except (TypeError, ValueError):
+        return 4
+
+
+def _plan(ns, rows):
+    # rhs's arguments as pdmkit's own checks pass them; None when the contract is too
+    # broken for pdmkit to get as far as calling rhs (it then says so without calling it)
+    try:
+        rhs, states, params = ns["rhs"], ns["STATES"], ns["PARAMS"]
+        inputs, initial = ns.get("INPUTS", {}), ns.get("INITIAL")
+        initial = {} if initial is None else initial
+        maps = (states, inputs, params, initial)
+        if not callable(rhs) or not all(isinstance(m, Mapping) for m in maps):
+            return None
+        if _n_args(rhs) != 4:
+            return None
+        x0 = {k: _float(initial.get(k, 0.0)) for k in states}
+        p = {k: _float(v) for k, v in params.items()}
+        names = list(inputs)
+    except Exception:
+        return None
+    used = [r for r in rows if all(k in r for k in names)]
+    calls = [(0.0, {k: 0.0 for k in names})]
+    calls += [(r.get("time", 0.0), {k: r[k] for k in names}) for r in used]
+    return rhs, x0, p, names, calls, used
+
+
+def _main():
+    job = json.loads(sys.stdin.buffer.readline())
+    sys.stdin = open(os.devnull)  # input() in the model ends at once
+    import _thread
+
+    _thread.start_new_thread(_watch_parent, ())
+    sys.path[:] = job["path"]
+    origin = job["origin"]
+    stage, plan = "import", None
+    _say("stage", stage)
+    try:
+        ns = {"__name__": "pdmkit_user_model", "__file__": origin}
+        exec(compile(job["source"], origin, "exec"), ns)
+        plan = _plan(ns, job["rows"])
+        if plan is not None:
+            rhs, x0, p, names, calls, used = plan
+            stage = "rhs"
+            _say("stage", stage)
+            for t, u in calls:
+                rhs(t, dict(x0), u, dict(p))
+            np = sys.modules.get("numpy")
+            if np is not None:  # numpy is loaded anyway: pdmkit's batches too
+                stage = "arrays"
+                _say("stage", stage)
+                batches = [(3, 0.0, {k: np.zeros(3) for k in names})]
+                if used:
+                    u = {k: np.array([r[k] for r in used]) for k in names}
+                    batches.append((len(used), used[0].get("time", 0.0), u))
+                for n, t, u in batches:
+                    xb = {k: np.full(n, v) for k, v in x0.items()}
+                    rhs(t, xb, u, {k: np.full(n, v) for k, v in p.items()})
+    except SystemExit as exc:
+        code = exc.code
+        said = None if code is None or isinstance(code, int) else _text(code)
+        status = 0 if code is None else code if isinstance(code, int) else 1
+        _say("exit", {"stage": stage, "code": said if said is not None else status,
+                      "frame": _frame(exc, origin)})
+    except BaseException as exc:
+        _say("raised", {"stage": stage, "type": type(exc).__name__,
+                        "message": _text(exc), "frame": _frame(exc, origin)})
+    else:
+        _say("ok", {"called_rhs": plan is not None})
+    _res.close()
+    os._exit(0)
+
+
+_main()
+"""
+
+
+def _check_timeout(model_timeout: Any) -> float | None:
+    if model_timeout is None:
+        return None
+    ok = isinstance(model_timeout, numbers.Real) and not isinstance(model_timeout, bool)
+    if not ok or not (0 < model_timeout < math.inf):
+        raise ModelError(
+            "model_timeout (--model-timeout) must be a positive number of seconds, e.g. "
+            f"30; got {model_timeout!r}."
+        )
+    return float(model_timeout)
+
+
+def _kill_child(proc: subprocess.Popen) -> None:
+    """Kill the child and everything in its session (it started one of its own)."""
+    if os.name == "posix":
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+    try:
+        proc.kill()
+    except OSError:
+        pass
+    proc.wait()
+
+
+def _frame_text(frame: Any) -> str:
+    if not frame:
+        return ""
+    line, code = frame
+    return f" (line {line}:{f' `{code}`' if code else ''})"
+
+
+def _check_in_child(
+    source: str, origin: str, rows: list[dict[str, float]], timeout: float
+) -> None:
+    """Import the file and evaluate ``rhs`` in a child process with a time limit.
+
+    Raises :class:`ModelError` when it does not return in time (the child and what it
+    started are killed), calls exit, crashes or raises.
+    """
+    where = _where(origin)
+    if not sys.executable:
+        raise ModelError(
+            f"{where}: cannot start a Python process to check it (sys.executable is "
+            "empty); pass model_timeout=None to load it in this process unchecked."
+        )
+    job = {
+        "source": source,
+        "origin": origin,
+        "path": [p for p in sys.path if isinstance(p, str)],
+        "rows": rows,
+    }
+    extra: dict[str, Any] = (
+        {"start_new_session": True}
+        if os.name == "posix"
+        else {"creationflags": getattr(subprocess, "CREATE_NEW_PROCESS_GROUP", 0)}
+    )
+    cmd = [sys.executable, "-I", "-W", "ignore::SyntaxWarning", "-c", _CHILD]
+    try:
+        proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, **extra)
+    except OSError as exc:
+        raise ModelError(
+            f"{where}: cannot start the Python process that checks it ({exc})."
+        ) from exc
+    lines: list[bytes] = []
+    reader = threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True)
+    reader.start()
+    timed_out = False
+    try:
+        try:
+            proc.stdin.write(json.dumps(job).encode("utf-8") + b"\n")
+            proc.stdin.flush()
+        except OSError:
+            pass  # the child is gone already; its exit status says why
+        try:
+            proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            timed_out = True
+    finally:
+        if proc.poll() is None:  # timed out, or this process was interrupted
+            _kill_child(proc)
+        try:
+            proc.stdin.close()
+        except OSError:
+            pass
+        reader.join(5.0)
+        if not reader.is_alive():
+            proc.stdout.close()
+    stage, result = "start", None
+    for raw in list(lines):
+        kind, _, text = raw.decode("utf-8", "replace").partition(" ")
+        try:
+            payload = json.loads(text)
+        except ValueError:
+            continue
+        if kind == "stage":
+            stage = payload
+        elif kind in ("ok", "exit", "raised"):
+            result = (kind, payload)
+    what = _STAGES.get(stage, stage)
+    if stage == "rhs" and not rows:
+        what = "evaluating rhs at the initial state with all inputs 0"
+    if timed_out:
+        raise ModelError(
+            f"{where} did not return within {timeout:g} s while {what}; look there for "
+            "an endless loop or a call that waits (input(), a lock, a network request). "
+            "If the file is only slow, give it more time: --model-timeout SECONDS on "
+            "the command line, model_timeout= in Python."
+        )
+    if result is None:
+        rc = proc.returncode
+        if rc is not None and rc < 0:
+            try:
+                sig = signal.Signals(-rc).name
+            except ValueError:
+                sig = str(-rc)
+            raise ModelError(
+                f"{where}: the Python process checking it was killed by signal {sig} "
+                f"while {what} (a crash in compiled code it calls, or memory exhausted)."
+            )
+        if stage == "start":
+            raise ModelError(
+                f"{where}: the Python process that checks it ({sys.executable}) ended "
+                f"with status {rc} before running the file; see its message above, or "
+                "pass model_timeout=None to load the file in this process unchecked."
+            )
+        raise ModelError(_exit_message(where, 0 if rc is None else rc, what))
+    kind, info = result
+    frame = _frame_text(info.get("frame"))
+    if kind == "exit":
+        raise ModelError(_exit_message(where, info.get("code"), what, frame))
+    if kind == "raised":
+        if info.get("stage") == "import":
+            raise ModelError(
+                f"{where}: running the file raised {info['type']}: {info['message']}"
+                f"{frame}."
+            )
+        raise ModelError(
+            f"{where}: rhs raised {info['type']}: {info['message']}{frame} while "
+            f"{what}. rhs may use only arithmetic, abs and ** on the dict values (they "
+            "can be numpy arrays or torch tensors)."
+        )
+
+
+def load_model_file(
+    path: str | os.PathLike,
+    *,
+    data: Any = None,
+    model_timeout: float | None = MODEL_TIMEOUT,
+) -> OdeModel:
     """Load and check a user model file (the mismatch-discovery model contract).
 
-    The file is executed in a fresh namespace; it must define ``STATES``, ``OUTPUTS``,
-    ``PARAMS`` and ``rhs``, and may define ``INPUTS``, ``FREE`` and ``INITIAL`` (see the
-    module docstring). ``rhs`` is evaluated once at the initial state with all inputs at
-    0, and once on a small numpy batch.
+    A model file is Python code, run with your rights: it can do anything you can (read
+    and write files, start programs). Trust it like code you would run.
+
+    The file must define ``STATES``, ``OUTPUTS``, ``PARAMS`` and ``rhs``, and may define
+    ``INPUTS``, ``FREE`` and ``INITIAL`` (see the module docstring). It is first
+    imported in a child Python process, where ``rhs`` is evaluated at the initial state
+    with all inputs 0 and with the first samples of ``data`` (and on numpy batches when
+    the file imports numpy), within ``model_timeout`` seconds: a hang, a
+    ``sys.exit`` / ``os._exit`` / ``quit()``, a crash or an exception there becomes a
+    :class:`~pdmkit.errors.ModelError` and the child (with anything it started) is
+    killed. Only then is the file executed again in a fresh namespace in this process
+    and checked the same way; its top level therefore runs twice (keep side effects
+    such as writing files out of it, or make them harmless to repeat). A ``sys.exit``
+    from ``rhs`` later, during fitting, also becomes a ``ModelError``.
 
     Parameters
     ----------
     path : str or path-like
         The ``.py`` file.
+    data : DataFrame or dict of array-like, optional
+        The recording the model will be fitted to; ``rhs`` is also evaluated at the
+        initial state with its first input samples (columns named like ``INPUTS``,
+        ``time``) and must give finite derivatives of the right shape there.
+    model_timeout : float or None, default 30
+        Seconds the child may take to import the file and evaluate ``rhs``. None skips
+        the child and loads the file in this process only (no time limit).
 
     Returns
     -------
@@ -476,7 +942,8 @@ def load_model_file(path: str | os.PathLike) -> OdeModel:
         The file is missing or malformed: a syntax error, a missing ``STATES``, an
         unknown kind, an output that is not a state, a ``FREE`` name not in ``PARAMS``,
         ``rhs`` raising (the exception and the line are shown), ``rhs`` returning the
-        wrong keys, or a non-finite derivative at the initial state.
+        wrong keys, or a non-finite derivative at the initial state; or it did not
+        return within ``model_timeout``, or called exit.
 
     Examples
     --------
@@ -499,6 +966,11 @@ def load_model_file(path: str | os.PathLike) -> OdeModel:
     Traceback (most recent call last):
     ...
     pdmkit.errors.ModelError: model file .../tank.py: FREE names 'a', which is not in ...
+    >>> _ = path.write_text('import sys\\nsys.exit(0)\\n')
+    >>> load_model_file(path)
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.ModelError: model file .../tank.py called exit (status 0) while ...
     """
     p = Path(path)
     origin = str(p)
@@ -508,8 +980,12 @@ def load_model_file(path: str | os.PathLike) -> OdeModel:
         )
     if not p.is_file():
         raise ModelError(f"model file {origin}: not found; check the path.")
+    timeout = _check_timeout(model_timeout)
     try:
         source = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ModelError(f"model file {origin}: cannot be read ({exc}).") from exc
-    return _load_source(source, origin, p.stem)
+    code = _compile(source, origin)
+    if timeout is not None:
+        _check_in_child(source, origin, _first_rows(data), timeout)
+    return _run_code(code, origin, p.stem, data)
