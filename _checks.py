@@ -15,7 +15,7 @@ import numpy as np
 
 from pdmkit.errors import DataError
 
-__all__ = ["check_fs", "uniform_step"]
+__all__ = ["check_fs", "npy_declared", "uniform_step"]
 
 
 def check_fs(fs: object, name: str = "fs") -> float:
@@ -102,3 +102,30 @@ def uniform_step(time: object, source: str) -> float:
             "uniform grid."
         )
     return step
+
+
+def npy_declared(handle) -> tuple[tuple[int, ...], np.dtype, int]:
+    """``(shape, dtype, header length)`` that an ``.npy`` stream declares; data unread.
+
+    Used on untrusted archives (``.npz`` members, saved models) to compare the declared
+    size with the ceiling and with what the entry holds *before* numpy allocates the
+    array. Raises ``ValueError`` on a damaged or unknown header.
+
+    Examples
+    --------
+    >>> import io
+    >>> buffer = io.BytesIO()
+    >>> np.save(buffer, np.zeros((3, 4)))
+    >>> _ = buffer.seek(0)
+    >>> npy_declared(buffer)[:2]
+    ((3, 4), dtype('float64'))
+    """
+    fmt = np.lib.format
+    version = fmt.read_magic(handle)
+    if version == (1, 0):
+        shape, _, dtype = fmt.read_array_header_1_0(handle)
+    elif version in ((2, 0), (3, 0)):  # 3.0 differs only in the text encoding
+        shape, _, dtype = fmt.read_array_header_2_0(handle)
+    else:
+        raise ValueError(f"unknown .npy format version {version}")
+    return tuple(shape), dtype, handle.tell()

@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from pdmkit._atomic import atomic_path
+from pdmkit._checks import npy_declared
 from pdmkit.errors import ModelError
 
 __all__ = ["file_sha256", "load_model", "object_registry", "save_model"]
@@ -633,13 +634,7 @@ def _check_npy_headers(blob: bytes, where: str, what: str, budget: int) -> None:
                 continue
             with zf.open(info) as handle:
                 try:
-                    version = np.lib.format.read_magic(handle)
-                    read_header = (
-                        np.lib.format.read_array_header_1_0
-                        if version == (1, 0)
-                        else np.lib.format.read_array_header_2_0
-                    )
-                    shape, _, dtype = read_header(handle)
+                    shape, dtype, _ = npy_declared(handle)
                 except (ValueError, SyntaxError, TypeError) as exc:
                     raise ModelError(
                         f"{where}: {what} member {info.filename} has a damaged array "

@@ -36,6 +36,7 @@ from typing import IO, Any
 import numpy as np
 import pandas as pd
 
+from pdmkit._checks import npy_declared
 from pdmkit._config import _LIMIT_ENV, max_bytes
 from pdmkit.errors import DataError, DataNotFoundError, DataWarning
 
@@ -779,17 +780,9 @@ def _npy_header(
     archive: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path, key: str
 ) -> tuple[tuple[int, ...], np.dtype, int]:
     """``(shape, dtype, header length)`` an ``.npy`` entry declares; its data unread."""
-    fmt = np.lib.format
     try:
         with archive.open(info) as f:
-            version = fmt.read_magic(f)
-            if version == (1, 0):
-                shape, _, dtype = fmt.read_array_header_1_0(f)
-            elif version in ((2, 0), (3, 0)):  # 3.0 differs only in the text encoding
-                shape, _, dtype = fmt.read_array_header_2_0(f)
-            else:
-                raise ValueError(f"unknown .npy format version {version}")
-            return tuple(shape), dtype, f.tell()
+            return npy_declared(f)
     except zlib.error as exc:
         raise DataError(
             f"{path}: array {key!r} is damaged: its compressed data does not decompress "

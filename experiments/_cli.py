@@ -1,9 +1,11 @@
 """The ``pdmkit`` command line.
 
 Every sub-command writes its results as data (Parquet / JSON) and a self-contained HTML
-report into ``--out DIR``; ``--json PATH`` writes the machine-readable summary anywhere.
-Errors in the input end the command with exit status 2 and one line that names the
-problem; results already written are never half-overwritten.
+report into ``--out DIR``, beside whatever the folder already holds: only the command's
+own files are replaced, all of one run at once (:mod:`pdmkit._outputs`);
+``--json PATH`` writes the machine-readable summary anywhere. Errors in the input end the
+command with exit status 2 and one line that names the problem; results already written
+are never half-overwritten.
 """
 
 from __future__ import annotations
@@ -15,11 +17,10 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
-from pdmkit._atomic import atomic_path
-from pdmkit.errors import DataError, ModelError
+from pdmkit._outputs import OutputRun, check_output_folder, collect_warnings
+from pdmkit.errors import DataError, ModelError, did_you_mean
 
 __all__ = ["main"]
 
@@ -29,48 +30,33 @@ def _say(message: str) -> None:
     print(f"pdmkit: {message}", file=sys.stderr, flush=True)
 
 
-def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"cannot write {type(value).__name__} to JSON")
+def _input_paths(args: argparse.Namespace) -> list:
+    """The files and folders a command reads (never to be overwritten by its output)."""
+    names = ["members", "ensemble", "costs", "data", "model_file", "validation"]
+    names += ["train", "test", "trained", "history"]
+    if args.command != "rul":  # rul's --features names columns
+        names.append("features")
+    paths = []
+    for name in names:
+        value = getattr(args, name, None)
+        if isinstance(value, list | tuple):
+            paths += list(value)
+        elif value is not None:
+            paths.append(value)
+    return paths
 
 
-def write_json(data: dict, path: str | Path) -> Path:
-    """Write ``data`` as indented JSON, atomically (NaN written as null)."""
-    text = json.dumps(_nan_to_none(data), indent=2, default=_json_default)
-    with atomic_path(path) as tmp:
-        tmp.write_text(text + "\n")
-    return Path(path)
+def _output_run(args: argparse.Namespace, command: str) -> OutputRun:
+    """The run that writes ``command``'s files into ``--out`` (checked before any work)."""
+    return OutputRun(args.out, command, inputs=_input_paths(args), json_path=args.json)
 
 
-def _nan_to_none(value):
-    if isinstance(value, dict):
-        return {k: _nan_to_none(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_nan_to_none(v) for v in value]
-    if isinstance(value, float | np.floating) and not np.isfinite(value):
-        return None
-    return value
-
-
-def write_parquet(table: pd.DataFrame, path: str | Path) -> Path:
-    """Write a table to Parquet atomically."""
-    with atomic_path(path) as tmp:
-        table.to_parquet(tmp)
-    return Path(path)
-
-
-def _finish(summary: dict, args: argparse.Namespace, report, name: str) -> None:
-    out = Path(args.out)
-    write_json(summary, out / f"{name}.json")
-    if args.json:
-        write_json(summary, args.json)
-    path = report.write(out / "report.html")
-    _say(f"wrote {out / f'{name}.json'} and {path}")
+def _finish(run: OutputRun, summary: dict, report, name: str, then=None) -> None:
+    """Register the JSON summary and the report with the run and commit it."""
+    run.add_json(f"{name}.json", summary)
+    run.add_report("report.html", report)
+    run.commit(then)
+    _say(f"wrote {run.path(f'{name}.json')} and {run.path('report.html')}")
 
 
 # --------------------------------------------------------------------------- inputs
@@ -149,11 +135,18 @@ def _group_options(
 def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
     """(ensemble or path/URL, groups, options, label, sensors, profile, read errors)."""
     from pdmkit.experiments._datasets import get_profile
-    from pdmkit.features._extract import GROUP_OPTIONS, _check_option_names
+    from pdmkit.features._extract import (
+        _OPTION_GROUP,
+        GROUP_OPTIONS,
+        _check_groups,
+        _check_option_names,
+    )
 
     groups = tuple(args.groups) if args.groups else ("stats", "spectral")
     extra = _group_options(getattr(args, "option", []) or [])
-    try:  # a misspelt --option is an input error (exit 2), before anything is loaded
+    try:  # a misspelt group or --option is an input error (exit 2), before loading
+        if args.groups:
+            _check_groups(args.groups)
         _check_option_names(list(GROUP_OPTIONS), extra, where="pdmkit --option")
     except TypeError as exc:
         raise DataError(str(exc)) from None
@@ -164,7 +157,12 @@ def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
         groups = tuple(args.groups) if args.groups else profile.groups
         sensors = {k: list(v) for k, v in profile.sensors.items()}
         label = args.label or profile.label
-        options = {**profile.options(), **extra}
+        # the profile's defaults serve the groups chosen; the user's own must match
+        defaults = {
+            k: v for k, v in profile.options().items() if _OPTION_GROUP[k] in groups
+        }
+        options = {**defaults, **extra}
+        _check_label(ensemble, label, f"dataset {profile.name!r}")
         return ensemble, groups, options, label, sensors, profile, None
     if getattr(args, "members", None):
         from pdmkit.ensembles._readers import read_members
@@ -176,9 +174,26 @@ def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
             on_error=on_error,
             return_errors=True,
         )
+        _check_label(ensemble, args.label, "the --members files")
         return ensemble, groups, extra, args.label, None, None, errors
     # a path or fsspec URL: streamed in batches, never loaded whole
+    if "://" in str(args.ensemble):  # a missing backend: one line naming its package
+        from pdmkit.ensembles._parquet import url_filesystem
+
+        url_filesystem(str(args.ensemble))
     return str(args.ensemble), groups, extra, args.label, None, None, None
+
+
+def _check_label(ensemble, label: str | None, where: str) -> None:
+    """A --label that names no condition of the ensemble is an error before any work."""
+    if label is None or not hasattr(ensemble, "conditions"):
+        return
+    columns = [str(c) for c in ensemble.conditions.columns]
+    if label not in columns:
+        raise DataError(
+            f"--label {label!r} is not a condition of {where}; its conditions are "
+            f"{columns}{did_you_mean(label, columns)}"
+        )
 
 
 def _feature_table(args: argparse.Namespace):
@@ -270,8 +285,13 @@ EXIT_SKIPPED = 3
 
 
 def _cmd_features(args: argparse.Namespace) -> int:
+    with _output_run(args, "features") as run:
+        return _features(args, run)
+
+
+def _features(args: argparse.Namespace, run: OutputRun) -> int:
     from pdmkit.experiments._report import Report
-    from pdmkit.experiments._runs import extract_features_run
+    from pdmkit.experiments._runs import extract_features_run, mark_run
 
     on_error = "raise" if args.strict else "skip"
     ensemble, groups, options, _, _, _, read_errors = _extraction_input(args, on_error)
@@ -286,6 +306,7 @@ def _cmd_features(args: argparse.Namespace) -> int:
     )
     size = f"{len(ensemble)} members" if not isinstance(ensemble, str) else ensemble
     _say(f"extracting {', '.join(groups)} indicators from {size} {where}")
+    run.open()  # hold OUT while its partition store (OUT/run) fills
     table, errors = extract_features_run(
         ensemble,
         out / "run",
@@ -295,12 +316,13 @@ def _cmd_features(args: argparse.Namespace) -> int:
         on_error=on_error,
         fresh=args.fresh,
         client=client,
+        replace_stale=True,  # other settings: a failed run, or one saved to OUT, goes
         **options,
     )
     if read_errors is not None and len(read_errors):
         errors = pd.concat([read_errors, errors], ignore_index=True)
-    write_parquet(table, out / "features.parquet")
-    write_parquet(errors, out / "errors.parquet")
+    run.add_parquet("features.parquet", table)
+    run.add_parquet("errors.parquet", errors)
     feature_cols = [c for c in table.columns if "/" in str(c)]
     summary = {
         "n_members": len(table),
@@ -323,7 +345,11 @@ def _cmd_features(args: argparse.Namespace) -> int:
         )
         report.add_table(errors, caption="Members left out")
     report.add_table(table[feature_cols].describe().T, caption="Indicator statistics")
-    _finish(summary, args, report, "features")
+
+    def saved() -> None:  # under OUT's lock: the store's results are in OUT now
+        mark_run(out / "run", "saved", run.id)
+
+    _finish(run, summary, report, "features", saved)
     if len(errors):
         _say(
             f"{summary['n_skipped']} member(s) skipped for bad input, e.g. "
@@ -386,13 +412,18 @@ def _ranking(table: pd.DataFrame, label: str, method: str, features: list[str]):
 
 
 def _cmd_rank(args: argparse.Namespace) -> int:
+    with _output_run(args, "rank") as run:
+        return _rank(args, run)
+
+
+def _rank(args: argparse.Namespace, run: OutputRun) -> int:
     from pdmkit.experiments._report import Report
 
     table, label, _, features = _feature_table(args)
     label = _require_label(table, label)
     ranking = _ranking(table, label, args.method, features)
     ranked = ranking.to_pandas()
-    write_parquet(ranked, Path(args.out) / "ranking.parquet")
+    run.add_parquet("ranking.parquet", ranked)
     summary = {
         "method": args.method,
         "label": label,
@@ -401,11 +432,16 @@ def _cmd_rank(args: argparse.Namespace) -> int:
     report = Report(f"pdmkit rank ({args.method})")
     report.add_figure(ranking.plot(k=min(args.top, 30)), caption="Ranked indicators")
     report.add_table(ranked.head(args.top), caption=f"Top {args.top} indicators")
-    _finish(summary, args, report, "ranking")
+    _finish(run, summary, report, "ranking")
     return 0
 
 
 def _cmd_classify(args: argparse.Namespace) -> int:
+    with _output_run(args, "classify") as run:
+        return _classify(args, run)
+
+
+def _classify(args: argparse.Namespace, run: OutputRun) -> int:
     from pdmkit.experiments._classify import classify
     from pdmkit.experiments._report import Report
 
@@ -436,11 +472,16 @@ def _cmd_classify(args: argparse.Namespace) -> int:
             _ranking(table, label, args.selection, features).plot(k=20),
             caption="Indicator ranking",
         )
-    _finish(summary, args, report, "classify")
+    _finish(run, summary, report, "classify")
     return 0
 
 
 def _cmd_sensors(args: argparse.Namespace) -> int:
+    with _output_run(args, "sensors") as run:
+        return _sensors(args, run)
+
+
+def _sensors(args: argparse.Namespace, run: OutputRun) -> int:
     from pdmkit.experiments._report import Report
     from pdmkit.experiments._sensors import compare_sensors, load_sensor_costs
 
@@ -467,7 +508,7 @@ def _cmd_sensors(args: argparse.Namespace) -> int:
     for sensor, note in zip(frame["sensor"], frame["note"], strict=True):
         if note:
             report.add_text(f"{sensor}: {note}")
-    _finish(summary, args, report, "sensors")
+    _finish(run, summary, report, "sensors")
     return 0
 
 
@@ -476,8 +517,15 @@ def _cmd_rul(args: argparse.Namespace) -> int:
 
     if (args.trained is None) != (args.history is None):
         raise DataError("--trained MODEL and --history TABLE go together")
+    if args.expect_sha256 is not None and args.trained is None:
+        raise DataError("--expect-sha256 checks the file of --trained MODEL; give both")
     if args.trained is not None:
-        answer = predict_rul(args.trained, args.history, json_path=args.json)
+        answer = predict_rul(
+            args.trained,
+            args.history,
+            json_path=args.json,
+            expect_sha256=args.expect_sha256,
+        )
         level = 100 * answer["level"]
         for row in answer["units"]:
             print(
@@ -487,6 +535,8 @@ def _cmd_rul(args: argparse.Namespace) -> int:
         return 0
     if args.test is not None and args.train is None:
         raise DataError("--test needs --train (the training units)")
+    # before reading anything: --out must not overwrite --train / --test
+    check_output_folder(args.out, "rul", inputs=_input_paths(args), json_path=args.json)
     dataset = args.dataset
     if args.train is not None:
         from pdmkit.ensembles._readers import read_table
@@ -520,7 +570,9 @@ def _cmd_rul(args: argparse.Namespace) -> int:
     _say(
         f"{summary['model']}: RMSE {summary['rmse']:.2f}, MAE {summary['mae']:.2f}, "
         f"PHM08 score {summary['phm08_score']:.0f} on {summary['n_units']} units; "
-        f"see {args.out}/report.html; trained model {summary['model_file']}"
+        f"see {args.out}/report.html; trained model {summary['model_file']} "
+        f"(sha256 {summary['model_sha256']}: keep it to check the file later with "
+        "--expect-sha256)"
     )
     return 0
 
@@ -538,6 +590,7 @@ def _cmd_mismatch(args: argparse.Namespace) -> int:
         out_dir=args.out,
         json_path=args.json,
         effects=effects,
+        model_timeout=args.model_timeout,
     )
     verdict = summary["verdict"]
     fit = summary["fit"]
@@ -551,7 +604,7 @@ def _cmd_mismatch(args: argparse.Namespace) -> int:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
-    from pdmkit.experiments._identify import run_identify
+    from pdmkit.experiments._identify import format_fit, run_identify
 
     summary = run_identify(
         args.data,
@@ -566,7 +619,8 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     )
     modes = ", ".join(f"{f:.4g} Hz" for f in summary["natural_frequencies_hz"] or [])
     _say(
-        f"{summary['structure']} {summary['order']}: fit {summary['fit_percent']:.1f} %"
+        f"{summary['structure']} {summary['order']}: fit "
+        f"{format_fit(summary['fit_percent'], 1)}"
         f"{'; modes ' + modes if modes else ''}; see {args.out}/report.html"
     )
     return 0
@@ -576,11 +630,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     from pdmkit.experiments._demo import run_demo
 
     start = time.perf_counter()
-    summary = run_demo(
-        args.out, members=args.members, seed=args.seed, recording_s=args.recording_s
+    run_demo(
+        args.out,
+        members=args.members,
+        seed=args.seed,
+        recording_s=args.recording_s,
+        json_path=args.json,
     )
-    if args.json:
-        write_json(summary, args.json)
     _say(
         f"demo finished in {time.perf_counter() - start:.0f} s; see {args.out}/report.html"
     )
@@ -708,6 +764,12 @@ def build_parser() -> argparse.ArgumentParser:
         "instead of training; with --history",
     )
     p.add_argument(
+        "--expect-sha256",
+        metavar="HASH",
+        help="with --trained: refuse the model file unless its SHA-256 is HASH (the "
+        "model_sha256 its training run printed and wrote to rul.json)",
+    )
+    p.add_argument(
         "--history",
         type=Path,
         metavar="TABLE",
@@ -748,9 +810,19 @@ def build_parser() -> argparse.ArgumentParser:
         "mismatch",
         help="locate and explain where a model file and a recording differ",
         description="Fit MODEL_FILE to DATA, locate the residual, try the candidate "
-        "physics and name the effect the model left out.",
+        "physics and name the effect the model left out. MODEL_FILE is Python code, run "
+        "with your rights: it can do anything you can (read, write and delete files, "
+        "start programs). Trust it like code you would run. It is first imported and "
+        "its rhs evaluated on DATA's first samples in a child process limited to "
+        "--model-timeout seconds (a hang or an exit there is an error), then run in "
+        "this process.",
     )
-    p.add_argument("model_file", type=Path, metavar="MODEL_FILE", help="model file (.py)")
+    p.add_argument(
+        "model_file",
+        type=Path,
+        metavar="MODEL_FILE",
+        help="model file (.py): Python code, run with your rights",
+    )
     p.add_argument("data", type=Path, metavar="DATA", help="CSV or Parquet recording")
     p.add_argument(
         "--validation",
@@ -759,6 +831,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--effects", help="comma-separated candidate effect ids to try (default: all)"
+    )
+    p.add_argument(
+        "--model-timeout",
+        type=float,
+        default=30.0,
+        metavar="SECONDS",
+        help="time limit for importing MODEL_FILE and evaluating its rhs in the child "
+        "check (default 30)",
     )
     p.add_argument("--out", type=Path, default=Path("results/mismatch"))
     p.add_argument("--json", type=Path)
@@ -780,7 +860,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``pdmkit`` command; return its exit status."""
     args = build_parser().parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        with collect_warnings():  # a run's JSON lists the warnings of the whole command
+            return int(args.func(args) or 0)
     except (
         DataError,
         ModelError,

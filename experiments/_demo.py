@@ -23,8 +23,9 @@ workflow on pdmkit's digital twin of that rig:
    a linear degradation model (:func:`pdmkit.experiments._rul.run_rul` on
    ``"pneumatic-leak"``, a small setting: 8 training and 4 test units).
 
-It writes ``summary.json`` (machine-readable) and ``report.html`` into the output
-folder.
+It writes ``summary.json`` (machine-readable), ``report.html``, ``features.parquet``
+and the RUL step's files (``rul/``) into the output folder, all at once, beside whatever
+the folder already holds (:mod:`pdmkit._outputs`).
 """
 
 from __future__ import annotations
@@ -425,13 +426,17 @@ def run_demo(
     members: int | None = None,
     seed: int = 0,
     recording_s: float = 10.0,
+    json_path: str | Path | None = None,
 ) -> dict:
     """Run the demo workflow and write ``summary.json`` and ``report.html``.
 
     Parameters
     ----------
     out_dir : str or Path
-        Output folder (created when missing).
+        Output folder (created when missing). Receives ``summary.json``,
+        ``report.html``, ``features.parquet`` and ``rul/`` (the RUL step's report,
+        predictions, JSON and model), all at once when everything succeeded; anything
+        else in the folder is left as it is.
     members : int, optional
         Size of the simulated fault ensemble (default 640: 40 recordings of each of
         the 16 fault codes, healthy, five single faults and their ten pairs). At least
@@ -442,6 +447,8 @@ def run_demo(
     recording_s : float, default 10.0
         Length of each simulated recording in s (the seed's are 10 s; shorter runs
         are for quick checks).
+    json_path : str or Path, optional
+        Also write the summary here.
 
     Returns
     -------
@@ -456,24 +463,32 @@ def run_demo(
     >>> sorted(summary)  # doctest: +SKIP
     ['classification', 'residuals', 'rul', 'sensor_faults', 'sensors', 'timing_s', ...]
     """
-    from pdmkit.ensembles import (
-        PNEUMATIC_SENSORS,
-        simulate_fault_ensemble,
-        simulate_sensor_fault_ensemble,
-    )
-    from pdmkit.experiments._classify import classify
-    from pdmkit.experiments._cli import write_json, write_parquet
-    from pdmkit.experiments._report import Report
-    from pdmkit.experiments._sensors import SensorComparison, compare_sensors
-    from pdmkit.features import extract_ensemble, rank_features
+    from pdmkit._outputs import OutputRun
 
-    out = Path(out_dir)
     n_members = int(members) if members is not None else 640
     if n_members < 64:
         raise DataError(
             f"members={n_members} is too few for the 16 fault codes: the 25 % test split "
             "needs one member of each code and training at least two; use 64 or more"
         )
+    with OutputRun(out_dir, "demo", json_path=json_path) as run:
+        summary = _demo(run, n_members, seed, recording_s)
+        run.commit()
+    return summary
+
+
+def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
+    """:func:`run_demo` with its files registered with ``run`` (not yet written)."""
+    from pdmkit.ensembles import (
+        PNEUMATIC_SENSORS,
+        simulate_fault_ensemble,
+        simulate_sensor_fault_ensemble,
+    )
+    from pdmkit.experiments._classify import classify
+    from pdmkit.experiments._report import Report
+    from pdmkit.experiments._sensors import SensorComparison, compare_sensors
+    from pdmkit.features import extract_ensemble, rank_features
+
     cycle = twin_cycle_options()
     groups = ("stats", "spectral", "cycle")
     trees = 150 if n_members >= 320 else 50  # small ensembles are quick checks
@@ -502,7 +517,7 @@ def run_demo(
     elapsed = _step("extracting condition indicators")
     table = extract_ensemble(ensemble, groups=groups, **cycle)
     table = add_operating_point(table)
-    write_parquet(table, out / "features.parquet")
+    run.add_parquet("features.parquet", table.copy())
     features = _feature_columns(table, tuple(ensemble.signal_names))
     ranking = rank_features(table, table["fault"], method="kruskal", features=features)
     timing["features"] = elapsed()
@@ -644,7 +659,7 @@ def run_demo(
         f"estimating the RUL of {_RUL_UNITS[0] + _RUL_UNITS[1]} air-leak units "
         "(linear degradation)"
     )
-    rul_summary, rul_figure = _air_leak_rul(out / "rul", seed, recording_s)
+    rul_summary, rul_figure = _air_leak_rul(run.view("rul"), seed, recording_s)
     timing["rul"] = elapsed()
     acc = rul_summary["within_10pct"]
     report.add_heading("6. Remaining useful life of a leaking chamber (seed 8.4)")
@@ -698,8 +713,8 @@ def run_demo(
     summary["timing_s"]["total"] = round(sum(timing.values()), 2)
     report.add_heading("Summary")
     report.add_json(summary["timing_s"], caption="Time per step (s)")
-    write_json(summary, out / "summary.json")
-    report.write(out / "report.html")
+    run.add_report("report.html", report)
+    run.add_json("summary.json", summary)
     return summary
 
 
@@ -708,15 +723,18 @@ _RUL_UNITS = (8, 4)
 _RUL_MAX_CYCLES = 40
 
 
-def _air_leak_rul(out: Path, seed: int, recording_s: float):
-    """The demo's RUL step: (summary, trajectory figure)."""
-    from pdmkit.experiments._rul import _trajectory_plot, run_rul
+def _air_leak_rul(sink, seed: int, recording_s: float):
+    """The demo's RUL step: (summary, trajectory figure); its files go to ``sink``."""
+    from pdmkit.experiments._rul import _rul, _trajectory_plot
 
-    full = run_rul(
+    full = _rul(
+        sink,
         "pneumatic-leak",
         "linear-degradation",
-        out,
-        seed=seed,
+        seed,
+        features=None,
+        rul_cap=125.0,
+        options=None,
         n_trajectories=_RUL_UNITS[1],
         dataset_options={
             "n_train": _RUL_UNITS[0],
@@ -724,8 +742,9 @@ def _air_leak_rul(out: Path, seed: int, recording_s: float):
             "max_cycles": _RUL_MAX_CYCLES,
             "t_end": float(recording_s),
         },
+        calibrate=False,
     )
-    table = pd.read_parquet(out / "predictions.parquet")
+    table = sink.frame("predictions.parquet")
     figure = _trajectory_plot(table, list(pd.unique(table["unit"])))
     keys = (
         "model",
@@ -743,7 +762,7 @@ def _air_leak_rul(out: Path, seed: int, recording_s: float):
     )
     summary = {k: full[k] for k in keys}
     summary["true_leak_within_10pct"] = full["true_leak"]["within_10pct"]
-    summary["report"] = str(out / "report.html")
+    summary["report"] = str(sink.path("report.html"))
     return summary, figure
 
 

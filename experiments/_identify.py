@@ -14,7 +14,6 @@ New model structures plug in through :data:`IDENTIFY_STRUCTURES`: a function
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -23,8 +22,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pdmkit._atomic import atomic_dir, atomic_path
 from pdmkit._checks import check_fs, uniform_step
+from pdmkit._outputs import OutputRun
 from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError, ModelError
 from pdmkit.experiments._report import Report, _to_jsonable
@@ -192,6 +191,13 @@ def parse_order(text: str | int | dict | None) -> int | dict | None:
     return out
 
 
+def format_fit(percent: float | None, digits: int = 2) -> str:
+    """A fit percentage as text; None (a simulation that diverged) said so."""
+    if percent is None or not np.isfinite(percent):
+        return "undefined (the model's simulation diverges)"
+    return f"{percent:.{digits}f} %"
+
+
 def _column(table: pd.DataFrame, name: str, path, role: str) -> np.ndarray:
     if name not in table.columns:
         raise DataError(
@@ -204,7 +210,23 @@ def _column(table: pd.DataFrame, name: str, path, role: str) -> np.ndarray:
             f"{path}: column {name!r} has {bad.size} missing or non-numeric value(s), the "
             f"first in row {int(bad[0])}; clean or interpolate them."
         )
+    peak = float(np.max(np.abs(x))) if x.size else 0.0
+    if peak > _LARGEST_VALUE:
+        raise DataError(
+            f"{path}: column {name!r} reaches {peak:.3g}; sums of its squares overflow "
+            "64-bit floats. Rescale it (e.g. to SI units) before identifying."
+        )
+    if role in ("input", "output") and x.size and np.ptp(x) == 0:
+        raise DataError(
+            f"{path}: {role} column {name!r} is constant ({x[0]:g}); there is nothing "
+            "to identify from it."
+        )
     return x
+
+
+#: Largest magnitude a recorded column may reach: its squares, summed over a record,
+#: must stay finite in float64 (max 1.8e308).
+_LARGEST_VALUE = 1e150
 
 
 def _sampling_rate(table: pd.DataFrame, fs, path) -> float:
@@ -272,7 +294,8 @@ def build_identify_report(model, summary: dict, u, y, fs: float, title: str) -> 
     fn = ", ".join(f"{v:.4g} Hz" for v in summary.get("natural_frequencies_hz") or [])
     rep.add_text(
         f"Structure {summary['structure']} with order {summary['order']}: simulation fit "
-        f"{summary['fit_percent']:.2f} % on the estimation data; modes at {fn or 'none'}."
+        f"{format_fit(summary['fit_percent'])} on the estimation data; modes at "
+        f"{fn or 'none'}."
     )
     if hasattr(model, "to_pandas"):
         rep.add_table(model.to_pandas(), caption="Modes", float_format="{:.5g}")
@@ -350,8 +373,9 @@ def run_identify(
     order : int, dict, str or None
         See :func:`parse_order`; None selects it by ``criterion``.
     out_dir : path
-        Receives ``summary.json`` and ``report.html``; replaced as a whole, only when
-        everything succeeded.
+        Receives ``summary.json`` and ``report.html`` (with the run's id and warnings),
+        both at once and only when everything succeeded; anything else in the folder
+        is left as it is (see :mod:`pdmkit._outputs`).
     json_path : path, optional
         Also write the summary here.
     fs : float, optional
@@ -380,16 +404,32 @@ def run_identify(
     >>> round(s["natural_frequencies_hz"][0], 2)
     9.07
     >>> sorted(p.name for p in (folder / "out").iterdir())
-    ['report.html', 'summary.json']
+    ['.pdmkit', 'report.html', 'summary.json']
     """
     if structure not in IDENTIFY_STRUCTURES:
         raise ModelError(
             f"structure must be one of {sorted(IDENTIFY_STRUCTURES)}; got {structure!r}."
         )
+    run = OutputRun(out_dir, "identify", inputs=[data_path], json_path=json_path)
+    with run:
+        summary, rep = _identify(data_path, input, output, structure, order, fs, criterion)
+        run.add_report("report.html", rep)
+        run.add_json("summary.json", summary)
+        run.commit()
+    return summary
+
+
+def _identify(data_path, input, output, structure, order, fs, criterion):
+    """(summary, report) of :func:`run_identify`."""
     table = read_table(data_path)
     if len(table) == 0:
         raise DataError(f"{data_path}: the table has no rows.")
     rate = _sampling_rate(table, fs, data_path)
+    if structure != "ar" and input == output:
+        raise DataError(
+            f"{data_path}: --input and --output both name {input!r}; identification "
+            "needs the signal that drives the system and the one it responds with."
+        )
     y = _column(table, output, data_path, "output")
     u = None if structure == "ar" else _column(table, input, data_path, "input")
     model = IDENTIFY_STRUCTURES[structure](u, y, rate, parse_order(order), criterion)
@@ -404,12 +444,4 @@ def run_identify(
         rep.add_json(summary, caption="summary.json")
     else:
         rep = build_identify_report(model, summary, u_rep, y, rate, title)
-    html = rep.to_html()
-    text = json.dumps(summary, indent=2, allow_nan=False)
-    with atomic_dir(out_dir) as tmp:
-        (tmp / "report.html").write_text(html, encoding="utf-8")
-        (tmp / "summary.json").write_text(text, encoding="utf-8")
-        if json_path is not None:
-            with atomic_path(json_path) as jtmp:
-                jtmp.write_text(text, encoding="utf-8")
-    return summary
+    return summary, rep

@@ -8,7 +8,6 @@ calls :func:`run_mismatch`. The model file follows the contract of
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -16,12 +15,12 @@ from typing import Any
 
 import pandas as pd
 
-from pdmkit._atomic import atomic_dir, atomic_path
+from pdmkit._outputs import OutputRun
 from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError
 from pdmkit.experiments._report import Report, _to_jsonable
 from pdmkit.models._mismatch import MismatchResult, discover_mismatch
-from pdmkit.models._odefile import load_model_file
+from pdmkit.models._odefile import MODEL_TIMEOUT, load_model_file
 
 __all__ = ["build_mismatch_report", "mismatch_summary", "run_mismatch"]
 
@@ -232,8 +231,14 @@ def run_mismatch(
     out_dir: str | os.PathLike,
     json_path: str | os.PathLike | None = None,
     effects: Sequence[str] | None = None,
+    model_timeout: float | None = MODEL_TIMEOUT,
 ) -> dict:
     """Explain the mismatch between a model file and a recording; write JSON and HTML.
+
+    The model file is Python code run with your rights; trust it like code you would
+    run. It is first imported and ``rhs`` evaluated on the data's first samples in a
+    child process limited to ``model_timeout`` seconds (see
+    :func:`pdmkit.models._odefile.load_model_file`).
 
     Parameters
     ----------
@@ -245,12 +250,16 @@ def run_mismatch(
     validation_path : path, optional
         A second recording used for validation only (initial state re-estimated).
     out_dir : path
-        Receives ``report.html``, ``summary.json`` and ``candidates.csv``; replaced as a
-        whole only when everything succeeded.
+        Receives ``report.html``, ``summary.json`` and ``candidates.csv`` (all at once,
+        only when everything succeeded); anything else in the folder is left as it is
+        (see :mod:`pdmkit._outputs`).
     json_path : path, optional
         Also write the JSON summary here.
     effects : sequence of str, optional
         Only try these candidate effect ids (default: the whole library).
+    model_timeout : float or None, default 30
+        Seconds the model file may take to import and evaluate ``rhs`` in the child
+        check; None loads it in this process only, unchecked.
 
     Returns
     -------
@@ -260,7 +269,9 @@ def run_mismatch(
     Raises
     ------
     pdmkit.errors.ModelError
-        The model file is malformed (the message names the file and the problem).
+        The model file is malformed (the message names the file and the problem), did
+        not return within ``model_timeout``, called exit, or its ``rhs`` is not finite
+        on the data's first samples.
     pdmkit.errors.DataError
         A data file is missing a column, has NaN, or a non-uniform time (the message
         names the file, the column and the row). Nothing is written in either case.
@@ -275,10 +286,24 @@ def run_mismatch(
     >>> summary = run_mismatch(paths["model"], paths["data"], out_dir=folder / "out",
     ...                        effects=["sensor_offset"])
     >>> summary["verdict"]["effect"], sorted(p.name for p in (folder / "out").iterdir())
-    ('none', ['candidates.csv', 'report.html', 'summary.json'])
+    ('none', ['.pdmkit', 'candidates.csv', 'report.html', 'summary.json'])
     """
-    model = load_model_file(model_path)
+    inputs = [model_path, data_path, validation_path]
+    with OutputRun(out_dir, "mismatch", inputs=inputs, json_path=json_path) as run:
+        result, summary, title = _discover(
+            model_path, data_path, validation_path, effects, model_timeout
+        )
+        run.add_csv("candidates.csv", result.candidates, index=False)
+        run.add_report("report.html", build_mismatch_report(result, summary, title))
+        run.add_json("summary.json", summary)
+        run.commit()
+    return summary
+
+
+def _discover(model_path, data_path, validation_path, effects, model_timeout):
+    """(result, summary, report title) of :func:`run_mismatch`."""
     data = _read(data_path, "data")
+    model = load_model_file(model_path, data=data, model_timeout=model_timeout)
     validation = None if validation_path is None else _read(validation_path, "validation")
     result = discover_mismatch(
         model,
@@ -292,13 +317,4 @@ def run_mismatch(
         result, model=model_path, data=data_path, validation=validation_path
     )
     title = f"Mismatch discovery: {Path(model_path).name} vs {Path(data_path).name}"
-    html = build_mismatch_report(result, summary, title).to_html()
-    text = json.dumps(summary, indent=2, allow_nan=False)
-    with atomic_dir(out_dir) as tmp:
-        (tmp / "report.html").write_text(html, encoding="utf-8")
-        (tmp / "summary.json").write_text(text, encoding="utf-8")
-        result.candidates.to_csv(tmp / "candidates.csv", index=False)
-        if json_path is not None:
-            with atomic_path(json_path) as jtmp:
-                jtmp.write_text(text, encoding="utf-8")
-    return summary
+    return result, summary, title

@@ -54,6 +54,12 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._atomic import atomic_path
+from pdmkit._outputs import (
+    OutputRun,
+    check_output_folder,
+    collect_warnings,
+    write_json_file,
+)
 from pdmkit.errors import DataError, did_you_mean
 
 __all__ = [
@@ -371,7 +377,7 @@ def leak_accuracy(unit, time, rul_pred, life, *, alpha: float = 0.1) -> pd.DataF
     return pd.DataFrame.from_dict(rows, orient="index").rename_axis("unit")
 
 
-def _leak_data(features, seed, options, out):
+def _leak_data(features, seed, options, cache_dir):
     """(train, test, feature columns, ranking) of the air-leak workflow."""
     from pdmkit.rul import prognostic_ranking
 
@@ -382,7 +388,7 @@ def _leak_data(features, seed, options, out):
             f"unknown dataset option(s) {sorted(unknown)} for 'pneumatic-leak'; known: "
             f"{sorted([*LEAK_DEFAULTS, 'cache_dir', 'signals'])}"
         )
-    opts.setdefault("cache_dir", Path(out) / "cache")
+    opts.setdefault("cache_dir", cache_dir)
     train, test = simulate_leak_dataset(seed=seed, **opts)
     candidates = [c for c in train.columns if "/" in str(c)]
     ranking = prognostic_ranking(train, candidates)
@@ -641,14 +647,25 @@ def _calibration(pipeline) -> dict:
     }
 
 
-def _save_pipeline(pipeline, out: Path, summary: dict) -> None:
-    """Write the trained pipeline to ``out/model.pdmkit`` (see :func:`predict_rul`)."""
+def _save_pipeline(pipeline, sink, summary: dict) -> None:
+    """Register the trained pipeline as ``model.pdmkit`` (see :func:`predict_rul`)."""
+    import hashlib
+    import tempfile
+
     from pdmkit._persist import save_model
 
-    summary["model_file"] = str(save_model(pipeline, out / "model.pdmkit"))
+    with tempfile.TemporaryDirectory() as folder:  # hashed now, written at the commit
+        blob = save_model(pipeline, Path(folder) / "model.pdmkit").read_bytes()
+    sink.add_file("model.pdmkit", lambda path: path.write_bytes(blob))
+    summary["model_file"] = str(sink.path("model.pdmkit"))
+    # kept apart from the file, this hash is what proves the file is this one
+    # (pdmkit rul --trained MODEL --expect-sha256 HASH; docs/model_files.md)
+    summary["model_sha256"] = hashlib.sha256(blob).hexdigest()
 
 
-def predict_rul(model_file, history, *, json_path=None) -> dict[str, Any]:
+def predict_rul(
+    model_file, history, *, json_path=None, expect_sha256: str | None = None
+) -> dict[str, Any]:
     """RUL of each unit in ``history`` from a model trained by :func:`run_rul`.
 
     Parameters
@@ -664,6 +681,9 @@ def predict_rul(model_file, history, *, json_path=None) -> dict[str, Any]:
         file (``"unit"`` for a frame).
     json_path : str or Path, optional
         Also write the answer here as JSON.
+    expect_sha256 : str, optional
+        The model file's SHA-256 as its training run reported it (``model_sha256`` in
+        ``rul.json``); a file with another hash is refused before it is read.
 
     Returns
     -------
@@ -696,11 +716,23 @@ def predict_rul(model_file, history, *, json_path=None) -> dict[str, Any]:
     >>> answer["units"][0]["unit"], round(answer["units"][0]["rul"])   # 1.0 at t = 40
     ('pump-7', 30)
     """
+    inputs = [model_file] if isinstance(history, pd.DataFrame) else [model_file, history]
+    if json_path is not None:  # before any work: --json must not overwrite an input
+        check_output_folder(None, "rul", inputs=inputs, json_path=json_path)
+    with collect_warnings() as found:
+        answer = _predict_rul(model_file, history, expect_sha256)
+    answer["warnings"] = list(found)
+    if json_path is not None:
+        write_json_file(answer, json_path, inputs=inputs)
+    return answer
+
+
+def _predict_rul(model_file, history, expect_sha256=None) -> dict[str, Any]:
     from pdmkit._persist import load_model
     from pdmkit.ensembles._readers import read_table
     from pdmkit.errors import ModelError
 
-    pipeline = load_model(model_file)
+    pipeline = load_model(model_file, expect_sha256=expect_sha256)
     if not hasattr(pipeline, "predict_trajectory"):
         raise ModelError(
             f"{model_file}: holds a {type(pipeline).__name__}, not a RUL model; train "
@@ -723,33 +755,20 @@ def predict_rul(model_file, history, *, json_path=None) -> dict[str, Any]:
         "level": float(prediction.level),
         "units": rows.to_dict(orient="records"),
     }
-    if json_path is not None:
-        _write_json(answer, Path(json_path))
     return answer
 
 
-def _finish(report, summary: dict, out: Path, json_path) -> dict:
-    """Write the report and the JSON summary (with its ``paths``); return the summary."""
+def _finish(report, summary: dict, sink) -> dict:
+    """Register the report and the JSON summary (with its ``paths``); return the summary."""
     report.add_json(summary, caption="Summary")
     summary["paths"] = {
-        "json": str(out / "rul.json"),
-        "report": str(out / "report.html"),
-        "predictions": str(out / "predictions.parquet"),
+        "json": str(sink.path("rul.json")),
+        "report": str(sink.path("report.html")),
+        "predictions": str(sink.path("predictions.parquet")),
     }
-    report.write(out / "report.html")
-    _write_json(summary, out / "rul.json")
-    if json_path is not None:
-        _write_json(summary, Path(json_path))
+    sink.add_report("report.html", report)
+    sink.add_json("rul.json", summary)
     return summary
-
-
-def _write_json(data: dict, path: Path) -> Path:
-    from pdmkit.experiments._report import _to_jsonable
-
-    text = json.dumps(_to_jsonable(data), indent=2)
-    with atomic_path(path) as tmp:
-        Path(tmp).write_text(text + "\n")
-    return path
 
 
 def run_rul(
@@ -782,7 +801,9 @@ def run_rul(
         One of :data:`RUL_MODELS` (``similarity``, ``degradation``, ``survival``,
         ``neural`` and the variants named in the module notes).
     out_dir : str or Path, default "results/rul"
-        Folder for ``rul.json``, ``predictions.parquet`` and ``report.html``.
+        Folder for ``rul.json``, ``predictions.parquet``, ``report.html`` and
+        ``model.pdmkit``, written all at once when everything succeeded; anything else
+        in the folder is left as it is (see :mod:`pdmkit._outputs`).
     json_path : str or Path, optional
         Also write the JSON summary here.
     seed : int, default 0
@@ -798,7 +819,8 @@ def run_rul(
         Test units shown as RUL-against-time plots.
     dataset_options : dict, optional
         For ``"pneumatic-leak"``: arguments of :func:`simulate_leak_dataset`
-        (defaults :data:`LEAK_DEFAULTS`; ``cache_dir`` defaults to ``out_dir/cache``).
+        (defaults :data:`LEAK_DEFAULTS`; ``cache_dir`` defaults to
+        ``out_dir/.pdmkit/cache``).
     calibrate : bool, default False
         Wrap the model in :class:`pdmkit.rul.ConformalRUL`: its intervals rescaled on
         held-out training units to hold their level (estimates unchanged).
@@ -837,10 +859,40 @@ def run_rul(
     >>> out["n_units"], out["rmse"] < 15
     (6, True)
     """
+    with OutputRun(out_dir, "rul", json_path=json_path) as run:
+        summary = _rul(
+            run,
+            dataset,
+            model,
+            seed,
+            features=features,
+            rul_cap=rul_cap,
+            options=options,
+            n_trajectories=n_trajectories,
+            dataset_options=dataset_options,
+            calibrate=calibrate,
+        )
+        run.commit()
+    return summary
+
+
+def _rul(
+    sink,
+    dataset,
+    model,
+    seed,
+    *,
+    features,
+    rul_cap,
+    options,
+    n_trajectories,
+    dataset_options,
+    calibrate,
+) -> dict[str, Any]:
+    """:func:`run_rul` with its files registered with ``sink`` (not yet written)."""
     from pdmkit.experiments._report import Report
     from pdmkit.rul import rul_metrics
 
-    out = Path(out_dir)
     key = dataset.lower().replace("_", "-") if isinstance(dataset, str) else None
     if key in ("nasa-battery", "battery"):
         from pdmkit.experiments._rul_battery import run_battery
@@ -849,8 +901,7 @@ def run_rul(
             raise DataError("'nasa-battery' takes no dataset options")
         return run_battery(
             model,
-            out,
-            json_path,
+            sink,
             seed,
             rul_cap=rul_cap,
             options=options,
@@ -859,8 +910,7 @@ def run_rul(
     if key in _LEAK_NAMES:
         return _run_leak(
             model,
-            out,
-            json_path,
+            sink,
             seed,
             features=features,
             rul_cap=rul_cap,
@@ -916,15 +966,13 @@ def run_rul(
     }
 
     # ---------------------------------------------------------------- files
-    out.mkdir(parents=True, exist_ok=True)
-    _save_pipeline(pipeline, out, summary)
+    _save_pipeline(pipeline, sink, summary)
     table = pred.to_pandas()
     table["rul_true"] = truth
     table["rul_true_capped"] = capped
     if "nearest" in table.columns:
         table["nearest"] = table["nearest"].map(lambda v: ",".join(map(str, v)))
-    with atomic_path(out / "predictions.parquet") as tmp:
-        table.to_parquet(tmp)
+    sink.add_parquet("predictions.parquet", table.copy())
 
     report = Report(f"pdmkit rul: {model} on {name}")
     report.add_text(
@@ -976,7 +1024,7 @@ def run_rul(
         table.drop(columns=[c for c in ("nearest",) if c in table]),
         caption="Predictions per test unit",
     )
-    return _finish(report, summary, out, json_path)
+    return _finish(report, summary, sink)
 
 
 def _time_col(table: pd.DataFrame) -> str:
@@ -1048,8 +1096,7 @@ def _trajectory_scores(path, life: pd.Series, rul_cap: float):
 
 def _run_leak(
     model,
-    out: Path,
-    json_path,
+    sink,
     seed,
     *,
     features,
@@ -1062,7 +1109,7 @@ def _run_leak(
     from pdmkit.experiments._report import Report
 
     start = time.perf_counter()
-    train, test, cols, ranking = _leak_data(features, seed, dataset_options, out)
+    train, test, cols, ranking = _leak_data(features, seed, dataset_options, sink.cache)
     data_seconds = time.perf_counter() - start
     life = test.groupby("unit", sort=False)["cycle"].max()
     pipeline, path, fit_s, pred_s = _leak_fit_predict(
@@ -1129,10 +1176,10 @@ def _run_leak(
         "features": list(indicator.selected_) if indicator is not None else list(cols),
     }
 
-    out.mkdir(parents=True, exist_ok=True)
-    _save_pipeline(pipeline, out, summary)
-    with atomic_path(out / "predictions.parquet") as tmp:
-        table.drop(columns=[c for c in ("nearest",) if c in table]).to_parquet(tmp)
+    _save_pipeline(pipeline, sink, summary)
+    sink.add_parquet(
+        "predictions.parquet", table.drop(columns=[c for c in ("nearest",) if c in table])
+    )
     report = Report(f"pdmkit rul: {model} on the pneumatic air-leak runs")
     sim = summary["simulation"]
     report.add_text(
@@ -1195,7 +1242,7 @@ def _run_leak(
             "half)",
         )
     report.add_table(acc, caption="Per test unit, over the last half of its life")
-    return _finish(report, summary, out, json_path)
+    return _finish(report, summary, sink)
 
 
 def _trajectory_plot(table: pd.DataFrame, units, ax=None):

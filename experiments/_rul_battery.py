@@ -14,12 +14,10 @@ few for the similarity, survival and learned models.
 from __future__ import annotations
 
 import time
-from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from pdmkit._atomic import atomic_path
 from pdmkit.errors import DataError
 
 #: Workflow models that read the capacity directly.
@@ -74,15 +72,18 @@ def _capacity_plot(data: pd.DataFrame, threshold: float, ax=None):
 
 def run_battery(
     model,
-    out: Path,
-    json_path,
+    sink,
     seed,
     *,
     rul_cap,
     options,
     calibrate,
 ) -> dict[str, Any]:
-    """Leave-one-cell-out RUL on the NASA cells (see the module notes)."""
+    """Leave-one-cell-out RUL on the NASA cells (see the module notes).
+
+    The files are registered with ``sink`` (a :class:`pdmkit._outputs.OutputRun` or a
+    sub-folder of one) and written when the caller commits it.
+    """
     from pdmkit.ensembles import load_nasa_battery
     from pdmkit.ensembles._datasets import BATTERY_EOL_AH
     from pdmkit.experiments._report import Report
@@ -149,10 +150,8 @@ def run_battery(
         "estimator": repr(final.model),
         **_calibration(final),
     }
-    out.mkdir(parents=True, exist_ok=True)
-    _save_pipeline(final, out, summary)
-    with atomic_path(out / "predictions.parquet") as tmp:
-        table.to_parquet(tmp)
+    _save_pipeline(final, sink, summary)
+    sink.add_parquet("predictions.parquet", table.copy())
     report = Report(f"pdmkit rul: {model} on the NASA Li-ion cells")
     report.add_text(
         f"Model: {RUL_MODELS[model]} ({summary['estimator']}), reading the capacity per "
@@ -172,4 +171,4 @@ def run_battery(
         "last half)",
     )
     report.add_table(acc, caption="Per held-out cell, over the last half of its life")
-    return _finish(report, summary, out, json_path)
+    return _finish(report, summary, sink)

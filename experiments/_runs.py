@@ -12,9 +12,13 @@ Layout of a run directory::
         ...
 
 A run that is killed and started again skips the partitions already in ``parts/`` and
-gives the same final result. A changed configuration, input or package version is
-refused (results computed differently never mix); ``fresh=True`` (``--fresh``)
-starts over.
+gives the same final result. Results computed differently never mix: a changed
+configuration, input or package version starts over when the directory holds no
+committed partition, or (``replace_stale=True``, as ``pdmkit features`` does) when its
+run failed or its results were saved elsewhere; otherwise (a run interrupted halfway,
+or any finished run in the Python API) it is refused, and ``fresh=True`` (``--fresh``)
+starts over. The manifest's ``state`` tells which: ``running``, ``failed``,
+``complete``, ``saved``.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ import json
 import os
 import shutil
 import sys
+import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -31,7 +36,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pdmkit._atomic import atomic_dir, atomic_path
+from pdmkit._atomic import atomic_dir, atomic_path, remove_stale_temporaries
 from pdmkit.errors import DataError
 
 __all__ = [
@@ -39,6 +44,7 @@ __all__ = [
     "extract_features_run",
     "fingerprint_ensemble",
     "fingerprint_path",
+    "mark_run",
     "package_versions",
     "predict_members",
 ]
@@ -164,12 +170,17 @@ class RunDirectory:
         Input name -> fingerprint (see :func:`fingerprint_path`).
     fresh : bool, default False
         Discard any results already in the directory and start over.
+    replace_stale : bool, default False
+        Also start over, with a warning, when the directory holds a run made with
+        other settings that failed or whose results were saved elsewhere (state
+        ``failed`` or ``saved``). A run with no committed partition is always replaced.
 
     Raises
     ------
     pdmkit.errors.DataError
-        The directory holds a run of another kind, configuration, input or package
-        versions (the message says what differs and suggests ``--fresh``).
+        The directory holds committed partitions of a run of another kind,
+        configuration, input or package versions (the message says what differs and
+        suggests ``--fresh``).
 
     Examples
     --------
@@ -193,9 +204,12 @@ class RunDirectory:
         config: Mapping[str, Any],
         inputs: Mapping[str, str],
         fresh: bool = False,
+        replace_stale: bool = False,
     ) -> None:
         self.path = Path(path)
         self.parts = self.path / "parts"
+        self.replace_stale = replace_stale
+        self.state = "running"
         self.manifest = {
             "format": FORMAT,
             "format_version": FORMAT_VERSION,
@@ -221,11 +235,23 @@ class RunDirectory:
                     "--fresh to replace it"
                 )
             self.path.mkdir(parents=True, exist_ok=True)
-            with atomic_path(file) as tmp:
-                tmp.write_text(json.dumps(self.manifest, indent=2) + "\n")
+            self.set_state("running")
         self.parts.mkdir(exist_ok=True)
-        for leftover in self.parts.glob(".*.tmp"):  # a commit cut short by a kill
-            shutil.rmtree(leftover, ignore_errors=True)
+        # commits cut short by a kill (not those of a live process)
+        remove_stale_temporaries(self.path)
+        remove_stale_temporaries(self.parts, legacy_names=["*"])
+
+    def set_state(self, state: str, **info: Any) -> None:
+        """Record the run's state in its manifest (``running``, ``failed``,
+        ``complete`` or ``saved``) with ``info`` (e.g. the output run that saved it)."""
+        self.state = state
+        data = {**self.manifest, "state": state, **_canonical(info)}
+        with atomic_path(self.path / "manifest.json") as tmp:
+            tmp.write_text(json.dumps(data, indent=2) + "\n")
+
+    def committed(self) -> list[str]:
+        """The keys of the committed partitions."""
+        return sorted(p.parent.name for p in self.parts.glob("*/meta.json"))
 
     def _clear(self) -> None:
         manifest = self.path / "manifest.json"
@@ -263,13 +289,32 @@ class RunDirectory:
                 diffs.append(f"{section} differs ({'; '.join(changed)})")
             else:
                 diffs.append(f"{section} differs ({_short(a)} -> {_short(b)})")
+        state = str(old.get("state", "unknown"))
         if diffs:
-            raise DataError(
-                f"the run in {self.path} was made with other settings: "
-                + ", ".join(diffs)
-                + "; its results cannot be mixed with this run's. Start over with "
-                "--fresh (fresh=True), or write to another folder"
-            )
+            done = self.committed()
+            if done and not (self.replace_stale and state in ("failed", "saved")):
+                what = {"running": "interrupted", "unknown": "earlier"}.get(state, state)
+                raise DataError(
+                    f"the {what} run in {self.path} ({len(done)} committed partitions) "
+                    "was made with other settings: "
+                    + ", ".join(diffs)
+                    + "; its results cannot be mixed with this run's. Resume it with "
+                    "its settings, start over with --fresh (fresh=True), or write to "
+                    "another folder"
+                )
+            if done:
+                warnings.warn(
+                    f"{self.path}: discarded the {len(done)} partitions of an earlier "
+                    f"{state} run made with other settings ({', '.join(diffs)})",
+                    UserWarning,
+                    stacklevel=3,
+                )
+            shutil.rmtree(self.parts, ignore_errors=True)
+            self.set_state("running")
+        elif state in ("complete", "saved"):
+            self.state = state
+        else:
+            self.set_state("running")
 
     def done(self, key: str) -> bool:
         """Whether partition ``key`` is committed."""
@@ -327,6 +372,33 @@ class RunDirectory:
         return [self.load(k) for k in keys]
 
 
+def mark_run(path: str | os.PathLike, state: str, output_run: str | None = None) -> None:
+    """Set the ``state`` of the run directory ``path`` (no-op when it has no manifest).
+
+    ``pdmkit features`` marks its store ``saved`` (with the id of the output run) once
+    the table is committed to ``--out``: a later run with other settings may then
+    replace it without ``--fresh``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "run"
+    >>> _ = RunDirectory(path, kind="demo", config={}, inputs={})
+    >>> mark_run(path, "saved", output_run="r1")
+    >>> json.loads((path / "manifest.json").read_text())["state"]
+    'saved'
+    """
+    file = Path(path) / "manifest.json"
+    if not file.is_file():
+        return
+    data = json.loads(file.read_text())
+    data["state"] = state
+    if output_run is not None:
+        data["output_run"] = output_run
+    with atomic_path(file) as tmp:
+        tmp.write_text(json.dumps(data, indent=2) + "\n")
+
+
 def _short(value: Any, limit: int = 60) -> str:
     text = json.dumps(value) if not isinstance(value, str) else value
     return text if len(text) <= limit else text[: limit - 3] + "..."
@@ -354,6 +426,7 @@ def extract_features_run(
     client: Any = None,
     inputs: Mapping[str, str] | None = None,
     progress: bool | None = None,
+    replace_stale: bool = False,
     **options: Any,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """:func:`pdmkit.features.extract_ensemble` as a resumable run.
@@ -379,6 +452,10 @@ def extract_features_run(
         Fingerprints of the input (default: computed from the ensemble or its files).
     progress : bool, optional
         Progress bar over partitions (in-process).
+    replace_stale : bool, default False
+        Start over (with a warning) when ``run_dir`` holds a failed or saved run made
+        with other settings (see :class:`RunDirectory`); a directory without committed
+        partitions is always replaced.
 
     Returns
     -------
@@ -390,9 +467,9 @@ def extract_features_run(
     Raises
     ------
     pdmkit.errors.DataError
-        ``run_dir`` holds a run with another configuration, input or package versions
-        (the message suggests ``fresh=True`` / ``--fresh``), or bad data with
-        ``on_error="raise"``.
+        ``run_dir`` holds committed partitions of a run with another configuration,
+        input or package versions (the message suggests ``fresh=True`` / ``--fresh``),
+        or bad data with ``on_error="raise"``.
 
     Examples
     --------
@@ -445,26 +522,40 @@ def extract_features_run(
         "on_error": on_error,
         "options": options,
     }
-    run = RunDirectory(run_dir, kind="features", config=config, inputs=inputs, fresh=fresh)
-    keys = [f"part-{i:05d}" for i in range(len(items))]
-    parts = run.run(
-        _extract_task,
-        items,
-        keys,
-        _feature_frames,
-        client=client,
-        progress=progress,
-        signals=signals,
-        groups=group_list,
-        options=options,
-        shaft_column=shaft if isinstance(shaft, str) else None,
-        on_error=on_error,
+    run = RunDirectory(
+        run_dir,
+        kind="features",
+        config=config,
+        inputs=inputs,
+        fresh=fresh,
+        replace_stale=replace_stale,
     )
-    results = []
-    for frames, meta in parts:
-        errors = frames["errors"].to_dict(orient="records")
-        results.append((frames.get("features"), errors, meta["signals"]))
-    return _combine(results, return_errors=True)
+    keys = [f"part-{i:05d}" for i in range(len(items))]
+    try:
+        parts = run.run(
+            _extract_task,
+            items,
+            keys,
+            _feature_frames,
+            client=client,
+            progress=progress,
+            signals=signals,
+            groups=group_list,
+            options=options,
+            shaft_column=shaft if isinstance(shaft, str) else None,
+            on_error=on_error,
+        )
+        results = []
+        for frames, meta in parts:
+            errors = frames["errors"].to_dict(orient="records")
+            results.append((frames.get("features"), errors, meta["signals"]))
+        combined = _combine(results, return_errors=True)
+    except Exception:  # e.g. every member skipped: a failed run, not a finished one
+        run.set_state("failed")
+        raise
+    if run.state != "saved":
+        run.set_state("complete")
+    return combined
 
 
 def predict_members(

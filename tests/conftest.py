@@ -41,3 +41,27 @@ def require_data():
         return path
 
     return _require
+
+
+_PEAK_MB_SOURCE = '''
+def peak_mb():
+    """This process's peak resident memory (MB). VmHWM belongs to the process image,
+    so a child forked from a large pytest process does not report its parent's peak
+    (ru_maxrss survives exec on Linux and would)."""
+    try:
+        with open("/proc/self/status") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    import resource, sys
+    scale = 1 / 2**20 if sys.platform == "darwin" else 1 / 1024
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale
+'''
+
+
+@pytest.fixture(scope="session")
+def peak_mb_source() -> str:
+    """Python source that defines ``peak_mb()`` for code run in a child process."""
+    return _PEAK_MB_SOURCE

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -64,22 +66,40 @@ def test_unreachable_scheduler_is_a_clear_error(
     )
 
 
-def test_changed_settings_need_fresh(ensemble_dir, tmp_path, capsys):
-    out = str(tmp_path / "o")
-    base = ["features", "--ensemble", str(ensemble_dir), "--out", out]
+def test_changed_settings_after_a_saved_run_start_over(ensemble_dir, tmp_path):
+    out = tmp_path / "o"
+    base = ["features", "--ensemble", str(ensemble_dir), "--out", str(out)]
     assert main([*base, "--groups", "stats"]) == 0
-    first = pd.read_parquet(tmp_path / "o" / "features.parquet")
+    assert json.loads((out / "run" / "manifest.json").read_text())["state"] == "saved"
+    # the store's results are in OUT already: other settings start over, and say so
+    with pytest.warns(UserWarning, match="discarded the 1 partitions"):
+        assert main([*base, "--groups", "stats", "spectral"]) == 0
+    summary = json.loads((out / "features.json").read_text())
+    assert any(
+        "discarded the" in w and "config differs (groups:" in w for w in summary["warnings"]
+    )
+    assert any("spectral" in c for c in pd.read_parquet(out / "features.parquet"))
+
+
+def test_changed_settings_after_an_interrupted_run_need_fresh(
+    ensemble_dir, tmp_path, capsys
+):
+    out = tmp_path / "o"
+    base = ["features", "--ensemble", str(ensemble_dir), "--out", str(out)]
+    assert main([*base, "--groups", "stats"]) == 0
+    first = pd.read_parquet(out / "features.parquet")
+    # what a run killed halfway leaves: committed partitions of a run still "running"
+    manifest = out / "run" / "manifest.json"
+    manifest.write_text(
+        json.dumps({**json.loads(manifest.read_text()), "state": "running"})
+    )
     assert main([*base, "--groups", "stats", "spectral"]) == 2
     err = capsys.readouterr().err
-    assert "config differs (groups:" in err and "--fresh" in err
+    assert "interrupted" in err and "config differs (groups:" in err and "--fresh" in err
     # the refused run left the earlier result untouched
-    pd.testing.assert_frame_equal(
-        pd.read_parquet(tmp_path / "o" / "features.parquet"), first
-    )
+    pd.testing.assert_frame_equal(pd.read_parquet(out / "features.parquet"), first)
     assert main([*base, "--groups", "stats", "spectral", "--fresh"]) == 0
-    assert any(
-        "spectral" in c for c in pd.read_parquet(tmp_path / "o" / "features.parquet")
-    )
+    assert any("spectral" in c for c in pd.read_parquet(out / "features.parquet"))
 
 
 def test_workers_must_be_positive(ensemble_dir, tmp_path, capsys):

@@ -6,7 +6,7 @@ file carries *valid* internal checksums: those only detect damage, so the refusa
 come from the loader's own rules (an exact class registry, declared sizes, bounded
 nesting), never from a checksum.
 
-Each case is loaded in a child process that reports its peak memory (ru_maxrss) and
+Each case is loaded in a child process that reports its peak memory (VmHWM) and
 time, so a decompression bomb that got through would show, and so a marker file that a
 successful attack writes would be seen.
 """
@@ -299,14 +299,12 @@ def test_the_real_model_the_attacks_hide_in_loads(hostile):
 
 _CHILD = textwrap.dedent(
     """
-    import json, resource, sys, time
+    import json, sys, time
     from pdmkit._persist import load_model, object_registry
     from pdmkit.errors import ModelError
     import skops.io, torch  # the loader's own imports, before the baseline
     object_registry()
-    def peak():
-        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    base = peak()
+    base = peak_mb()
     for case, path in json.loads(sys.argv[1]):
         start = time.perf_counter()
         try:
@@ -316,7 +314,7 @@ _CHILD = textwrap.dedent(
             outcome = "ModelError: " + str(exc)
         except BaseException as exc:
             outcome = f"{type(exc).__name__}: {exc}"
-        print(json.dumps({"case": case, "outcome": outcome, "peak_mb": peak(),
+        print(json.dumps({"case": case, "outcome": outcome, "peak_mb": peak_mb(),
                           "seconds": time.perf_counter() - start, "base_mb": base}),
               flush=True)
     """
@@ -337,14 +335,19 @@ CASES = [
 
 
 @pytest.fixture(scope="module")
-def reports(hostile, tmp_path_factory):
+def reports(hostile, tmp_path_factory, peak_mb_source):
     """Load every hostile file in one child process (in the order above); its
     per-case outcome, time and peak memory so far (peaks only grow, so each case's
     peak bounds it)."""
     _, cases = hostile
     cwd = tmp_path_factory.mktemp("cwd")
     done = subprocess.run(
-        [sys.executable, "-c", _CHILD, json.dumps([[c, str(cases[c][0])] for c in CASES])],
+        [
+            sys.executable,
+            "-c",
+            peak_mb_source + _CHILD,
+            json.dumps([[c, str(cases[c][0])] for c in CASES]),
+        ],
         capture_output=True,
         text=True,
         timeout=300,
@@ -445,3 +448,31 @@ def test_torch_config_declaring_huge_layers_costs_nothing(tmp_path):
     hostile = _write(tmp_path / "huge.pdmkit", members)
     with pytest.raises(ModelError, match="do not have the shapes"):
         load_model(hostile)
+
+
+def test_the_training_run_reports_the_hash_that_later_proves_the_file(tmp_path, capsys):
+    from pdmkit.experiments._cli import main
+
+    rng = np.random.default_rng(4)
+    rows = []
+    for u in range(12):
+        t = np.arange(int(rng.integers(40, 60)))
+        hi = 0.02 * t * (1 + 0.1 * rng.normal()) + 0.02 * rng.normal(size=t.size)
+        rows.append(pd.DataFrame({"unit": u, "time": t, "hi": hi}))
+    table = pd.concat(rows, ignore_index=True)
+    table.to_csv(tmp_path / "train.csv", index=False)
+    out = tmp_path / "out"
+    args = ["rul", "--train", str(tmp_path / "train.csv"), "--model", "linear-degradation"]
+    assert main([*args, "--out", str(out)]) == 0
+    summary = json.loads((out / "rul.json").read_text())
+    digest = hashlib.sha256((out / "model.pdmkit").read_bytes()).hexdigest()
+    assert summary["model_sha256"] == digest
+    assert digest in capsys.readouterr().err
+    history = tmp_path / "unit.csv"
+    table[table.unit == 0].head(20).drop(columns="unit").to_csv(history, index=False)
+    trained = ["rul", "--trained", str(out / "model.pdmkit"), "--history", str(history)]
+    assert main([*trained, "--expect-sha256", digest]) == 0
+    assert "RUL" in capsys.readouterr().out
+    assert main([*trained, "--expect-sha256", "ab" * 32]) == 2
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "not the expected" in line and "Do not load it" in line

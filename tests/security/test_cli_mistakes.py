@@ -1,0 +1,119 @@
+"""Ordinary mistakes on the command line: one line on stderr, exit status 2, no work.
+
+Each case comes from the independent review of the CLI (issue 12, "Tracebacks on
+ordinary mistakes" and "Silent wrong answers"); before the fix each one printed a
+traceback or exited 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+import scipy.signal
+
+from pdmkit.experiments._cli import main
+
+FS = 1000.0
+
+
+def _error_line(capsys) -> str:
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err, "nothing on stderr"
+    assert "Traceback" not in "\n".join(err)
+    return err[-1]
+
+
+@pytest.fixture(scope="module")
+def members(tmp_path_factory):
+    """Four small CSV recordings with a fault label."""
+    folder = tmp_path_factory.mktemp("members")
+    rng = np.random.default_rng(0)
+    for i in range(4):
+        t = np.arange(2048) / FS
+        x = np.sin(2 * np.pi * (50 + 20 * i) * t) + 0.1 * rng.normal(size=t.size)
+        pd.DataFrame({"time": t, "vib": x, "fault": ["ok", "ir"][i % 2]}).to_csv(
+            folder / f"m{i}.csv", index=False
+        )
+    return sorted(str(p) for p in folder.glob("*.csv"))
+
+
+@pytest.fixture(scope="module")
+def record(tmp_path_factory):
+    """An input/output record of a second-order system."""
+    folder = tmp_path_factory.mktemp("record")
+    rng = np.random.default_rng(1)
+    u = rng.normal(size=1500)
+    y = scipy.signal.lfilter([0, 0.5], [1, -1.5, 0.7], u) + 0.01 * rng.normal(size=u.size)
+    t = np.arange(u.size) / 100
+    paths = {}
+    for name, frame in {
+        "ok": pd.DataFrame({"time": t, "u": u, "y": y}),
+        "five": pd.DataFrame({"time": t[:5], "u": u[:5], "y": y[:5]}),
+        "huge": pd.DataFrame({"time": t, "u": u, "y": y * 1e300}),
+        "flat": pd.DataFrame({"time": t, "u": u, "y": np.ones_like(y)}),
+    }.items():
+        paths[name] = folder / f"{name}.csv"
+        frame.to_csv(paths[name], index=False)
+    return paths
+
+
+@pytest.mark.parametrize(
+    ("extra", "words"),
+    [
+        (["--groups", "statz"], "unknown feature group(s) ['statz']"),
+        (["--option", "nperseg=abc"], "nperseg must be an integer >= 1, got 'abc'"),
+        (["--option", "nperseg=-5"], "nperseg must be an integer >= 1, got -5"),
+        (["--option", "npersge=64"], "did you mean 'nperseg'"),
+        (["--groups", "stats", "--option", "nperseg=64"], "not in groups=['stats']"),
+    ],
+)
+def test_bad_feature_options_are_one_line(members, tmp_path, capsys, extra, words):
+    out = tmp_path / "out"
+    code = main(["features", "--members", *members, "--out", str(out), *extra])
+    assert code == 2
+    line = _error_line(capsys)
+    assert words in line
+    assert not (out / "features.parquet").exists()
+
+
+@pytest.mark.parametrize("command", ["features", "rank", "classify", "sensors"])
+def test_an_unknown_label_is_refused_before_any_work(members, tmp_path, capsys, command):
+    out = tmp_path / "out"
+    code = main([command, "--members", *members, "--label", "faul", "--out", str(out)])
+    assert code == 2
+    line = _error_line(capsys)
+    assert "--label 'faul'" in line and "did you mean 'fault'" in line
+    assert "extracting" not in capsys.readouterr().err
+
+
+@pytest.mark.real_data
+def test_a_dataset_profile_s_options_follow_the_groups_chosen(require_data, tmp_path):
+    """`pdmkit features --dataset cwru --groups stats` (a documented use) works."""
+    require_data("cwru_bearing")
+    out = tmp_path / "out"
+    assert (
+        main(["features", "--dataset", "cwru", "--groups", "stats", "--out", str(out)]) == 0
+    )
+    table = pd.read_parquet(out / "features.parquet")
+    groups = {c.split("/")[1] for c in table.columns if "/" in c}
+    assert groups == {"stats"}
+
+
+@pytest.mark.parametrize(
+    ("name", "args", "words"),
+    [
+        ("ok", ["--input", "u", "--output", "u"], "--input and --output both name 'u'"),
+        ("five", ["--input", "u", "--output", "y"], "5 samples"),
+        ("huge", ["--input", "u", "--output", "y"], "overflow"),
+        ("flat", ["--input", "u", "--output", "y"], "is constant"),
+    ],
+)
+def test_identify_refuses_records_it_cannot_identify(
+    record, tmp_path, capsys, name, args, words
+):
+    out = tmp_path / "out"
+    code = main(["identify", str(record[name]), *args, "--out", str(out)])
+    assert code == 2
+    assert words in _error_line(capsys)
+    assert not (out / "summary.json").exists()
