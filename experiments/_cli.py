@@ -591,6 +591,7 @@ def _cmd_mismatch(args: argparse.Namespace) -> int:
         json_path=args.json,
         effects=effects,
         model_timeout=args.model_timeout,
+        input_hold=args.input_hold,
     )
     verdict = summary["verdict"]
     fit = summary["fit"]
@@ -839,6 +840,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SECONDS",
         help="time limit for importing MODEL_FILE and evaluating its rhs in the child "
         "check (default 30)",
+    )
+    p.add_argument(
+        "--input-hold",
+        default="auto",
+        choices=["auto", "zoh", "foh"],
+        help="the inputs between samples: zoh held (steps, a digital controller), foh "
+        "straight lines (sampled continuous signals); auto (default) decides from the "
+        "data: held when most samples repeat the one before",
     )
     p.add_argument("--out", type=Path, default=Path("results/mismatch"))
     p.add_argument("--json", type=Path)

@@ -232,6 +232,7 @@ def run_mismatch(
     json_path: str | os.PathLike | None = None,
     effects: Sequence[str] | None = None,
     model_timeout: float | None = MODEL_TIMEOUT,
+    input_hold: str = "auto",
 ) -> dict:
     """Explain the mismatch between a model file and a recording; write JSON and HTML.
 
@@ -260,6 +261,10 @@ def run_mismatch(
     model_timeout : float or None, default 30
         Seconds the model file may take to import and evaluate ``rhs`` in the child
         check; None loads it in this process only, unchecked.
+    input_hold : {"auto", "zoh", "foh"}
+        The inputs between samples: held, or straight lines (sampled continuous
+        signals); ``"auto"`` decides from the data (see
+        :func:`pdmkit.models._mismatch.choose_input_hold`).
 
     Returns
     -------
@@ -291,7 +296,7 @@ def run_mismatch(
     inputs = [model_path, data_path, validation_path]
     with OutputRun(out_dir, "mismatch", inputs=inputs, json_path=json_path) as run:
         result, summary, title = _discover(
-            model_path, data_path, validation_path, effects, model_timeout
+            model_path, data_path, validation_path, effects, model_timeout, input_hold
         )
         run.add_csv("candidates.csv", result.candidates, index=False)
         run.add_report("report.html", build_mismatch_report(result, summary, title))
@@ -300,7 +305,7 @@ def run_mismatch(
     return summary
 
 
-def _discover(model_path, data_path, validation_path, effects, model_timeout):
+def _discover(model_path, data_path, validation_path, effects, model_timeout, input_hold):
     """(result, summary, report title) of :func:`run_mismatch`."""
     data = _read(data_path, "data")
     model = load_model_file(model_path, data=data, model_timeout=model_timeout)
@@ -312,6 +317,7 @@ def _discover(model_path, data_path, validation_path, effects, model_timeout):
         effects=effects,
         data_name=os.fspath(data_path),
         validation_name=os.fspath(validation_path) if validation_path is not None else "",
+        input_hold=input_hold,
     )
     summary = mismatch_summary(
         result, model=model_path, data=data_path, validation=validation_path

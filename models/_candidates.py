@@ -67,6 +67,13 @@ class Scales:
     u_max: dict[str, float]
     u_std: dict[str, float]
     stiffness: dict[tuple[str, str], float]  # -d f_v / d x_p (per unit mass)
+    #: measured range of each output (a sensor's ceiling lies in the data, not in the
+    #: nominal simulation)
+    y_min: dict[str, float] = dataclasses.field(default_factory=dict)
+    y_max: dict[str, float] = dataclasses.field(default_factory=dict)
+    #: ``(velocity, input) -> d(dv/dt)/du`` for force / torque inputs: 1 / mass (or
+    #: inertia) when the input is the force; turns per-unit-mass terms into N (N m)
+    input_gain: dict[tuple[str, str], float] = dataclasses.field(default_factory=dict)
 
     QUANTILES = (0.5, 0.7, 0.8, 0.9, 0.95, 0.99)
 
@@ -147,15 +154,38 @@ class Candidate(abc.ABC):
     def extra_derivs(self, xp, eff, th, x, u, z):
         return []
 
+    def derivs_with_extra(self, xp, eff, th, t, x, u, dx, z):
+        """A state-derivative term that reads the effect's added states ``z``."""
+        return dx
+
     def override(self, xp, eff, th, z):
         return z[0]
 
     def output(self, xp, eff, th, t, y, z):
         return y
 
+    #: parameters that are accelerations (forces per unit mass) on a velocity state
+    per_unit_mass: tuple[str, ...] = ()
+
     def explain(self, eff: Effect, values: Mapping[str, float]) -> str:
         fmt = {k: _g(v) for k, v in values.items()}
-        return self.physics.format(target=eff.target, partner=eff.partner, **fmt)
+        text = self.physics.format(target=eff.target, partner=eff.partner, **fmt)
+        forces = self.in_input_units(eff, values)
+        if forces:
+            unit = forces.pop("unit")
+            said = ", ".join(f"{k} ≈ {_g(v)} {unit}" for k, v in forces.items())
+            text += f" In the units of the input {eff.options['force_input']}: {said}."
+        return text
+
+    def in_input_units(self, eff: Effect, values: Mapping[str, float]) -> dict:
+        """Per-unit-mass parameters as forces (N) or torques (N m), when a force or
+        torque input drives the velocity (``{}`` otherwise)."""
+        gain = eff.options.get("force_gain")
+        if not self.per_unit_mass or not gain:
+            return {}
+        out: dict = {p: float(values[p]) / gain for p in self.per_unit_mass}
+        out["unit"] = eff.options.get("force_unit", "")
+        return out
 
     def __repr__(self) -> str:
         return f"<Candidate {self.id} on {self.attach}>"
@@ -260,6 +290,7 @@ def _eps(eff, a_max, h, xp):
 
 # ---------------------------------------------------------------------------- velocity
 class CoulombFriction(Candidate):
+    per_unit_mass = ("a",)
     id = "coulomb_friction"
     attach = "velocity"
     param_names = ("a",)
@@ -287,6 +318,7 @@ class CoulombFriction(Candidate):
 
 
 class StribeckFriction(Candidate):
+    per_unit_mass = ("a_c", "a_s")
     id = "stribeck_friction"
     attach = "velocity"
     param_names = ("a_c", "a_s", "v_s")
@@ -322,6 +354,32 @@ class StribeckFriction(Candidate):
         v = x[eff.target]
         mag = th["a_c"] + th["a_s"] * xp.exp(-((v / th["v_s"]) ** 2))
         dx[eff.target] = dx[eff.target] - mag * xp.tanh(v / th["_eps"])
+        return dx
+
+
+class BiasForce(Candidate):
+    id = "bias_force"
+    attach = "velocity"
+    param_names = ("b",)
+    per_unit_mass = ("b",)
+    neutral = _frozen({"b": 0.0})
+    physics = (
+        "Bias force: a constant force acts on {target} whatever the motion (b = {b} per "
+        "unit mass, in {target}/s): gravity on an inclined axis, an actuator's offset, a "
+        "constant load or a cable's pull."
+    )
+
+    def specs(self, eff, sc):
+        a = sc.f_scale(eff.target)
+        top = 50 * sc.f_absmax[eff.target] + a
+        return {"b": _lin("b", -top, top, a)}
+
+    def guesses(self, eff, sc):
+        a = sc.f_scale(eff.target)
+        return [{"b": 0.1 * a}, {"b": -0.1 * a}]
+
+    def derivs(self, xp, eff, th, t, x, u, dx):
+        dx[eff.target] = dx[eff.target] + th["b"]
         return dx
 
 
@@ -391,6 +449,65 @@ class CubicStiffness(Candidate):
 
     def derivs(self, xp, eff, th, t, x, u, dx):
         dx[eff.target] = dx[eff.target] - th["k3"] * x[eff.partner] ** 3
+        return dx
+
+
+class Hysteresis(Candidate):
+    id = "hysteresis"
+    attach = "velocity_position"
+    param_names = ("k_h", "beta", "gamma")
+    neutral = _frozen({"k_h": 0.0, "beta": 0.0, "gamma": 0.0})
+    n_extra = 1
+    physics = (
+        "Hysteresis (Bouc-Wen): part of the restoring force depends on the path of "
+        "{partner}, not only on its value. A hysteretic displacement z follows "
+        "{partner} for small motions and saturates for large ones (dz/dt = v - beta |v| "
+        "z - gamma v |z|, beta = {beta}, gamma = {gamma} per unit of {partner}); the "
+        "spring k_h = {k_h} per unit mass acts through z instead of {partner} "
+        "(friction in joints, rubber mounts, magnetic materials)."
+    )
+
+    # The term is -k_h (z - x): zero while z follows x, so the nominal fit's stiffness
+    # (the small-motion one) stays right and the fit starts from the nominal model.
+
+    def _stiffness(self, eff, sc):
+        k = abs(sc.stiffness.get((eff.target, eff.partner), 0.0))
+        return k or sc.f_scale(eff.target) / sc.x_scale(eff.partner)
+
+    def specs(self, eff, sc):
+        k = self._stiffness(eff, sc)
+        inv = 1.0 / sc.x_scale(eff.partner)
+        return {
+            "k_h": _lin("k_h", -2 * k, 2 * k, 0.1 * k),
+            "beta": _lin("beta", -100 * inv, 1000 * inv, inv),
+            "gamma": _lin("gamma", -1000 * inv, 1000 * inv, inv),
+        }
+
+    def guesses(self, eff, sc):
+        k = self._stiffness(eff, sc)
+        inv = 1.0 / sc.x_scale(eff.partner)
+        # loops from as wide as the swing to a tenth of it, softening on loading or on
+        # unloading (gamma of either sign)
+        return [
+            {"k_h": f * k, "beta": b * inv, "gamma": g * inv}
+            for f, b, g in (
+                (0.3, 1.0, 0.0),
+                (0.3, 1.0, -1.5),
+                (0.6, 0.5, -0.7),
+                (0.3, 3.0, 1.0),
+            )
+        ]
+
+    def extra_init(self, xp, eff, th, x0, u0):
+        return [x0[eff.partner] * 1.0]
+
+    def extra_derivs(self, xp, eff, th, x, u, z):
+        v = x[eff.target]
+        zz = z[0]
+        return [v - th["beta"] * xp.abs(v) * zz - th["gamma"] * v * xp.abs(zz)]
+
+    def derivs_with_extra(self, xp, eff, th, t, x, u, dx, z):
+        dx[eff.target] = dx[eff.target] - th["k_h"] * (z[0] - x[eff.partner])
         return dx
 
 
@@ -697,6 +814,42 @@ class SensorOffset(Candidate):
         return y + th["offset"][:, None]
 
 
+class SensorSaturation(Candidate):
+    id = "sensor_saturation"
+    attach = "output"
+    param_names = ("high", "low")
+    neutral = _frozen({"high": 1e30, "low": -1e30})
+    physics = (
+        "Sensor saturation: the sensor of {target} cannot read above high = {high} or "
+        "below low = {low} (its range or its amplifier's rail), so the recording is "
+        "clipped where the true value goes further."
+    )
+
+    def _range(self, eff, sc):
+        lo = sc.y_min.get(eff.target, sc.x_min.get(eff.target, -1.0))
+        hi = sc.y_max.get(eff.target, sc.x_max.get(eff.target, 1.0))
+        return lo, hi, max(hi - lo, 1e-12)
+
+    def specs(self, eff, sc):
+        lo, hi, span = self._range(eff, sc)
+        mid = 0.5 * (lo + hi)
+        return {
+            "high": _lin("high", mid, hi + 2 * span, 0.01 * span),
+            "low": _lin("low", lo - 2 * span, mid, 0.01 * span),
+        }
+
+    def guesses(self, eff, sc):
+        lo, hi, span = self._range(eff, sc)
+        return [
+            {"high": hi + 0.001 * span, "low": lo - 2 * span},
+            {"high": hi + 2 * span, "low": lo - 0.001 * span},
+        ]
+
+    def output(self, xp, eff, th, t, y, z):
+        w = 0.002 * eff.opt("span")  # corner width: a sharp clip, still smooth
+        return _sclip(xp, y, th["low"][:, None], th["high"][:, None], w)
+
+
 class SensorDrift(Candidate):
     id = "sensor_drift"
     attach = "output"
@@ -774,9 +927,11 @@ class SensorLag(Candidate):
 _ALL: tuple[Candidate, ...] = (
     CoulombFriction(),
     StribeckFriction(),
+    BiasForce(),
     ViscousFriction(),
     QuadraticDrag(),
     CubicStiffness(),
+    Hysteresis(),
     SpringBacklash(),
     DeadTime(),
     DeadZone(),
@@ -787,6 +942,7 @@ _ALL: tuple[Candidate, ...] = (
     Leak(),
     StateSaturation(),
     SensorOffset(),
+    SensorSaturation(),
     SensorDrift(),
     SensorGain(),
     SensorLag(),
@@ -829,7 +985,7 @@ def candidate_library():
     >>> from pdmkit.models._candidates import candidate_library
     >>> lib = candidate_library()
     >>> len(lib), sorted(lib.loc[lib["id"] == "saturation", "attach"])
-    (19, ['input', 'level'])
+    (22, ['input', 'level'])
     >>> lib["id"].iloc[-1]
     'sparse'
     """
@@ -876,6 +1032,22 @@ def _position_partner(model, velocity: str, sc: Scales | None) -> str | None:
     return best if sens[best] > 0 else None
 
 
+_FORCE_UNITS = {"force": "N", "torque": "N m"}
+
+
+def _force_gain(model, velocity: str, scales: Scales) -> dict:
+    """``force_gain`` (d(dv/dt)/dF, 1/mass) of the force or torque input that drives
+    ``velocity`` most, its name and unit; ``{}`` when no such input drives it."""
+    best = None
+    for u, kind in model.inputs.items():
+        gain = scales.input_gain.get((velocity, u), 0.0)
+        if kind in _FORCE_UNITS and gain > 0 and (best is None or gain > best[0]):
+            best = (gain, u, _FORCE_UNITS[kind])
+    if best is None:
+        return {}
+    return {"force_gain": best[0], "force_input": best[1], "force_unit": best[2]}
+
+
 def attach_candidates(
     model,
     scales: Scales,
@@ -907,7 +1079,7 @@ def attach_candidates(
     >>> from pdmkit.models._candidates import attach_candidates, _dummy_scales
     >>> msd = showcase_model("mass_spring_damper")
     >>> [e.key for e in attach_candidates(msd, _dummy_scales(msd))][:4]
-    ['coulomb_friction@v', 'stribeck_friction@v', 'viscous_friction@v', 'quadratic_drag@v']
+    ['coulomb_friction@v', 'stribeck_friction@v', 'bias_force@v', 'viscous_friction@v']
     """
     if ids is not None:
         unknown = [i for i in ids if i not in CANDIDATE_IDS]
@@ -925,7 +1097,9 @@ def attach_candidates(
             for s, k in model.states.items():
                 if k in _VEL:
                     eps = 0.005 * scales.x_scale(s)
-                    out.append(Effect(c, s, None, {"eps": eps}))
+                    out.append(
+                        Effect(c, s, None, {"eps": eps, **_force_gain(model, s, scales)})
+                    )
         elif c.attach == "velocity_position":
             for s, k in model.states.items():
                 if k in _VEL:
@@ -957,7 +1131,9 @@ def attach_candidates(
                             out.append(Effect(c, s, r, opts))
         elif c.attach == "output":
             for s in model.outputs:
-                out.append(Effect(c, s, None, {}))
+                lo = scales.y_min.get(s, scales.x_min[s])
+                hi = scales.y_max.get(s, scales.x_max[s])
+                out.append(Effect(c, s, None, {"span": max(hi - lo, 1e-12)}))
     return out
 
 

@@ -33,12 +33,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
-from pdmkit.errors import ModelError
+from pdmkit.errors import ConvergenceWarning, ModelError
 from pdmkit.models._candidates import SPARSE_ID, Effect, Scales, attach_candidates
 from pdmkit.models._mismatch_fit import (
     Recording,
@@ -66,6 +67,21 @@ _NONE_PHYSICS = (
     "No candidate effect improves the validation fit significantly beyond the noise: "
     "the model explains these data as well as they allow."
 )
+_UNEXPLAINED_PHYSICS = (
+    "Something systematic is left in the residual, but no effect of the library (nor a "
+    "sparse equation) explains it significantly: the missing physics is not a named "
+    "effect. See best_partial and lead_equation for what comes closest."
+)
+
+
+def _structured(s) -> bool:
+    """A residual with clear structure: not white and strongly correlated (a model
+    error, not measurement noise, which a control's residual is)."""
+    for j in range(s.e_val.shape[1]):
+        w = whiteness_test(s.e_val[:, j])
+        if not w["white"] and w["acf_max"] > 0.5:
+            return True
+    return False
 
 
 # ---------------------------------------------------------------------------- statistics
@@ -97,7 +113,11 @@ def dm_test(e_ref: np.ndarray, e_new: np.ndarray) -> tuple[float, float]:
     b = np.asarray(e_new, dtype=float)
     a = a[:, None] if a.ndim == 1 else a
     b = b[:, None] if b.ndim == 1 else b
-    d = np.sum(a**2, axis=1) - np.sum(b**2, axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        d = np.sum(a**2, axis=1) - np.sum(b**2, axis=1)
+    if not np.all(np.isfinite(d)):  # a diverged simulation: infinitely worse
+        worse = bool(np.any(np.isnan(d)) or np.any(d == -np.inf))
+        return (-math.inf, 1.0) if worse else (math.inf, 0.0)
     n = d.size
     dc = d - d.mean()
     g0 = float(np.dot(dc, dc) / n)
@@ -300,9 +320,10 @@ def _bic(cost: float, m: int, k: int) -> float:
 
 
 def _rmse(err: np.ndarray, weights: np.ndarray) -> float:
-    if err.shape[1] == 1:
-        return float(np.sqrt(np.mean(err**2)))
-    return float(np.sqrt(np.mean((err * weights) ** 2)))
+    with np.errstate(over="ignore"):  # a diverged simulation: inf
+        if err.shape[1] == 1:
+            return float(np.sqrt(np.mean(err**2)))
+        return float(np.sqrt(np.mean((err * weights) ** 2)))
 
 
 def _validate(
@@ -405,6 +426,103 @@ def _choose(scored: list[_Scored], tol: float, min_gain: float) -> _Scored:
     return chosen
 
 
+#: a screened candidate is refit when it removes at least this share of what the best
+#: screened candidate removes from the nominal cost (a few iterations from a guess can
+#: leave a right candidate behind a wrong one that happens to start closer)
+REACH = 0.3
+
+
+def _within_reach(ranked: list[_Job], nominal_cost: float, keep: int) -> list[_Job]:
+    """The screened jobs to refit: the ``keep`` best, and every other one whose gain
+    over the nominal cost is within :data:`REACH` of the best gain (at most
+    ``3 * keep`` in all, best first)."""
+    if not ranked:
+        return []
+    best_gain = nominal_cost - ranked[0].cost
+    kept = list(ranked[:keep])
+    if math.isfinite(best_gain) and best_gain > 0:
+        kept += [
+            j
+            for j in ranked[keep:]
+            if math.isfinite(j.cost) and nominal_cost - j.cost >= REACH * best_gain
+        ]
+    return kept[: 3 * keep]
+
+
+#: terms of a sparse equation that are a named effect's signature
+_SIGNATURES = {
+    "sign": ("coulomb_friction", "Coulomb (dry) friction"),
+    "const": ("bias_force", "a constant (bias) force"),
+    "cube": ("cubic_stiffness", "cubic (Duffing) stiffness"),
+    "abs*": ("quadratic_drag", "quadratic drag"),
+}
+
+
+def _signatures(labels: Sequence[str], target: str, partner: str | None) -> list[dict]:
+    """Named effects whose signature the sparse terms hold (``sign(v)`` -> Coulomb,
+    ``1`` -> a bias force, ``x**3`` -> cubic stiffness, ``abs(v)*v`` -> drag)."""
+    found = []
+    for lab in labels:
+        if lab == f"sign({target})":
+            key = "sign"
+        elif lab == "1":
+            key = "const"
+        elif partner is not None and lab == f"{partner}**3":
+            key = "cube"
+        elif lab in (f"abs({target})*{target}", f"{target}*abs({target})"):
+            key = "abs*"
+        else:
+            continue
+        effect, words = _SIGNATURES[key]
+        found.append({"term": lab, "effect": effect, "physics": words})
+    return found
+
+
+def _at_bounds(job: _Job) -> list[str]:
+    """Fitted values that ended on a bound of their search range (free model
+    parameters always; effect parameters when the bound is not their neutral value)."""
+    lay = job.layout
+    out = []
+    neutral = {}
+    for e in job.effects:
+        for p in e.param_names:
+            if p in e.candidate.neutral:
+                neutral[f"{e.key}.{p}"] = float(e.candidate.neutral[p])
+    vals = job.values()
+    for i, name in enumerate(lay.names):
+        if name.startswith("x0:"):
+            continue
+        th, lo, hi = job.theta[i], lay.lo[i], lay.hi[i]
+        width = (hi - lo) if math.isfinite(hi - lo) else abs(th) + 1.0
+        tol = 1e-6 * max(width, 1e-12)
+        for bound in (lo, hi):
+            if math.isfinite(bound) and abs(th - bound) <= tol:
+                v = vals[name]
+                if name in neutral:  # the side where the effect fades out is natural
+                    other = hi if bound == lo else lo
+                    real = math.exp(bound) if lay.log[i] else bound
+                    far = math.exp(other) if lay.log[i] else other
+                    if abs(real - neutral[name]) <= abs(far - neutral[name]):
+                        continue
+                side = "lower" if bound == lo else "upper"
+                out.append(
+                    f"{name[2:] if name.startswith('p:') else name} = {v:.4g} ended on the "
+                    f"{side} bound of its search range; the model structure is probably "
+                    "wrong there (a missing effect, wrong units, or a parameter that "
+                    "should not be free)"
+                )
+    return out
+
+
+def _partner_of(model, velocity: str) -> str | None:
+    """The position a velocity state drives (for the x**3 signature), if any."""
+    from pdmkit.models._candidates import _position_partner
+
+    if model.states.get(velocity) not in ("velocity", "angular_velocity"):
+        return None
+    return _position_partner(model, velocity, None)
+
+
 def _variant(e: Effect) -> str:
     if e.candidate.id == SPARSE_ID:
         return " + ".join(e.candidate.labels)
@@ -440,6 +558,30 @@ def _explain(e: Effect, vals: Mapping[str, float]) -> str:
 
 
 # ---------------------------------------------------------------------------- public
+def choose_input_hold(rec: Recording) -> str:
+    """``"zoh"`` when the inputs are held (most samples repeat the one before: steps,
+    a digital controller's output), else ``"foh"`` (a sampled continuous signal).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models._mismatch_fit import Recording
+    >>> t = np.arange(100) * 0.01
+    >>> steps = np.repeat([0.0, 1.0, -1.0, 0.5], 25)
+    >>> choose_input_hold(Recording(t, 0.01, {"u": steps}, {}))
+    'zoh'
+    >>> choose_input_hold(Recording(t, 0.01, {"u": np.sin(7 * t)}, {}))
+    'foh'
+    """
+    if not rec.inputs:
+        return "zoh"
+    repeats = [
+        float(np.mean(np.diff(np.asarray(u, dtype=float)) == 0))
+        for u in rec.inputs.values()
+    ]
+    return "zoh" if max(repeats) > 0.3 else "foh"
+
+
 def discover_mismatch(
     model,
     data: Any,
@@ -456,6 +598,7 @@ def discover_mismatch(
     pair_candidates: int = 3,
     data_name: str = "data",
     validation_name: str = "validation",
+    input_hold: str = "auto",
 ) -> MismatchResult:
     """Find the physics a model leaves out, from a recording.
 
@@ -488,6 +631,12 @@ def discover_mismatch(
         How many runner-up effects (distinct effect and target) are paired with it.
     data_name, validation_name : str
         Names used in error messages (e.g. the file names).
+    input_hold : {"auto", "zoh", "foh"}
+        What the inputs do between samples: held (``"zoh"``: steps, a digital
+        controller's output) or straight lines (``"foh"``: a sampled continuous
+        signal, which a hold would lag by half a sample, a mismatch of its own).
+        ``"auto"`` (default) picks ``"zoh"`` when the inputs stay on one value for
+        runs of samples (:func:`choose_input_hold`), else ``"foh"``.
 
     Returns
     -------
@@ -528,6 +677,15 @@ def discover_mismatch(
                 f"discover_mismatch: {validation_name} is sampled every {rec_val.ts:g} s, "
                 f"{data_name} every {rec.ts:g} s; resample them to the same step."
             )
+    hold = choose_input_hold(rec) if input_hold == "auto" else input_hold
+    if hold not in ("zoh", "foh"):
+        raise ModelError(
+            f"discover_mismatch: input_hold must be 'auto', 'zoh' or 'foh'; got "
+            f"{input_hold!r}."
+        )
+    rec = dataclasses.replace(rec, hold=hold)
+    if rec_val is not None:
+        rec_val = dataclasses.replace(rec_val, hold=hold)
     n_fit = rec.n if rec_val is not None else round(rec.n * 2 / 3)
     y_all = rec.y(model)
     w = 1.0 / np.maximum(np.std(y_all[:n_fit], axis=0), 1e-12)
@@ -574,7 +732,7 @@ def discover_mismatch(
         if j.tag not in best_by_key or j.cost < best_by_key[j.tag].cost:
             best_by_key[j.tag] = j
     ranked = sorted(best_by_key.values(), key=lambda j: j.cost)
-    kept = ranked[:keep]
+    kept = _within_reach(ranked, nominal.cost, keep)
     _lm(problem, kept, max_iter)
     # friction whose smoothing is limited by the step: refit on finer steps
     problems = {problem.n_sub: problem}
@@ -720,6 +878,29 @@ def discover_mismatch(
     final = pair or accepted
     if accepted is None:
         verdict = {"effect": "none", "target": None, "physics": _NONE_PHYSICS, "params": {}}
+        if _structured(base):
+            # something systematic is left, but no candidate explains it: say so
+            lead = min(singles, key=lambda s: s.rmse_val) if singles else None
+            verdict = {
+                "effect": "unexplained",
+                "target": None,
+                "physics": _UNEXPLAINED_PHYSICS,
+                "params": {},
+            }
+            if lead is not None:
+                e = lead.effects[0]
+                verdict["best_partial"] = {
+                    "effect": e.id,
+                    "target": e.target,
+                    "improvement": 1.0 - lead.rmse_val / base.rmse_val
+                    if base.rmse_val > 0
+                    else 0.0,
+                    "p_value": lead.p_value,
+                    "physics": _explain(e, lead.job.values()),
+                }
+            if sparse_scored:
+                lead_eq = min(sparse_scored, key=lambda s: s.rmse_val)
+                verdict["lead_equation"] = _verdict_params(lead_eq).get("equation")
     else:
         e = accepted.effects[0]
         vals = accepted.job.values()
@@ -744,6 +925,19 @@ def discover_mismatch(
                 }
             ]
             verdict["physics"] = _explain(e, pv)
+    if accepted is not None and accepted.effects[0].id == SPARSE_ID:
+        e = accepted.effects[0]
+        named = _signatures(e.candidate.labels, e.target, _partner_of(model, e.target))
+        if named:
+            verdict["signatures"] = named
+            verdict["physics"] += (
+                " Its terms hold the signature of "
+                + ", ".join(f"{n['physics']} ({n['term']})" for n in named)
+                + "."
+            )
+    verdict["warnings"] = _at_bounds((final or base).job)
+    for text in verdict["warnings"]:
+        warnings.warn(f"mismatch: {text}", ConvergenceWarning, stacklevel=2)
     train_err_nom = y_all[:n_fit] - base.y_train[:n_fit]
     fit = {
         "rmse_nominal": base.rmse_val,
@@ -762,6 +956,7 @@ def discover_mismatch(
         ),
         "validation": "separate recording" if rec_val is not None else "last third",
         "n_sub": problem.n_sub,
+        "input_hold": hold,
         "n_sub_augmented": final.n_sub if final is not None else None,
     }
 
@@ -770,7 +965,18 @@ def discover_mismatch(
     X0 = np.array([[nominal.values()[f"x0:{s}"] for s in model.states]])
     with np.errstate(all="ignore"):
         _, Xt = _run(
-            model, [], [], [], rec.time, rec.inputs, P, X0, problem.n_sub, _NP, True
+            model,
+            [],
+            [],
+            [],
+            rec.time,
+            rec.inputs,
+            P,
+            X0,
+            problem.n_sub,
+            _NP,
+            True,
+            hold=rec.hold,
         )
     xs = {s: Xt[0, :, j] for j, s in enumerate(model.states)}
     res_nom = (y_all - base.y_train) * w  # weighted residual, whole training recording
@@ -802,6 +1008,15 @@ def discover_mismatch(
             val_nominal=base.y_val,
             val_augmented=final.y_val if final is not None else None,
         )
+    nom_rmse, aug_rmse = fit["rmse_nominal"], fit["rmse_augmented"]
+    verdict["confidence"] = {
+        "p_value": dm_test(base.e_val, final.e_val)[1] if final is not None else None,
+        "improvement": 1.0 - aug_rmse / nom_rmse if nom_rmse > 0 else 0.0,
+        "white_before": all(w["white"] for w in white["before"].values()),
+        "white_after": (
+            all(w["white"] for w in white["after"].values()) if white["after"] else None
+        ),
+    }
     return MismatchResult(
         verdict=verdict,
         candidates=table,

@@ -85,9 +85,11 @@ def showcase_model(name: str, **params: float):
 _PLACES: dict[str, list[tuple[str, str, str, str | None]]] = {
     "coulomb_friction": [("mass_spring_damper", "velocity", "v", None)],
     "stribeck_friction": [("mass_spring_damper", "velocity", "v", None)],
+    "bias_force": [("mass_spring_damper", "velocity", "v", None)],
     "viscous_friction": [("mass_spring_damper", "velocity", "v", None)],
     "quadratic_drag": [("mass_spring_damper", "velocity", "v", None)],
     "cubic_stiffness": [("mass_spring_damper", "velocity_position", "v", "x")],
+    "hysteresis": [("mass_spring_damper", "velocity_position", "v", "x")],
     "backlash": [
         ("mass_spring_damper", "velocity_position", "v", "x"),
         ("mass_spring_damper", "input", "F", None),
@@ -121,6 +123,10 @@ _PLACES: dict[str, list[tuple[str, str, str, str | None]]] = {
     "sensor_offset": [
         ("mass_spring_damper", "output", "x", None),
         ("two_tanks", "output", "h1", None),
+        ("two_tanks", "output", "h2", None),
+    ],
+    "sensor_saturation": [
+        ("mass_spring_damper", "output", "x", None),
         ("two_tanks", "output", "h2", None),
     ],
     "sensor_drift": [
@@ -189,6 +195,11 @@ def _true_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict[
             "a_s": m * sc.f_absmax[t],
             "v_s": 0.3 * sc.x_std[t],
         }
+    if i == "bias_force":
+        return {"b": sign * m * sc.f_absmax[t]}
+    if i == "hysteresis":  # Bouc-Wen: z saturates near 1 / beta, a third of the swing
+        k = model.params["k"] / model.params["m"]
+        return {"k_h": m * k, "beta": 3.0 / sc.x_scale(eff.partner), "gamma": 0.0}
     if i == "viscous_friction":
         return {"b": 5 * m * sc.f_scale(t) / sc.x_scale(t)}
     if i == "quadratic_drag":
@@ -221,6 +232,11 @@ def _true_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict[
         return {"r": sc.f_absmax[t] * (1 - 0.97 * m)}
     if i == "sensor_offset":
         return {"offset": sign * 2 * m * sc.x_std[t]}
+    if i == "sensor_saturation":  # clipped on the side the sign picks
+        hi, lo = sc.x_max[t], sc.x_min[t]
+        if sign > 0:
+            return {"high": hi - 0.5 * m * (hi - lo), "low": -1e30}
+        return {"high": 1e30, "low": lo + 0.5 * m * (hi - lo)}
     if i == "sensor_drift":
         return {"offset": 0.0, "rate": sign * 2 * m * sc.x_std[t] / sc.duration}
     if i == "sensor_gain":

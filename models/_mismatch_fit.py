@@ -58,6 +58,8 @@ class Recording:
     inputs: dict[str, np.ndarray]
     outputs: dict[str, np.ndarray]
     name: str = "data"
+    #: the inputs between samples: "zoh" (held) or "foh" (straight lines)
+    hold: str = "zoh"
 
     @property
     def n(self) -> int:
@@ -307,7 +309,19 @@ class _Problem:
         t = self.rec.time[:n]
         useq = {k: v[:n] for k, v in self.rec.inputs.items()}
         with np.errstate(all="ignore"):
-            Y, _ = _run(model, union, theta, masks, t, useq, P, X0, self.n_sub, _NP)
+            Y, _ = _run(
+                model,
+                union,
+                theta,
+                masks,
+                t,
+                useq,
+                P,
+                X0,
+                self.n_sub,
+                _NP,
+                hold=self.rec.hold,
+            )
         return Y
 
     def residuals(self, Y: np.ndarray) -> np.ndarray:
@@ -319,7 +333,8 @@ class _Problem:
 
 
 def _cost(r: np.ndarray) -> float:
-    c = 0.5 * float(np.dot(r, r))
+    with np.errstate(over="ignore"):  # a diverged trial step: its cost is inf
+        c = 0.5 * float(np.dot(r, r))
     return c if math.isfinite(c) else math.inf
 
 
@@ -424,7 +439,9 @@ def _nominal_scales(
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
     X0 = np.array([[values[f"x0:{s}"] for s in model.states]])
     with np.errstate(all="ignore"):
-        _, Xt = _run(model, [], [], [], t, rec.inputs, P, X0, n_sub, _NP, True)
+        _, Xt = _run(
+            model, [], [], [], t, rec.inputs, P, X0, n_sub, _NP, True, hold=rec.hold
+        )
     X = Xt[0]
     if not np.all(np.isfinite(X)):
         raise ModelError(
@@ -453,7 +470,24 @@ def _nominal_scales(
             k = -(np.asarray(d2[v], dtype=float) - F[v]) / dx
             k = k[np.isfinite(k)] if np.ndim(k) else np.array([k])
             stiffness[(v, p)] = float(np.median(k)) if k.size else 0.0
+    input_gain = {}
+    for v, kv in kinds.items():
+        if kv not in pos_of:
+            continue
+        for u in model.inputs:
+            du = 1e-6 * max(float(np.std(rec.inputs[u])), 1e-9)
+            u2 = dict(rec.inputs)
+            u2[u] = rec.inputs[u] + du
+            with np.errstate(all="ignore"):
+                d2 = model.derivatives(xd, u2, P)
+            g = (np.asarray(d2[v], dtype=float) - F[v]) / du
+            g = g[np.isfinite(g)] if np.ndim(g) else np.array([g])
+            input_gain[(v, u)] = float(np.median(g)) if g.size else 0.0
+    measured = {o: np.asarray(rec.outputs[o], dtype=float) for o in model.outputs}
     return Scales(
+        y_min={o: float(np.nanmin(y)) for o, y in measured.items()},
+        y_max={o: float(np.nanmax(y)) for o, y in measured.items()},
+        input_gain=input_gain,
         ts=rec.ts,
         h=rec.ts / n_sub,
         duration=float(t[-1] - t[0] + rec.ts),
@@ -543,7 +577,20 @@ def _choose_n_sub(model, rec: Recording, values: Mapping[str, float]) -> int:
     X0 = np.array([[values[f"x0:{s}"] for s in model.states]])
     for n_sub in (1, 4, 16):
         with np.errstate(all="ignore"):
-            _, Xt = _run(model, [], [], [], rec.time, rec.inputs, P, X0, n_sub, _NP, True)
+            _, Xt = _run(
+                model,
+                [],
+                [],
+                [],
+                rec.time,
+                rec.inputs,
+                P,
+                X0,
+                n_sub,
+                _NP,
+                True,
+                hold=rec.hold,
+            )
         if np.all(np.isfinite(Xt)):
             break
     else:

@@ -1,4 +1,4 @@
-"""Batched fixed-step RK4 simulation of :class:`OdeModel` with zero-order-hold inputs.
+"""Batched fixed-step RK4 simulation of :class:`OdeModel`, inputs held or interpolated.
 
 Members run together, batch on the first axis, in numpy (fast, float64) or in torch
 (autograd through the whole trajectory). A batch may mix *structures*: groups of rows
@@ -73,8 +73,13 @@ def _run(
     n_sub: int,
     xp,
     want_states: bool = False,
+    hold: str = "zoh",
 ):
     """Integrate a batch; return ``(y (B, N, n_out), x (B, N, nx) or None)``.
+
+    ``hold`` says what the inputs do between samples: ``"zoh"`` held constant (a
+    digital controller's output, steps), ``"foh"`` straight lines from sample to sample
+    (a sampled continuous signal; zero-order hold would lag it by half a sample).
 
     Every row carries every effect of ``effects`` (the union over the structures in
     the batch): ``theta[i]`` maps the parameters of ``effects[i]`` to ``(B,)`` arrays,
@@ -167,6 +172,11 @@ def _run(
         for i in deriv:
             e = effects[i]
             dx = e.candidate.derivs(xp, e, theta[i], tt, x, u, dx)
+        for i, o in extra:  # terms that read an effect's own states (hysteresis)
+            e = effects[i]
+            if e.candidate.attach in _DERIV:
+                zz = Zl[o : o + e.candidate.n_extra]
+                dx = e.candidate.derivs_with_extra(xp, e, theta[i], tt, x, u, dx, zz)
         DX = [dx[s] for s in states]
         if not nz:
             return DX, ()
@@ -180,6 +190,9 @@ def _run(
     def comb(A, c, K):
         return [a + c * k for a, k in zip(A, K, strict=True)]
 
+    if hold not in ("zoh", "foh"):
+        raise ModelError(f"input hold must be 'zoh' or 'foh'; got {hold!r}.")
+    foh = hold == "foh" and bool(inputs)
     rec_x, rec_z = [], []
     h2, h6 = 0.5 * h, h / 6.0
     for k in range(N):
@@ -189,12 +202,21 @@ def _run(
         if k == N - 1:
             break
         uk = {n: Useq[:, k, j] for j, n in enumerate(inputs)} if inputs else {}
+        if foh:
+            du = {n: Useq[:, k + 1, j] - uk[n] for j, n in enumerate(inputs)}
         for s in range(n_sub):
             t0 = float(t[k]) + s * h
-            k1, z1 = f(t0, Xl, Zl, uk)
-            k2, z2 = f(t0 + h2, comb(Xl, h2, k1), comb(Zl, h2, z1), uk)
-            k3, z3 = f(t0 + h2, comb(Xl, h2, k2), comb(Zl, h2, z2), uk)
-            k4, z4 = f(t0 + h, comb(Xl, h, k3), comb(Zl, h, z3), uk)
+            if foh:  # the input at the stage's time, on the line to the next sample
+                a0, am, a1 = s / n_sub, (s + 0.5) / n_sub, (s + 1) / n_sub
+                u0 = {n: uk[n] + a0 * du[n] for n in uk}
+                um = {n: uk[n] + am * du[n] for n in uk}
+                u1 = {n: uk[n] + a1 * du[n] for n in uk}
+            else:
+                u0 = um = u1 = uk
+            k1, z1 = f(t0, Xl, Zl, u0)
+            k2, z2 = f(t0 + h2, comb(Xl, h2, k1), comb(Zl, h2, z1), um)
+            k3, z3 = f(t0 + h2, comb(Xl, h2, k2), comb(Zl, h2, z2), um)
+            k4, z4 = f(t0 + h, comb(Xl, h, k3), comb(Zl, h, z3), u1)
             Xl = [
                 x + h6 * (a + 2.0 * (b + c) + d)
                 for x, a, b, c, d in zip(Xl, k1, k2, k3, k4, strict=True)
@@ -273,14 +295,17 @@ def simulate_ode(
     effects: Sequence = (),
     effect_params: Mapping[str, Any] | None = None,
     n_sub: int = 1,
+    hold: str = "zoh",
 ):
     """Simulate an :class:`OdeModel` (optionally with candidate effects) for a batch.
 
     Classical fourth-order Runge-Kutta with ``n_sub`` steps per sample interval; inputs
-    are held constant between samples (zero-order hold). Any parameter, initial state or
-    input may be a ``(n_members,)`` array (``(n_members, n_samples)`` for inputs) to
-    simulate many members at once; when any of them is a torch tensor the whole
-    simulation runs in torch and is differentiable.
+    are held constant between samples (``hold="zoh"``, default) or follow straight lines
+    from sample to sample (``hold="foh"``, for sampled continuous signals). Any
+    parameter, initial state or input may be a ``(n_members,)`` array
+    (``(n_members, n_samples)`` for inputs) to simulate many members at once; when
+    any of them is a torch tensor the whole simulation runs in torch and is
+    differentiable.
 
     Parameters
     ----------
@@ -365,7 +390,7 @@ def simulate_ode(
         for k, v in uin.items()
     }
     masks = [None] * len(effects)
-    Y, Xt = _run(model, effects, theta, masks, t, U, P, X0, int(n_sub), xp, True)
+    Y, Xt = _run(model, effects, theta, masks, t, U, P, X0, int(n_sub), xp, True, hold)
     states = {s: Xt[:, :, j] for j, s in enumerate(model.state_names)}
     outputs = {o: Y[:, :, j] for j, o in enumerate(model.outputs)}
     shown = {

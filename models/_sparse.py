@@ -620,7 +620,18 @@ def fit_sparse(
     X0 = np.array([[base[f"x0:{s}"] for s in model.states]])
     with np.errstate(all="ignore"):
         _, Xt = _run(
-            model, [], [], [], rec.time, rec.inputs, P, X0, problem.n_sub, _NP, True
+            model,
+            [],
+            [],
+            [],
+            rec.time,
+            rec.inputs,
+            P,
+            X0,
+            problem.n_sub,
+            _NP,
+            True,
+            hold=rec.hold,
         )
     X = {s: Xt[0, :, j] for j, s in enumerate(model.states)}
     U = dict(rec.inputs)
