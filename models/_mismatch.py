@@ -553,8 +553,28 @@ def _white(s: _Scored) -> bool:
     return all(whiteness_test(s.e_val[:, j])["white"] for j in range(s.e_val.shape[1]))
 
 
-def _explain(e: Effect, vals: Mapping[str, float]) -> str:
+def _explain(e: Effect, vals: Mapping[str, float], model=None, rec=None) -> str:
+    """The effect's sentence; with the model and recording, forces in N use the input
+    gain (1 / mass) of the fit that ``vals`` come from, not the nominal one."""
+    if model is not None and rec is not None and "force_gain" in e.options:
+        gain = _input_gain(model, e.target, e.options["force_input"], vals, rec)
+        if gain > 0:
+            e = dataclasses.replace(e, options={**e.options, "force_gain": gain})
     return e.candidate.explain(e, {p: vals[f"{e.key}.{p}"] for p in e.param_names})
+
+
+def _input_gain(model, velocity: str, name: str, vals: Mapping[str, float], rec) -> float:
+    """d(d velocity/dt)/d input at the fitted parameters (1 / mass for a force)."""
+    P = {k: vals.get(f"p:{k}", v) for k, v in model.params.items()}
+    x = {s: vals.get(f"x0:{s}", model.initial[s]) for s in model.states}
+    u0 = {k: float(np.mean(v)) for k, v in rec.inputs.items()}
+    du = 1e-6 * max(float(np.std(rec.inputs[name])), 1e-9)
+    u1 = {**u0, name: u0[name] + du}
+    with np.errstate(all="ignore"):
+        d0 = float(np.asarray(model.derivatives(x, u0, P)[velocity]))
+        d1 = float(np.asarray(model.derivatives(x, u1, P)[velocity]))
+    g = (d1 - d0) / du
+    return g if math.isfinite(g) else 0.0
 
 
 # ---------------------------------------------------------------------------- public
@@ -896,7 +916,7 @@ def discover_mismatch(
                     if base.rmse_val > 0
                     else 0.0,
                     "p_value": lead.p_value,
-                    "physics": _explain(e, lead.job.values()),
+                    "physics": _explain(e, lead.job.values(), model, rec),
                 }
             if sparse_scored:
                 lead_eq = min(sparse_scored, key=lambda s: s.rmse_val)
@@ -907,7 +927,7 @@ def discover_mismatch(
         verdict = {
             "effect": e.id,
             "target": e.target,
-            "physics": _explain(e, vals),
+            "physics": _explain(e, vals, model, rec),
             "params": _verdict_params(accepted),
         }
         if pair is not None:
@@ -920,11 +940,11 @@ def discover_mismatch(
                 {
                     "effect": e2.id,
                     "target": e2.target,
-                    "physics": _explain(e2, pv),
+                    "physics": _explain(e2, pv, model, rec),
                     "params": {p: pv[f"{e2.key}.{p}"] for p in e2.param_names},
                 }
             ]
-            verdict["physics"] = _explain(e, pv)
+            verdict["physics"] = _explain(e, pv, model, rec)
     if accepted is not None and accepted.effects[0].id == SPARSE_ID:
         e = accepted.effects[0]
         named = _signatures(e.candidate.labels, e.target, _partner_of(model, e.target))
