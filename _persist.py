@@ -56,6 +56,24 @@ FORMAT_VERSION = 1
 _MEMBERS = {"manifest.json", "model.skops", "state.json", "arrays.npz", "tensors.pt"}
 #: Deepest JSON nesting a model file may have (real models stay under 60).
 MAX_JSON_DEPTH = 200
+#: Most lists and objects a model file's JSON may hold (each costs ~100 bytes parsed;
+#: numbers in bulk go to arrays.npz, so real models hold a few thousand).
+MAX_JSON_CONTAINERS = 1_000_000
+#: Largest JSON members (bytes): real models' state.json hold structure, not numbers
+_JSON_LIMITS = {"manifest.json": 1 << 20, "state.json": 16 << 20}
+#: torch.nn classes a ``kind: torch`` file may rebuild, and a bound on every integer
+#: of their config (a layer count of 300 000 costs minutes even on the meta device).
+TORCH_CLASSES = (
+    "Linear",
+    "Conv1d",
+    "Conv2d",
+    "LSTM",
+    "GRU",
+    "RNN",
+    "LayerNorm",
+    "Embedding",
+)
+MAX_TORCH_CONFIG_INT = 1 << 16
 
 #: The pdmkit classes a model file may rebuild, by exact ``module.qualname``.
 PDMKIT_CLASSES = (
@@ -158,15 +176,15 @@ def object_registry() -> dict[str, type]:
 def torch_registry() -> dict[str, type]:
     """The torch modules a ``kind: torch`` model file may name (exact names).
 
-    Every ``torch.nn.Module`` subclass that ``torch.nn`` exports; constructed on the
-    ``meta`` device first, so a config that declares huge layers costs nothing.
+    The plain layers of :data:`TORCH_CLASSES`; each is constructed on the ``meta``
+    device first (a config that declares huge layers costs nothing) after every
+    integer of its config is checked against :data:`MAX_TORCH_CONFIG_INT`.
     """
     import torch
 
     return {
-        _qualname(cls): cls
-        for cls in vars(torch.nn).values()
-        if isinstance(cls, type) and issubclass(cls, torch.nn.Module)
+        _qualname(getattr(torch.nn, name)): getattr(torch.nn, name)
+        for name in TORCH_CLASSES
     }
 
 
@@ -374,6 +392,31 @@ class _Encoder:
         )
 
 
+def _check_parquet_sizes(blob: bytes, where: str) -> None:
+    """Refuse a table whose Parquet footer declares more than the model ceiling
+    (rows x columns at 8 bytes, or the row groups' uncompressed bytes)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from pdmkit._config import max_bytes
+
+    budget = max_bytes("model")
+    try:
+        meta = pq.ParquetFile(io.BytesIO(blob)).metadata
+    except (pa.ArrowException, OSError, ValueError) as exc:
+        raise ModelError(f"{where}: a table inside is damaged ({exc})") from None
+    groups = [meta.row_group(i) for i in range(meta.num_row_groups)]
+    declared = max(
+        8 * meta.num_rows * max(meta.num_columns, 1),
+        sum(g.total_byte_size for g in groups),
+    )
+    if declared > budget:
+        raise ModelError(
+            f"{where}: a table inside declares {declared / 2**20:.0f} MiB decoded, over "
+            f"the {budget / 2**20:.0f} MiB a model file may hold; refused"
+        )
+
+
 def _tree_args_ok(args: Any) -> bool:
     """``Tree(n_features, n_classes, n_outputs)`` with sizes that agree (its C code
     trusts them)."""
@@ -431,6 +474,9 @@ class _Decoder:
             return {self.decode(k): self.decode(v) for k, v in node["items"]}
         if t in ("dataframe", "series"):
             raw = self._get(self.arrays, node["key"], "table")
+            if not isinstance(raw, np.ndarray) or raw.dtype != np.uint8 or raw.ndim != 1:
+                raise ModelError(f"{self.where}: a table's bytes are damaged")
+            _check_parquet_sizes(raw.tobytes(), self.where)
             frame = pd.read_parquet(io.BytesIO(raw.tobytes()))
             if "columns" in node:
                 frame.columns = [self.decode(c) for c in node["columns"]]
@@ -652,15 +698,24 @@ def _json_depth(text: str) -> int:
     """Deepest nesting of ``[``/``{`` in JSON text (strings skipped), without parsing."""
     import re
 
-    bare = re.sub(r'"(?:[^"\\]|\\.)*"', "", text)
-    steps = np.frombuffer(bare.encode(), dtype=np.uint8)
-    change = np.isin(steps, (ord("["), ord("{"))).astype(np.int64) - np.isin(
-        steps, (ord("]"), ord("}"))
-    )
-    return int(np.cumsum(change).max(initial=0))
+    bare = re.sub(r'"(?:[^"\\]|\\.)*"', "", text).encode()
+    steps = np.frombuffer(bare, dtype=np.uint8)
+    change = np.zeros(steps.size, dtype=np.int32)
+    change[(steps == ord("[")) | (steps == ord("{"))] = 1
+    change[(steps == ord("]")) | (steps == ord("}"))] = -1
+    return int(np.cumsum(change, dtype=np.int32).max(initial=0))
 
 
 def _parse_json(blob: bytes, where: str, member: str) -> Any:
+    # brackets counted on the raw bytes first (those inside strings too: an upper
+    # bound), so a file of millions of empty lists costs nothing
+    containers = blob.count(b"[") + blob.count(b"{")
+    if containers > MAX_JSON_CONTAINERS:
+        raise ModelError(
+            f"{where}: {member} holds {containers} lists and objects, over the "
+            f"{MAX_JSON_CONTAINERS} a model file may have (arrays belong in "
+            "arrays.npz); refused"
+        )
     try:
         text = blob.decode()
     except UnicodeDecodeError as exc:
@@ -723,8 +778,21 @@ def _read_members(path: Path, expect_sha256: str | None) -> tuple[dict, dict[str
             if len(set(names)) != len(names):
                 raise ModelError(f"{where} holds duplicate members: tampered with")
             _zip_entries(zf, where, "the archive", budget)
+            for name, limit in _JSON_LIMITS.items():
+                if name in names and zf.getinfo(name).file_size > limit:
+                    raise ModelError(
+                        f"{where}: {name} declares {zf.getinfo(name).file_size} bytes, "
+                        f"over the {limit} a model's JSON may have (arrays belong in "
+                        "arrays.npz); refused"
+                    )
             data = {n: zf.read(n) for n in names}
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError) as exc:
+    except (
+        zipfile.BadZipFile,
+        zipfile.LargeZipFile,
+        OSError,
+        EOFError,
+        RuntimeError,  # an encrypted member
+    ) as exc:
         raise ModelError(
             f"{where} is not a pdmkit model file (not a readable zip archive: {exc}); "
             "was it written by pdmkit.save_model, and copied whole?"
@@ -782,6 +850,13 @@ def _load_tensors(blob: bytes, where: str) -> dict[str, Any]:
 
     import torch
 
+    from pdmkit._config import max_bytes
+
+    try:
+        with zipfile.ZipFile(io.BytesIO(blob)) as inner:  # torch's own zip container
+            _zip_entries(inner, where, "tensors.pt", max_bytes("model"))
+    except zipfile.BadZipFile:
+        pass  # not a zip: torch's legacy format, read (bounded by its size) below
     try:
         tensors = torch.load(io.BytesIO(blob), weights_only=True, map_location="cpu")
     except (pickle.UnpicklingError, RuntimeError, EOFError, ValueError) as exc:
@@ -845,7 +920,7 @@ def load_model(path: str | os.PathLike, *, expect_sha256: str | None = None) -> 
         "torch": {"state.json", "tensors.pt"},
         "object": {"state.json", "arrays.npz"},
     }
-    if kind not in expected:
+    if not isinstance(kind, str) or kind not in expected:
         raise ModelError(f"{where}: unknown model kind {kind!r} in manifest.json")
     missing = expected[kind] - set(data)
     if missing:
@@ -866,8 +941,24 @@ def load_model(path: str | os.PathLike, *, expect_sha256: str | None = None) -> 
                 f"says {manifest.get('class')!r}; the file was tampered with"
             )
         return _Decoder(arrays, tensors, where).decode(state)
+    except ModelError:
+        raise
     except (RecursionError, MemoryError) as exc:
         raise ModelError(f"{where}: refused ({type(exc).__name__})") from None
+    except (
+        KeyError,
+        ValueError,
+        TypeError,
+        AttributeError,
+        IndexError,
+        OverflowError,
+        UnicodeError,
+    ) as exc:  # a node of the wrong shape: damaged or hand-made, never trusted
+        text = str(exc).splitlines()[0][:200] if str(exc) else ""
+        raise ModelError(
+            f"{where}: the file is damaged or was not written by pdmkit.save_model "
+            f"({type(exc).__name__}: {text})"
+        ) from None
 
 
 def _load_torch_module(manifest: dict, state: Any, tensors: dict, where: str) -> Any:
@@ -877,6 +968,15 @@ def _load_torch_module(manifest: dict, state: Any, tensors: dict, where: str) ->
     config = state.get("config") if isinstance(state, dict) else None
     if not isinstance(config, dict) or not all(isinstance(k, str) for k in config):
         raise ModelError(f"{where}: state.json lacks the module's config")
+    for key, value in config.items():
+        limit = 64 if key == "num_layers" else MAX_TORCH_CONFIG_INT
+        if not isinstance(value, bool | int | float | str | type(None)) or (
+            isinstance(value, int) and abs(value) > limit
+        ):
+            raise ModelError(
+                f"{where}: the module's config {key}={str(value)[:40]!r} is not a "
+                f"number up to {limit}, a flag or a short text; refused"
+            )
     try:
         with torch.device("meta"):  # shapes only: a huge declared layer costs nothing
             shapes = {k: tuple(v.shape) for k, v in cls(**config).state_dict().items()}
@@ -887,7 +987,7 @@ def _load_torch_module(manifest: dict, state: Any, tensors: dict, where: str) ->
             )
         module = cls(**config)
         module.load_state_dict(tensors)
-    except (TypeError, RuntimeError, ValueError) as exc:
+    except (TypeError, RuntimeError, ValueError, OverflowError) as exc:
         raise ModelError(
             f"{where}: cannot rebuild {manifest['class']} from its config and "
             f"weights ({str(exc).splitlines()[0]})"

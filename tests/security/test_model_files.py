@@ -219,6 +219,95 @@ def _deep_json(real: Path, out: Path, depth: int = 100_000) -> Path:
     return _write(out, members)
 
 
+def _build(path: Path, members: dict[str, bytes], kind: str, cls: str) -> Path:
+    """A model file from scratch (an attacker needs no real model to start from)."""
+    manifest = {"format": "pdmkit.model", "format_version": 1, "class": cls, "kind": kind}
+    manifest["sha256"] = {n: hashlib.sha256(b).hexdigest() for n, b in members.items()}
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr("manifest.json", json.dumps(manifest))
+        for name, blob in members.items():
+            zf.writestr(name, blob)
+    return path
+
+
+def _npz(**arrays) -> bytes:
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    return buffer.getvalue()
+
+
+_UNIT = "pdmkit.rul._base.Unit"
+
+
+def _unit_holding(node: dict) -> bytes:
+    state = {"t": "dict", "items": [["x", node]]}
+    return json.dumps({"t": "object", "class": _UNIT, "state": state}).encode()
+
+
+def _json_container_bomb(out: Path) -> Path:
+    """60 MB of empty JSON lists (20 million; 1.9 GB parsed) in a 60 KB file."""
+    text = b"[" + b",".join([b"[]"] * 20_000_000) + b"]"
+    body = _unit_holding({"t": "list", "items": []}).replace(
+        b'"items": []', b'"x": ' + text
+    )
+    return _build(out, {"state.json": body, "arrays.npz": _npz()}, "object", _UNIT)
+
+
+def _parquet_bomb(out: Path) -> Path:
+    """A table node whose Parquet bytes (4 KB, zstd) decode to 1 GiB of zeros."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    rows = 1 << 22
+    table = pa.table({"x": pa.array(np.zeros(rows, dtype=np.int64))})
+    buffer = io.BytesIO()
+    with pq.ParquetWriter(buffer, table.schema, compression="zstd") as writer:
+        for _ in range(32):
+            writer.write_table(table, row_group_size=rows)
+    raw = np.frombuffer(buffer.getvalue(), np.uint8)
+    body = _unit_holding({"t": "dataframe", "key": "a0"})
+    return _build(out, {"state.json": body, "arrays.npz": _npz(a0=raw)}, "object", _UNIT)
+
+
+def _torch_deflate_bomb(out: Path, n: int = 16000) -> Path:
+    """torch.save's own archive rewritten with deflated records: 1 GB in 3 KB."""
+    import torch
+
+    buffer = io.BytesIO()
+    torch.save({"weight": torch.zeros(n, n), "bias": torch.zeros(n)}, buffer)
+    with zipfile.ZipFile(io.BytesIO(buffer.getvalue())) as src:
+        inner = {i.filename: src.read(i.filename) for i in src.infolist()}
+    packed = io.BytesIO()
+    with zipfile.ZipFile(packed, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for name, blob in inner.items():
+            zf.writestr(name, blob)
+    config = json.dumps({"config": {"in_features": n, "out_features": n}}).encode()
+    members = {"state.json": config, "tensors.pt": packed.getvalue()}
+    return _build(out, members, "torch", "torch.nn.modules.linear.Linear")
+
+
+def _torch_costly_config(out: Path) -> Path:
+    """An LSTM of 300 000 layers: 1 KB on disk, minutes to build even on meta."""
+    import torch
+
+    buffer = io.BytesIO()
+    torch.save({}, buffer)
+    config = {"input_size": 4, "hidden_size": 4, "num_layers": 300_000}
+    members = {
+        "state.json": json.dumps({"config": config}).encode(),
+        "tensors.pt": buffer.getvalue(),
+    }
+    return _build(out, members, "torch", "torch.nn.modules.rnn.LSTM")
+
+
+def _malformed(out: Path) -> Path:
+    """An object node without its state (was a raw KeyError and a traceback)."""
+    body = _unit_holding(
+        {"t": "object", "class": "sklearn.preprocessing._data.StandardScaler"}
+    )
+    return _build(out, {"state.json": body, "arrays.npz": _npz()}, "object", _UNIT)
+
+
 @pytest.fixture(scope="module")
 def hostile(tmp_path_factory):
     """Every hostile file, each with the marker its attack would write."""
@@ -287,6 +376,12 @@ def hostile(tmp_path_factory):
     add("zip_slip_member_name", lambda m: _zip_slip(real, folder / "h.pdmkit"))
     add("deflate_bomb_3gb", lambda m: _deflate_bomb(folder / "i.pdmkit"))
     add("json_100000_deep", lambda m: _deep_json(real, folder / "j.pdmkit"))
+    # found by the independent red team (issue 12 review, second round)
+    add("json_20_million_lists", lambda m: _json_container_bomb(folder / "k.pdmkit"))
+    add("parquet_bomb_in_arrays", lambda m: _parquet_bomb(folder / "l.pdmkit"))
+    add("torch_deflated_records", lambda m: _torch_deflate_bomb(folder / "n.pdmkit"))
+    add("torch_300000_layer_lstm", lambda m: _torch_costly_config(folder / "o.pdmkit"))
+    add("object_node_without_state", lambda m: _malformed(folder / "p.pdmkit"))
     return real, cases
 
 
@@ -331,6 +426,11 @@ CASES = [
     "zip_slip_member_name",
     "deflate_bomb_3gb",
     "json_100000_deep",
+    "json_20_million_lists",
+    "parquet_bomb_in_arrays",
+    "torch_deflated_records",
+    "torch_300000_layer_lstm",
+    "object_node_without_state",
 ]
 
 
@@ -443,7 +543,7 @@ def test_torch_config_declaring_huge_layers_costs_nothing(tmp_path):
     )
     members = _members(path)
     members["state.json"] = json.dumps(
-        {"config": {"in_features": 200_000, "out_features": 200_000}}
+        {"config": {"in_features": 60_000, "out_features": 60_000}}
     ).encode()
     hostile = _write(tmp_path / "huge.pdmkit", members)
     with pytest.raises(ModelError, match="do not have the shapes"):
