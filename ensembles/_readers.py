@@ -992,8 +992,26 @@ def _time_rate(path: Path, column: pd.Series, where: Callable[[int], str]) -> fl
     return (len(t) - 1) / float(t[-1] - t[0])
 
 
+#: Most signals one member file may hold (``$PDMKIT_MAX_SIGNALS``): every signal costs
+#: a full set of indicators, so a 35 KB CSV of 2000 three-sample columns cost a minute
+#: and a gigabyte before this bound.
+MAX_SIGNALS = 1024
+
+
 def _member_arrays(path: Path) -> tuple[dict[str, np.ndarray], float | None, dict]:
     """(signals, sampling rate or None, condition values) of one member file."""
+    signals, fs, conditions = _member_contents(path)
+    limit = int(os.environ.get("PDMKIT_MAX_SIGNALS", MAX_SIGNALS))
+    if len(signals) > limit:
+        raise DataError(
+            f"{path}: {len(signals)} signal columns, more than the {limit} a member may "
+            "hold; is it a table of members or features rather than one recording? "
+            "(raise $PDMKIT_MAX_SIGNALS if it really is one)"
+        )
+    return signals, fs, conditions
+
+
+def _member_contents(path: Path) -> tuple[dict[str, np.ndarray], float | None, dict]:
     suffix = path.suffix.lower()
     if suffix in (".mat", ".npz"):
         data = read_mat(path) if suffix == ".mat" else read_npz(path)

@@ -393,6 +393,18 @@ def _add_scale_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _fraction(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a number in (0, 1), got {text!r}"
+        ) from None
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number in (0, 1), got {value:g}")
+    return value
+
+
 def _positive_int(text: str) -> int:
     try:
         value = int(text)
@@ -675,9 +687,16 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("classify", help="train and evaluate a fault classifier")
     _add_input_options(p)
     p.add_argument("--model", default="knn", choices=models)
-    p.add_argument("--top-k", type=int, default=5, help="indicators kept by the selector")
+    p.add_argument(
+        "--top-k", type=_positive_int, default=5, help="indicators kept by the selector"
+    )
     p.add_argument("--selection", default="kruskal", choices=["kruskal", "anova", "pca"])
-    p.add_argument("--test-size", type=float, default=0.25)
+    p.add_argument(
+        "--test-size",
+        type=_fraction,
+        default=0.25,
+        help="share of the members held out for the test (0 to 1, default 0.25)",
+    )
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=_cmd_classify)
 
@@ -691,7 +710,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--costs", type=Path, help="TOML file of sensor costs")
     p.add_argument("--model", default="knn", choices=models)
-    p.add_argument("--top-k", type=int, default=5)
+    p.add_argument(
+        "--top-k", type=_positive_int, default=5, help="indicators kept per sensor"
+    )
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=_cmd_sensors)
 

@@ -727,6 +727,10 @@ def predict_rul(
     return answer
 
 
+#: Largest magnitude a history value may have (squares and sums stay finite).
+_LARGEST_VALUE = 1e150
+
+
 def _predict_rul(model_file, history, expect_sha256=None) -> dict[str, Any]:
     from pdmkit._persist import load_model
     from pdmkit.ensembles._readers import read_table
@@ -740,6 +744,16 @@ def _predict_rul(model_file, history, expect_sha256=None) -> dict[str, Any]:
         )
     table = history if isinstance(history, pd.DataFrame) else read_table(history)
     where = "history" if isinstance(history, pd.DataFrame) else str(history)
+    numbers = table.select_dtypes("number")
+    huge = numbers.columns[(numbers.abs() > _LARGEST_VALUE).any()]
+    if len(huge):  # their arithmetic overflows to inf / NaN: a silent wrong answer
+        column = huge[0]
+        row = int(np.flatnonzero(numbers[column].abs().to_numpy() > _LARGEST_VALUE)[0])
+        raise DataError(
+            f"{where}: column {column!r} holds {numbers[column].iloc[row]:g} (row "
+            f"{row}); values beyond ±{_LARGEST_VALUE:g} overflow the model's "
+            "arithmetic. Check the units or the file"
+        )
     unit = getattr(getattr(pipeline, "model", pipeline), "unit", "unit")
     if unit not in table.columns:  # one unit's history: named after its file
         name = "unit" if isinstance(history, pd.DataFrame) else Path(history).stem
@@ -748,6 +762,13 @@ def _predict_rul(model_file, history, expect_sha256=None) -> dict[str, Any]:
         prediction = pipeline.predict(table)
     except DataError as exc:  # name the file: the model's message names the column
         raise DataError(f"{where}: {exc}") from None
+    except (AttributeError, TypeError, ValueError, IndexError, MemoryError) as exc:
+        # a loaded model whose parts do not fit together (hand-made or damaged)
+        text = str(exc).splitlines()[0][:200] if str(exc) else ""
+        raise ModelError(
+            f"{model_file}: the model cannot predict ({type(exc).__name__}: {text}); "
+            "train it again with `pdmkit rul ... --out DIR`"
+        ) from None
     rows = prediction.to_pandas()[["unit", "time", "rul", "lower", "upper"]]
     answer = {
         "model_file": str(model_file),

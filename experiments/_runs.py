@@ -23,10 +23,10 @@ starts over. The manifest's ``state`` tells which: ``running``, ``failed``,
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
-import shutil
 import sys
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -208,6 +208,13 @@ class RunDirectory:
     ) -> None:
         self.path = Path(path)
         self.parts = self.path / "parts"
+        for where in (self.path, self.parts):
+            if where.is_symlink():  # pdmkit writes (and deletes) only inside --out
+                raise DataError(
+                    f"{where} is a symbolic link; pdmkit keeps its run store inside "
+                    "the output folder and will not follow it. Remove the link or "
+                    "choose another --out"
+                )
         self.replace_stale = replace_stale
         self.state = "running"
         self.manifest = {
@@ -262,8 +269,25 @@ class RunDirectory:
                     "directory; choose another folder"
                 )
             return
-        shutil.rmtree(self.parts, ignore_errors=True)
+        self._discard_parts()
         manifest.unlink(missing_ok=True)
+
+    def _discard_parts(self) -> None:
+        """Delete the partitions pdmkit committed (their ``*.parquet`` and
+        ``meta.json``), nothing else: a file someone put there stays, as does any
+        link (never followed)."""
+        if not self.parts.is_dir() or self.parts.is_symlink():
+            return
+        for part in self.parts.iterdir():
+            if part.is_symlink() or not part.is_dir():
+                continue
+            for file in part.iterdir():
+                if file.is_file() and not file.is_symlink() and (
+                    file.name == "meta.json" or file.suffix == ".parquet"
+                ):
+                    file.unlink()
+            with contextlib.suppress(OSError):
+                part.rmdir()  # only when nothing foreign is left in it
 
     def _check(self, file: Path) -> None:
         try:
@@ -309,7 +333,7 @@ class RunDirectory:
                     UserWarning,
                     stacklevel=3,
                 )
-            shutil.rmtree(self.parts, ignore_errors=True)
+            self._discard_parts()
             self.set_state("running")
         elif state in ("complete", "saved"):
             self.state = state

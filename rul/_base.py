@@ -72,6 +72,18 @@ def resolve_keys(table: pd.DataFrame, unit: str, time: str | None) -> tuple[str,
             f"time column {time!r} is not in the table (columns: "
             f"{list(table.columns)[:12]})"
         )
+    column = table[time]
+    if not (
+        pd.api.types.is_numeric_dtype(column)
+        or pd.api.types.is_datetime64_any_dtype(column)
+    ) or pd.api.types.is_bool_dtype(column):
+        numbers = pd.to_numeric(column, errors="coerce")
+        bad = column[numbers.isna() & column.notna()]
+        if len(bad):
+            raise DataError(
+                f"time column {time!r} must hold numbers (cycles or seconds); row "
+                f"{bad.index[0]} holds {bad.iloc[0]!r}"
+            )
     return unit, time
 
 

@@ -117,3 +117,53 @@ def test_identify_refuses_records_it_cannot_identify(
     assert code == 2
     assert words in _error_line(capsys)
     assert not (out / "summary.json").exists()
+
+
+@pytest.mark.parametrize(
+    ("flag", "value"), [("--top-k", "0"), ("--test-size", "1.5"), ("--test-size", "x")]
+)
+def test_classifier_settings_out_of_range_are_usage_errors(
+    members, tmp_path, capsys, flag, value
+):
+    """Red-team finding: these ended in a ValueError traceback (exit 1)."""
+    with pytest.raises(SystemExit) as exc:
+        main(["classify", "--members", *members, "--label", "fault", flag, value])
+    assert exc.value.code == 2
+    assert f"argument {flag}" in capsys.readouterr().err
+
+
+def test_a_text_time_column_in_rul_tables_is_one_line(tmp_path, capsys):
+    rows = [
+        pd.DataFrame({"unit": u, "cycle": [f"c{i}" for i in range(30)], "hi": 0.02})
+        for u in range(6)
+    ]
+    pd.concat(rows).to_csv(tmp_path / "train.csv", index=False)
+    code = main(
+        ["rul", "--train", str(tmp_path / "train.csv"), "--out", str(tmp_path / "o")]
+    )
+    assert code == 2
+    assert "time column 'cycle' must hold numbers" in _error_line(capsys)
+
+
+def test_a_history_beyond_float_range_is_refused_not_answered(tmp_path, capsys):
+    """Red-team finding: values of ±1e308 gave 'RUL 125.0 (125.0 to 125.0)', exit 0."""
+    from pdmkit import save_model
+    from pdmkit.rul import LinearDegradationModel
+
+    t = np.arange(40.0)
+    train = pd.DataFrame(
+        {
+            "unit": np.repeat([1, 2, 3], 40),
+            "time": np.tile(t, 3),
+            "hi": np.tile(0.02 * t, 3),
+        }
+    )
+    path = save_model(
+        LinearDegradationModel(threshold=1.0).fit(train), tmp_path / "m.pdmkit"
+    )
+    pd.DataFrame({"time": [0.0, 1.0], "hi": [0.0, 1e308]}).to_csv(
+        tmp_path / "h.csv", index=False
+    )
+    code = main(["rul", "--trained", str(path), "--history", str(tmp_path / "h.csv")])
+    assert code == 2
+    assert "column 'hi' holds 1e+308" in _error_line(capsys)

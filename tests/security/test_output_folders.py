@@ -334,3 +334,29 @@ def test_warnings_of_the_run_land_in_its_summary(tmp_path, monkeypatch):
     assert summary["warnings"] == ["RuntimeWarning: a warning of this run"]
     manifest = json.loads((out / ".pdmkit" / "run.json").read_text())
     assert manifest["warnings"] == summary["warnings"]
+
+
+def test_features_run_store_keeps_what_it_did_not_write(tmp_path, capsys):
+    """Red-team finding: a changed rerun emptied OUT/run/parts wholesale (a user's
+    folder there included), and followed OUT/run when it was a link elsewhere."""
+    members = _members(tmp_path / "in")
+    out = tmp_path / "out"
+    base = ["features", "--members", str(members), "--out", str(out)]
+    assert main([*base, "--groups", "stats"]) == 0
+    mine = out / "run" / "parts" / "mine"
+    mine.mkdir()
+    (mine / "x.txt").write_text("notes")
+    assert main([*base, "--groups", "spectral"]) == 0  # other settings: parts replaced
+    assert (mine / "x.txt").read_text() == "notes"
+    # a link in place of the run store is refused; what it points to stays intact
+    elsewhere = tmp_path / "elsewhere"
+    (elsewhere / "parts" / "keep").mkdir(parents=True)
+    (elsewhere / "parts" / "keep" / "x.txt").write_text("keep")
+    linked = tmp_path / "out2"
+    linked.mkdir()
+    (linked / "run").symlink_to(elsewhere, target_is_directory=True)
+    capsys.readouterr()
+    code = main(["features", "--members", str(members), "--out", str(linked), "--fresh"])
+    assert code == 2
+    assert "symbolic link" in capsys.readouterr().err.strip().splitlines()[-1]
+    assert (elsewhere / "parts" / "keep" / "x.txt").read_text() == "keep"

@@ -620,3 +620,18 @@ def test_an_fsspec_url_without_its_backend_is_one_line(url, expected, tmp_path, 
     status = main(["features", "--ensemble", url, "--out", str(tmp_path / "out")])
     assert status == 2
     assert expected in _error_line(capsys)
+
+
+def test_a_member_with_thousands_of_columns_is_skipped_not_computed(tmp_path):
+    """Red-team finding: a 35 KB CSV of 2000 three-sample columns cost 1 GB and a
+    minute of indicators (10 000 columns: 3.9 GB, killed after 5 minutes)."""
+    wide = tmp_path / "wide.csv"
+    header = ",".join(["time"] + [f"c{i}" for i in range(2000)])
+    rows = [",".join([f"{r * 0.001}"] + ["0.5"] * 2000) for r in range(3)]
+    wide.write_text("\n".join([header, *rows]) + "\n")
+    good = tmp_path / "good.csv"
+    t = np.arange(256) / 1000.0
+    pd.DataFrame({"time": t, "x": np.sin(40 * t)}).to_csv(good, index=False)
+    ens, errors = read_members([good, wide], on_error="skip", return_errors=True)
+    assert ens.member_ids.tolist() == ["good"]
+    assert "2000 signal columns, more than the 1024" in errors["error"].iloc[0]
