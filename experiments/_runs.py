@@ -282,8 +282,10 @@ class RunDirectory:
             if part.is_symlink() or not part.is_dir():
                 continue
             for file in part.iterdir():
-                if file.is_file() and not file.is_symlink() and (
-                    file.name == "meta.json" or file.suffix == ".parquet"
+                if (
+                    file.is_file()
+                    and not file.is_symlink()
+                    and (file.name == "meta.json" or file.suffix == ".parquet")
                 ):
                     file.unlink()
             with contextlib.suppress(OSError):

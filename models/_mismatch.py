@@ -52,6 +52,7 @@ from pdmkit.models._mismatch_fit import (
     _nominal_scales,
     _Problem,
     make_recording,
+    simulate_states,
 )
 from pdmkit.models._mismatch_locate import (
     region_statistics,
@@ -59,7 +60,6 @@ from pdmkit.models._mismatch_locate import (
     residual_windows,
     whiteness_test,
 )
-from pdmkit.models._odesim import _NP, _run
 
 __all__ = ["MismatchResult", "discover_mismatch", "dm_test"]
 
@@ -981,24 +981,8 @@ def discover_mismatch(
     }
 
     # ------------------------------------------------------------ 6. localisation
-    P = {k: nominal.values()[f"p:{k}"] for k in model.params}
-    X0 = np.array([[nominal.values()[f"x0:{s}"] for s in model.states]])
-    with np.errstate(all="ignore"):
-        _, Xt = _run(
-            model,
-            [],
-            [],
-            [],
-            rec.time,
-            rec.inputs,
-            P,
-            X0,
-            problem.n_sub,
-            _NP,
-            True,
-            hold=rec.hold,
-        )
-    xs = {s: Xt[0, :, j] for j, s in enumerate(model.states)}
+    Xt = simulate_states(model, rec, nominal.values(), problem.n_sub)
+    xs = {s: Xt[:, j] for j, s in enumerate(model.states)}
     res_nom = (y_all - base.y_train) * w  # weighted residual, whole training recording
     located = residual_windows(rec.time, res_nom)
     regions = region_statistics(model, xs, rec.inputs, res_nom)

@@ -431,18 +431,25 @@ def _lm(problem: _Problem, jobs: Sequence[_Job], max_iter: int, ftol: float = 1e
 
 
 # ---------------------------------------------------------------------------- scales
+def simulate_states(model, rec: Recording, values: Mapping[str, float], n_sub: int):
+    """States ``(N, n_states)`` of ``model`` with ``values`` (``p:`` parameters,
+    ``x0:`` initial states; missing parameters nominal) along ``rec``'s inputs."""
+    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    X0 = np.array([[values[f"x0:{s}"] for s in model.states]])
+    with np.errstate(all="ignore"):
+        _, Xt = _run(
+            model, [], [], [], rec.time, rec.inputs, P, X0, n_sub, _NP, True, hold=rec.hold
+        )
+    return Xt[0]
+
+
 def _nominal_scales(
     model, rec: Recording, values: Mapping[str, float], n_sub: int
 ) -> Scales:
     """Magnitudes of the trajectory simulated with ``values`` (for candidate guesses)."""
     t = rec.time
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
-    X0 = np.array([[values[f"x0:{s}"] for s in model.states]])
-    with np.errstate(all="ignore"):
-        _, Xt = _run(
-            model, [], [], [], t, rec.inputs, P, X0, n_sub, _NP, True, hold=rec.hold
-        )
-    X = Xt[0]
+    X = simulate_states(model, rec, values, n_sub)
     if not np.all(np.isfinite(X)):
         raise ModelError(
             f"{model.name}: the simulation with the fitted nominal parameters is not "
@@ -574,23 +581,8 @@ def _initial_values(model, rec: Recording) -> dict[str, float]:
 
 def _choose_n_sub(model, rec: Recording, values: Mapping[str, float]) -> int:
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
-    X0 = np.array([[values[f"x0:{s}"] for s in model.states]])
     for n_sub in (1, 4, 16):
-        with np.errstate(all="ignore"):
-            _, Xt = _run(
-                model,
-                [],
-                [],
-                [],
-                rec.time,
-                rec.inputs,
-                P,
-                X0,
-                n_sub,
-                _NP,
-                True,
-                hold=rec.hold,
-            )
+        Xt = simulate_states(model, rec, values, n_sub)[None]
         if np.all(np.isfinite(Xt)):
             break
     else:

@@ -611,29 +611,13 @@ def fit_sparse(
     >>> "x**2*v" in res.verdict["params"]["equation"]
     True
     """
-    from pdmkit.models._mismatch_fit import _lm, _make_jobs
-    from pdmkit.models._odesim import _NP, _run
+    from pdmkit.models._mismatch_fit import _lm, _make_jobs, simulate_states
 
     rec = problem.rec
     base = {k: v for k, v in values.items() if not k.startswith("sparse@")}
     P = {k: base.get(f"p:{k}", v) for k, v in model.params.items()}
-    X0 = np.array([[base[f"x0:{s}"] for s in model.states]])
-    with np.errstate(all="ignore"):
-        _, Xt = _run(
-            model,
-            [],
-            [],
-            [],
-            rec.time,
-            rec.inputs,
-            P,
-            X0,
-            problem.n_sub,
-            _NP,
-            True,
-            hold=rec.hold,
-        )
-    X = {s: Xt[0, :, j] for j, s in enumerate(model.states)}
+    Xt = simulate_states(model, rec, base, problem.n_sub)
+    X = {s: Xt[:, j] for j, s in enumerate(model.states)}
     U = dict(rec.inputs)
     if targets is None:
         targets = [s for s, k in model.states.items() if k in _TARGET_KINDS]
