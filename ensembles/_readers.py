@@ -1058,6 +1058,42 @@ def _member_contents(path: Path) -> tuple[dict[str, np.ndarray], float | None, d
     return signals, fs, conditions
 
 
+def _without_clashes(kept: list, fail) -> list:
+    """Skip the members where a name is a signal while most members hold it as a
+    label (or the reverse): one odd file must not stop the others being read."""
+    from collections import Counter
+
+    as_signal = Counter(s for _, _, a, _ in kept for s in a)
+    as_label = Counter(c for _, _, _, cd in kept for c in cd)
+    clash = {n for n in as_label if n in as_signal}
+    if not clash:
+        return kept
+    out = []
+    for member, path, arrays, conds in kept:
+        odd = next(
+            (
+                n
+                for n in sorted(clash)
+                if (n in conds and as_signal[n] >= as_label[n])
+                or (n in arrays and as_label[n] > as_signal[n])
+            ),
+            None,
+        )
+        if odd is None:
+            out.append((member, path, arrays, conds))
+            continue
+        here, there = ("a label", "a signal") if odd in conds else ("a signal", "a label")
+        others = as_signal[odd] if odd in conds else as_label[odd]
+        fail(
+            member,
+            odd,
+            path,
+            f"{path.name}: {odd!r} is {here} here but {there} in {others} other "
+            "member file(s)",
+        )
+    return out
+
+
 def read_members(
     files: Any,
     *,
@@ -1230,7 +1266,9 @@ def read_members(
                 f"({whose})",
             )
             continue
-        kept.append((member, arrays, conds))
+        kept.append((member, path, arrays, conds))
+    kept = _without_clashes(kept, fail)
+    kept = [(m, a, c) for m, _, a, c in kept]
     if not kept:
         first = f"; e.g. {errors[0]['error']}" if errors else ""
         raise DataError(f"no member could be read from {len(paths)} file(s){first}")

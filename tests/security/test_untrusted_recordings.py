@@ -635,3 +635,20 @@ def test_a_member_with_thousands_of_columns_is_skipped_not_computed(tmp_path):
     ens, errors = read_members([good, wide], on_error="skip", return_errors=True)
     assert ens.member_ids.tolist() == ["good"]
     assert "2000 signal columns, more than the 1024" in errors["error"].iloc[0]
+
+
+def test_a_member_holding_a_label_where_others_hold_a_signal_is_skipped(tmp_path):
+    """Red-team finding: one such member stopped the whole read (exit 2, no table)."""
+    t = np.arange(256) / 1000.0
+    for i in range(3):
+        pd.DataFrame({"time": t, "vib": np.sin(40 * t + i), "fault": "ok"}).to_csv(
+            tmp_path / f"g{i}.csv", index=False
+        )
+    pd.DataFrame({"time": t, "vib": np.sin(40 * t), "fault": 1}).to_csv(
+        tmp_path / "numlabel.csv", index=False
+    )
+    files = sorted(tmp_path.glob("*.csv"))
+    ens, errors = read_members(files, on_error="skip", return_errors=True)
+    assert sorted(ens.member_ids) == ["g0", "g1", "g2"]
+    (error,) = errors["error"]
+    assert "'fault' is a signal here but a label in 3 other member file(s)" in error
