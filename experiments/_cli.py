@@ -14,6 +14,7 @@ import argparse
 import json
 import sys
 import time
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -206,12 +207,31 @@ def _feature_table(args: argparse.Namespace):
 
         table = read_table(args.features)
         return table, args.label, None, _indicator_columns(table, args.signals)
-    ensemble, groups, options, label, sensors, profile, _ = _extraction_input(args)
+    ensemble, groups, options, label, sensors, profile, skipped = _extraction_input(
+        args, on_error="skip"
+    )
+    from pdmkit.errors import DataWarning
     from pdmkit.features import extract_ensemble
 
+    if skipped is not None and len(skipped):  # one bad file must not cost the others
+        warnings.warn(
+            f"{skipped['member'].nunique()} member file(s) skipped for bad input, e.g. "
+            f"{skipped['error'].iloc[0]}",
+            DataWarning,
+            stacklevel=2,
+        )
     size = f"{len(ensemble)} members" if not isinstance(ensemble, str) else ensemble
     _say(f"extracting {', '.join(groups)} indicators from {size}")
     table = extract_ensemble(ensemble, groups=groups, **options)
+    if label is not None and label in table.columns and table[label].isna().any():
+        unlabelled = table.index[table[label].isna()]
+        warnings.warn(
+            f"{len(unlabelled)} member(s) have no {label!r} and are left out, e.g. "
+            f"{list(map(str, unlabelled[:3]))}",
+            DataWarning,
+            stacklevel=2,
+        )
+        table = table[table[label].notna()]
     signals = args.signals
     if signals is None and profile is not None:
         signals = profile.classify_signals

@@ -7,6 +7,8 @@ traceback or exited 0.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -167,3 +169,33 @@ def test_a_history_beyond_float_range_is_refused_not_answered(tmp_path, capsys):
     code = main(["rul", "--trained", str(path), "--history", str(tmp_path / "h.csv")])
     assert code == 2
     assert "column 'hi' holds 1e+308" in _error_line(capsys)
+
+
+def test_classify_members_leaves_out_bad_and_unlabelled_files_and_says_so(
+    members, tmp_path, capsys
+):
+    """Red-team finding: one member without the label (or unreadable) stopped
+    `classify --members` for all the others."""
+    t = np.arange(2048) / FS
+    pd.DataFrame({"time": t, "vib": np.sin(2 * np.pi * 60 * t)}).to_csv(
+        tmp_path / "nolabel.csv", index=False
+    )
+    (tmp_path / "broken.csv").write_text("time,vib\n0,1\n0,2\n")  # time repeats
+    out = tmp_path / "out"
+    files = [*members, str(tmp_path / "nolabel.csv"), str(tmp_path / "broken.csv")]
+    code = main(
+        [
+            "classify",
+            "--members",
+            *files,
+            "--label",
+            "fault",
+            "--out",
+            str(out),
+            "--test-size",
+            "0.5",
+        ]
+    )
+    assert code == 0
+    said = " ".join(json.loads((out / "classify.json").read_text())["warnings"])
+    assert "broken.csv" in said and "'nolabel'" in said
