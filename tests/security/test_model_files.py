@@ -31,7 +31,9 @@ import pytest
 from pdmkit._persist import load_model, object_registry, save_model
 from pdmkit.errors import ModelError
 
-PEAK_MB = 500
+#: What loading a hostile file may add to the loader's own imports (torch, scikit-learn
+#: and skops take 400-520 MB depending on the environment; the attacks took 1-6 GB).
+ADDED_MB = 100
 SECONDS = 5.0
 
 
@@ -473,7 +475,7 @@ def test_hostile_model_file_is_refused_runs_nothing_and_stays_bounded(
     assert not marker.exists(), f"{case}: the attack ran"
     assert not (cwd / "evil.py").exists()
     assert report["seconds"] < SECONDS, report
-    assert report["peak_mb"] < PEAK_MB, report
+    assert report["peak_mb"] - report["base_mb"] < ADDED_MB, report
 
 
 def test_refusals_say_why(hostile):
