@@ -1019,8 +1019,19 @@ def _member_contents(path: Path) -> tuple[dict[str, np.ndarray], float | None, d
         limit = max_bytes("member")
         for key, value in data.items():
             arr = np.asarray(value)
-            if key in _FS_NAMES and arr.size == 1 and arr.dtype.kind in "iuf":
-                fs = float(arr.reshape(-1)[0])
+            if key in _FS_NAMES:
+                rate = (
+                    float(arr.reshape(-1)[0])
+                    if arr.size == 1 and arr.dtype.kind in "iuf"
+                    else None
+                )
+                if rate is None or not math.isfinite(rate) or rate <= 0:
+                    raise DataError(
+                        f"{path}: variable {key!r} should be the sampling rate (one "
+                        f"positive number, Hz); it holds {arr.dtype} of shape {arr.shape}"
+                        + (f" = {rate:g}" if rate is not None else "")
+                    )
+                fs = rate
             elif arr.dtype.kind in "iuf" and arr.ndim >= 1 and arr.size > 1:
                 if arr.ndim > 1 and sorted(arr.shape)[-2] != 1:
                     raise DataError(

@@ -652,3 +652,16 @@ def test_a_member_holding_a_label_where_others_hold_a_signal_is_skipped(tmp_path
     assert sorted(ens.member_ids) == ["g0", "g1", "g2"]
     (error,) = errors["error"]
     assert "'fault' is a signal here but a label in 3 other member file(s)" in error
+
+
+@pytest.mark.parametrize("fs", [np.nan, np.array([1000.0, 2000.0]), "1000", -5.0])
+def test_a_sampling_rate_that_is_not_one_positive_number_is_named(tmp_path, fs):
+    """Red-team finding: fs NaN or text was ignored (the majority rate used) and
+    fs=[1000, 2000] became a two-sample signal; each is now the member's error."""
+    rng = np.random.default_rng(0)
+    np.savez(tmp_path / "good.npz", vib=rng.normal(size=500), fs=1000.0)
+    np.savez(tmp_path / "odd.npz", vib=rng.normal(size=500), fs=fs)
+    files = [tmp_path / "good.npz", tmp_path / "odd.npz"]
+    ens, errors = read_members(files, on_error="skip", return_errors=True)
+    assert ens.member_ids.tolist() == ["good"]
+    assert "variable 'fs' should be the sampling rate" in errors["error"].iloc[0]
