@@ -9,13 +9,22 @@ Examples
 
 from __future__ import annotations
 
+import hashlib
 import math
+import os
 
 import numpy as np
 
 from pdmkit.errors import DataError
 
-__all__ = ["check_fs", "npy_declared", "uniform_step"]
+__all__ = [
+    "LARGEST_VALUE",
+    "check_fs",
+    "check_magnitude",
+    "file_sha256",
+    "npy_declared",
+    "uniform_step",
+]
 
 
 def check_fs(fs: object, name: str = "fs") -> float:
@@ -129,3 +138,56 @@ def npy_declared(handle) -> tuple[tuple[int, ...], np.dtype, int]:
     else:
         raise ValueError(f"unknown .npy format version {version}")
     return tuple(shape), dtype, handle.tell()
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """The SHA-256 of a file's bytes, read in blocks (the integrity check users keep).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "x.bin"
+    >>> _ = path.write_bytes(b"abc")
+    >>> file_sha256(path)[:16]
+    'ba7816bf8f01cfea'
+    """
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+#: Largest magnitude a recorded value may have: squares summed over a record must stay
+#: finite in float64 (max 1.8e308).
+LARGEST_VALUE = 1e150
+
+
+def check_magnitude(values: object, what: str) -> None:
+    """Refuse values beyond ±:data:`LARGEST_VALUE` (their arithmetic overflows).
+
+    Parameters
+    ----------
+    values : array_like
+        One column (any shape; NaN ignored).
+    what : str
+        The file and column, for the message (e.g. ``"run.csv: column 'y'"``).
+
+    Examples
+    --------
+    >>> check_magnitude([1.0, 2.0], "run.csv: column 'y'")
+    >>> check_magnitude([1.0, 1e300], "run.csv: column 'y'")
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.DataError: run.csv: column 'y' holds 1e+300 (row 1); values beyond ±1e+150 overflow 64-bit arithmetic (their squares). Rescale it (e.g. to SI units) or check the file.
+    """  # noqa: E501
+    x = np.asarray(values, dtype=float).ravel()
+    with np.errstate(invalid="ignore"):
+        huge = np.flatnonzero(np.abs(x) > LARGEST_VALUE)
+    if huge.size:
+        row = int(huge[0])
+        raise DataError(
+            f"{what} holds {x[row]:g} (row {row}); values beyond ±{LARGEST_VALUE:g} "
+            "overflow 64-bit arithmetic (their squares). Rescale it (e.g. to SI units) "
+            "or check the file."
+        )

@@ -33,7 +33,6 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import glob
-import hashlib
 import json
 import math
 import os
@@ -47,6 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from pdmkit._atomic import atomic_path, remove_stale_temporaries
+from pdmkit._checks import file_sha256
 from pdmkit.errors import DataError
 
 __all__ = [
@@ -429,14 +429,6 @@ def _acquire(out: Path, info: dict, wait: float | None) -> int:
 
 
 # --------------------------------------------------------------------------- commit
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def _fsync(path: Path) -> None:
     flags = os.O_RDONLY | (getattr(os, "O_DIRECTORY", 0) if path.is_dir() else 0)
     try:
@@ -786,7 +778,7 @@ class OutputRun(_Sink):
             if not path.is_file():
                 raise RuntimeError(f"the writer of {name} wrote no file")
             manifest["files"][name] = {
-                "sha256": _sha256(path),
+                "sha256": file_sha256(path),
                 "bytes": path.stat().st_size,
             }
             _fsync(path)

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from pdmkit._atomic import atomic_path
-from pdmkit._checks import npy_declared
+from pdmkit._checks import file_sha256, npy_declared
 from pdmkit.errors import ModelError
 
 __all__ = ["file_sha256", "load_model", "object_registry", "save_model"]
@@ -730,24 +730,6 @@ def _parse_json(blob: bytes, where: str, member: str) -> Any:
         return json.loads(text)
     except (ValueError, RecursionError) as exc:
         raise ModelError(f"{where}: {member} is not valid JSON ({exc})") from None
-
-
-def file_sha256(path: str | os.PathLike) -> str:
-    """The SHA-256 of a file's bytes, read in blocks (the integrity check users keep).
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "x.bin"
-    >>> _ = path.write_bytes(b"abc")
-    >>> file_sha256(path)[:16]
-    'ba7816bf8f01cfea'
-    """
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def _read_members(path: Path, expect_sha256: str | None) -> tuple[dict, dict[str, bytes]]:

@@ -776,39 +776,34 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
 _ZIP_ERRORS = (*_DECOMPRESS_ERRORS, NotImplementedError, RuntimeError)  # method, password
 
 
+@contextlib.contextmanager
+def _npz_entry(path: Path, key: str, failure: str) -> Iterator[None]:
+    """Turn the errors of reading one ``.npz`` entry into a one-line DataError."""
+    try:
+        yield
+    except zlib.error as exc:
+        raise DataError(
+            f"{path}: array {key!r} is damaged: its compressed data does not decompress "
+            f"(zlib.error: {_one_line(exc)}); re-save or re-copy the archive"
+        ) from None
+    except _ZIP_ERRORS as exc:
+        raise DataError(
+            f"{path}: array {key!r} {failure} ({_why(exc)}); the archive is damaged or "
+            "was not written by numpy.savez: re-save or re-copy it"
+        ) from None
+
+
 def _npy_header(
     archive: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path, key: str
 ) -> tuple[tuple[int, ...], np.dtype, int]:
     """``(shape, dtype, header length)`` an ``.npy`` entry declares; its data unread."""
-    try:
-        with archive.open(info) as f:
-            return npy_declared(f)
-    except zlib.error as exc:
-        raise DataError(
-            f"{path}: array {key!r} is damaged: its compressed data does not decompress "
-            f"(zlib.error: {_one_line(exc)}); re-save or re-copy the archive"
-        ) from None
-    except _ZIP_ERRORS as exc:
-        raise DataError(
-            f"{path}: array {key!r} has no valid .npy header ({type(exc).__name__}: "
-            f"{_one_line(exc)}); the archive is damaged or was not written by numpy.savez"
-        ) from None
+    with _npz_entry(path, key, "has no valid .npy header"), archive.open(info) as f:
+        return npy_declared(f)
 
 
 def _npz_array(archive: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path, key: str):
-    try:
-        with archive.open(info) as f:
-            return np.lib.format.read_array(f, allow_pickle=False)
-    except zlib.error as exc:
-        raise DataError(
-            f"{path}: array {key!r} is damaged: its compressed data does not decompress "
-            f"(zlib.error: {_one_line(exc)}); re-save or re-copy the archive"
-        ) from None
-    except _ZIP_ERRORS as exc:
-        raise DataError(
-            f"{path}: array {key!r} cannot be read ({_why(exc)}); the "
-            "archive is damaged; re-save or re-copy it"
-        ) from None
+    with _npz_entry(path, key, "cannot be read"), archive.open(info) as f:
+        return np.lib.format.read_array(f, allow_pickle=False)
 
 
 def read_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:

@@ -21,8 +21,8 @@ from sklearn.metrics import confusion_matrix
 from sklearn.model_selection import StratifiedKFold, cross_val_score, train_test_split
 from sklearn.pipeline import Pipeline
 
+from pdmkit._outputs import to_jsonable
 from pdmkit.errors import DataError
-from pdmkit.experiments._report import _to_jsonable
 
 __all__ = [
     "MODELS",
@@ -565,7 +565,7 @@ class ClassificationResult:
         (1.0, [[1, 0], [0, 1]], None)
         >>> _ = json.dumps(s)
         """
-        return _to_jsonable(
+        return to_jsonable(
             {
                 "model": self.model,
                 "label": self.label,

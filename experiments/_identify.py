@@ -22,11 +22,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pdmkit._checks import check_fs, uniform_step
-from pdmkit._outputs import OutputRun
+from pdmkit._checks import check_fs, check_magnitude, uniform_step
+from pdmkit._outputs import OutputRun, to_jsonable
 from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError, ModelError
-from pdmkit.experiments._report import Report, _to_jsonable
+from pdmkit.experiments._report import Report
 from pdmkit.models._frf import frf_estimate
 from pdmkit.models._ident import STRUCTURES, fit_percent, identify
 
@@ -210,23 +210,13 @@ def _column(table: pd.DataFrame, name: str, path, role: str) -> np.ndarray:
             f"{path}: column {name!r} has {bad.size} missing or non-numeric value(s), the "
             f"first in row {int(bad[0])}; clean or interpolate them."
         )
-    peak = float(np.max(np.abs(x))) if x.size else 0.0
-    if peak > _LARGEST_VALUE:
-        raise DataError(
-            f"{path}: column {name!r} reaches {peak:.3g}; sums of its squares overflow "
-            "64-bit floats. Rescale it (e.g. to SI units) before identifying."
-        )
+    check_magnitude(x, f"{path}: column {name!r}")
     if role in ("input", "output") and x.size and np.ptp(x) == 0:
         raise DataError(
             f"{path}: {role} column {name!r} is constant ({x[0]:g}); there is nothing "
             "to identify from it."
         )
     return x
-
-
-#: Largest magnitude a recorded column may reach: its squares, summed over a record,
-#: must stay finite in float64 (max 1.8e308).
-_LARGEST_VALUE = 1e150
 
 
 def _sampling_rate(table: pd.DataFrame, fs, path) -> float:
@@ -268,7 +258,7 @@ def identify_summary(model, **sources: Any) -> dict:
     out["sources"] = {
         k: (os.fspath(v) if v is not None else None) for k, v in sources.items()
     }
-    return _to_jsonable(out)
+    return to_jsonable(out)
 
 
 def build_identify_report(model, summary: dict, u, y, fs: float, title: str) -> Report:
@@ -337,7 +327,7 @@ def build_identify_report(model, summary: dict, u, y, fs: float, title: str) -> 
     if hasattr(model, "residual_test"):
         res = model.residual_test(u, y)
         rep.add_json(
-            _to_jsonable(res),
+            to_jsonable(res),
             caption="Residual tests (Ljung-Box whiteness, input cross-correlation)",
         )
     rep.add_json(summary, caption="summary.json")

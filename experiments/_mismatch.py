@@ -15,10 +15,10 @@ from typing import Any
 
 import pandas as pd
 
-from pdmkit._outputs import OutputRun
+from pdmkit._outputs import OutputRun, to_jsonable
 from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError
-from pdmkit.experiments._report import Report, _to_jsonable
+from pdmkit.experiments._report import Report
 from pdmkit.models._mismatch import MismatchResult, discover_mismatch
 from pdmkit.models._odefile import MODEL_TIMEOUT, load_model_file
 
@@ -57,7 +57,7 @@ def mismatch_summary(result: MismatchResult, **sources: Any) -> dict:
             "timings": d["timings"],
         },
     }
-    return _to_jsonable(out)
+    return to_jsonable(out)
 
 
 def _verdict_text(summary: dict) -> str:

@@ -48,20 +48,6 @@ footer { margin-top: 3em; color: #888; font-size: .8em; }
 """
 
 
-def _to_jsonable(value: Any) -> Any:
-    """Return ``value`` as plain JSON types: NaN/inf -> None, numpy -> Python.
-
-    The same conversion as the JSON files of a run (:func:`pdmkit._outputs.to_jsonable`).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> _to_jsonable({"a": np.float64("nan"), "b": np.arange(2), "c": (np.int64(3),)})
-    {'a': None, 'b': [0, 1], 'c': [3]}
-    """
-    return to_jsonable(value)
-
-
 def _readable_float(x: float) -> str:
     """About 4 significant digits, without an exponent between 1e-3 and 1e9.
 
@@ -355,7 +341,7 @@ class Report:
         True
         """
         try:
-            text = json.dumps(_to_jsonable(data), indent=2, allow_nan=False)
+            text = json.dumps(to_jsonable(data), indent=2, allow_nan=False)
         except TypeError as exc:
             raise DataError(f"add_json({caption or 'data'}): {exc}") from None
         block = ""

@@ -54,6 +54,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._atomic import atomic_path
+from pdmkit._checks import check_magnitude
 from pdmkit._outputs import (
     OutputRun,
     check_output_folder,
@@ -727,10 +728,6 @@ def predict_rul(
     return answer
 
 
-#: Largest magnitude a history value may have (squares and sums stay finite).
-_LARGEST_VALUE = 1e150
-
-
 def _predict_rul(model_file, history, expect_sha256=None) -> dict[str, Any]:
     from pdmkit._persist import load_model
     from pdmkit.ensembles._readers import read_table
@@ -744,16 +741,8 @@ def _predict_rul(model_file, history, expect_sha256=None) -> dict[str, Any]:
         )
     table = history if isinstance(history, pd.DataFrame) else read_table(history)
     where = "history" if isinstance(history, pd.DataFrame) else str(history)
-    numbers = table.select_dtypes("number")
-    huge = numbers.columns[(numbers.abs() > _LARGEST_VALUE).any()]
-    if len(huge):  # their arithmetic overflows to inf / NaN: a silent wrong answer
-        column = huge[0]
-        row = int(np.flatnonzero(numbers[column].abs().to_numpy() > _LARGEST_VALUE)[0])
-        raise DataError(
-            f"{where}: column {column!r} holds {numbers[column].iloc[row]:g} (row "
-            f"{row}); values beyond ±{_LARGEST_VALUE:g} overflow the model's "
-            "arithmetic. Check the units or the file"
-        )
+    for column in table.select_dtypes("number"):  # overflows: silent wrong answers
+        check_magnitude(table[column], f"{where}: column {column!r}")
     unit = getattr(getattr(pipeline, "model", pipeline), "unit", "unit")
     if unit not in table.columns:  # one unit's history: named after its file
         name = "unit" if isinstance(history, pd.DataFrame) else Path(history).stem

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator
 
+from pdmkit._outputs import to_jsonable
 from pdmkit._progress import progress
 from pdmkit.errors import DataError, DataNotFoundError
 from pdmkit.experiments._classify import (
@@ -38,7 +39,6 @@ from pdmkit.experiments._classify import (
     classify,
     make_classifier,
 )
-from pdmkit.experiments._report import _to_jsonable
 
 __all__ = ["SensorComparison", "SensorCosts", "compare_sensors", "load_sensor_costs"]
 
@@ -409,7 +409,7 @@ class SensorComparison:
             row["features"] = _split(row.get("features"), "; ")
             row["pareto"] = bool(row["pareto"])
             sensors.append(row)
-        return _to_jsonable(
+        return to_jsonable(
             {
                 "label": self.label,
                 "model": self.model,

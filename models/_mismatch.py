@@ -40,7 +40,13 @@ from typing import Any
 import numpy as np
 
 from pdmkit.errors import ConvergenceWarning, ModelError
-from pdmkit.models._candidates import SPARSE_ID, Effect, Scales, attach_candidates
+from pdmkit.models._candidates import (
+    SPARSE_ID,
+    Effect,
+    Scales,
+    _position_partner,
+    attach_candidates,
+)
 from pdmkit.models._mismatch_fit import (
     Recording,
     _choose_n_sub,
@@ -516,8 +522,6 @@ def _at_bounds(job: _Job) -> list[str]:
 
 def _partner_of(model, velocity: str) -> str | None:
     """The position a velocity state drives (for the x**3 signature), if any."""
-    from pdmkit.models._candidates import _position_partner
-
     if model.states.get(velocity) not in ("velocity", "angular_velocity"):
         return None
     return _position_partner(model, velocity, None)

@@ -224,12 +224,7 @@ def _deep_json(real: Path, out: Path, depth: int = 100_000) -> Path:
 def _build(path: Path, members: dict[str, bytes], kind: str, cls: str) -> Path:
     """A model file from scratch (an attacker needs no real model to start from)."""
     manifest = {"format": "pdmkit.model", "format_version": 1, "class": cls, "kind": kind}
-    manifest["sha256"] = {n: hashlib.sha256(b).hexdigest() for n, b in members.items()}
-    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
-        zf.writestr("manifest.json", json.dumps(manifest))
-        for name, blob in members.items():
-            zf.writestr(name, blob)
-    return path
+    return _write(path, {"manifest.json": json.dumps(manifest).encode(), **members})
 
 
 def _npz(**arrays) -> bytes:
