@@ -10,8 +10,6 @@ holds) in flight. A task that kills every worker it lands on ends in one
 
 from __future__ import annotations
 
-import contextlib
-import logging
 import os
 import signal
 import time
@@ -61,26 +59,6 @@ def _always_kill_worker():
         os.kill(os.getpid(), signal.SIGKILL)
 
     return die
-
-
-@pytest.fixture(scope="module")
-def client():
-    cluster = distributed.LocalCluster(
-        n_workers=2,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=None,
-        silence_logs=logging.CRITICAL,
-    )
-    c = distributed.Client(cluster, set_as_default=False)
-    try:
-        yield c
-    finally:
-        c.close()
-        # distributed's close can race with a worker the tests killed (KeyError in
-        # SpecCluster._update_worker_status for a worker already forgotten)
-        with contextlib.suppress(KeyError):
-            cluster.close()
 
 
 @pytest.fixture(scope="module")
