@@ -218,6 +218,19 @@ def _same(a: Path, b: Path) -> bool:
         return _real(a) == _real(b)
 
 
+def _private_folder(path: Path, out: str | os.PathLike | None) -> Path | None:
+    """The ``.pdmkit`` folder ``path`` lies in (``out``'s, or any other), or None."""
+    real = Path(_real(path))
+    if out is not None:
+        own = Path(_real(Path(out) / PRIVATE))
+        if real == own or own in real.parents:
+            return Path(out) / PRIVATE
+    for parent in (real, *real.parents):
+        if parent.name == PRIVATE:
+            return parent
+    return None
+
+
 def check_output_folder(
     out: str | os.PathLike | None,
     command: str,
@@ -231,8 +244,9 @@ def check_output_folder(
     file (or lies below one); one of the command's files (:data:`OUTPUTS`) exists there
     as a folder; one of them would overwrite a file the command reads (``inputs``), or
     land inside a folder it reads; ``json_path`` is a folder, is an input, or is one of
-    the other files of the run. An input that merely sits in ``out`` under another name
-    is fine.
+    the other files of the run, or lies in a ``.pdmkit`` folder (``out``'s own, where
+    the lock, the staging folders and ``run.json`` live, or another output folder's).
+    An input that merely sits in ``out`` under another name is fine.
 
     Parameters
     ----------
@@ -298,6 +312,13 @@ def check_output_folder(
         if js.is_dir():
             raise DataError(
                 f"--json {js} is a folder; name a file, e.g. {js / MAIN_JSON[command]}"
+            )
+        private = _private_folder(js, out)
+        if private is not None:
+            raise DataError(
+                f"--json {js} is inside {private}, pdmkit's own folder (the output "
+                "folder's lock, staging area and run manifest); name a file outside it, "
+                f"e.g. {private.parent / MAIN_JSON[command]}"
             )
         for src in sources:
             if src.is_file() and js.exists() and _same(js, src):

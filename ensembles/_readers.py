@@ -90,7 +90,10 @@ def _existing_file(path: str | os.PathLike, what: str) -> Path:
     if not path.exists():
         raise DataNotFoundError(f"{path} does not exist; expected {what}")
     if not path.is_file():
-        raise DataError(f"{path} is a directory; expected {what}")
+        raise DataError(
+            f"{path} is a folder, not a file; expected {what}. Name a file, or the "
+            f"files inside that folder (e.g. {path / '*'})"
+        )
     return path
 
 
@@ -204,6 +207,65 @@ def _csv_line(
     except (DataError, *_DECOMPRESS_ERRORS):
         pass
     return wanted
+
+
+#: The name pandas gives the k-th repeat of a CSV header's column name (``vib.1``).
+_MANGLED = re.compile(r"(.+)\.[1-9][0-9]*")
+#: The pandas CSV options that say where the header line is and how it is split.
+_HEADER_OPTIONS = (
+    "sep",
+    "delimiter",
+    "skiprows",
+    "skip_blank_lines",
+    "comment",
+    "encoding",
+    "encoding_errors",
+    "quotechar",
+    "quoting",
+    "doublequote",
+    "escapechar",
+    "skipinitialspace",
+    "lineterminator",
+    "dialect",
+    "engine",
+)
+
+
+def _duplicated_header(path: Path, table: pd.DataFrame, options: dict) -> None:
+    """Refuse a CSV header that names two columns alike.
+
+    pandas renames the repeat (``vib``, ``vib`` becomes ``vib``, ``vib.1``), so the
+    second column would be read as a signal the file does not name. Checked only when
+    a column looks renamed; the header line is then read again as it is written.
+    """
+    header = options.get("header", "infer")
+    if options.get("names") is not None or isinstance(header, bool):
+        return
+    if header != "infer" and not isinstance(header, int):
+        return  # None (no header) or several header lines
+    names = {str(c) for c in table.columns}
+    suspects = [
+        c for c in map(str, table.columns) if (m := _MANGLED.fullmatch(c)) and m[1] in names
+    ]
+    if not suspects:
+        return
+    row = 0 if header == "infer" else header
+    kept = {k: v for k, v in options.items() if k in _HEADER_OPTIONS}
+    raw = pd.read_csv(path, **kept, header=None, nrows=row + 1, dtype=str)
+    seen: dict[str, list[int]] = {}
+    for k, name in enumerate(raw.iloc[row].tolist(), start=1):
+        if isinstance(name, str):  # an empty name is NaN: pandas' 'Unnamed: k'
+            seen.setdefault(name, []).append(k)
+    repeated = next((n for n, where in seen.items() if len(where) > 1), None)
+    if repeated is None:
+        return
+    where = seen[repeated]
+    raise DataError(
+        f"{path}: the header names column {repeated!r} {len(where)} times (columns "
+        f"{', '.join(map(str, where))}); pandas would rename the repeat to "
+        f"{repeated + '.1'!r}, a signal the file does not name. Give each column its "
+        "own name, or remove the repeated column"
+    )
 
 
 def _drop_trailing_empty(table: pd.DataFrame) -> pd.DataFrame:
@@ -364,6 +426,7 @@ def _read_csv(
     table = pd.read_csv(path, **options)
     if "header" not in options and "names" not in options and _headerless(table.columns):
         table, options = _reread_headerless(path, table, options, compression)
+    _duplicated_header(path, table, options)
     table = _drop_trailing_empty(table)
     table = _single_column_blanks(path, table, options, bool(compression))
     header_lines = _header_lines(options)
@@ -494,6 +557,9 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
       line number (a column of text only is a label column and stays). Pass
       ``na_values=`` for a marker of missing values, or ``dtype=`` to read a column as
       text.
+    - A CSV header that names two columns alike is a :class:`pdmkit.errors.DataError`
+      naming the column (pandas would read the repeat as ``name.1``, a column the file
+      does not name).
     - Sizes are checked before reading, against ``max_bytes("member")`` (1 GiB by
       default, ``$PDMKIT_MAX_MEMBER_BYTES``): the text of a CSV after decompression; the
       decompressed size each column of a Parquet file declares (and the decoded size of
@@ -516,8 +582,9 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
         The file does not exist.
     pdmkit.errors.DataError
         Unknown extension, a binary or damaged file, a table without rows, a column
-        mixing numbers and text, or a file larger than the ceiling (the message names
-        the file, and the column where there is one).
+        mixing numbers and text, a column name repeated in the header, or a file larger
+        than the ceiling (the message names the file, and the column where there is
+        one).
 
     Warns
     -----
@@ -564,8 +631,10 @@ _MAT4_WIDTH = {
 }
 
 
-def _mat5_header(content: bytes, endian: str) -> tuple[str, tuple[int, ...], int] | None:
-    """``(name, dims, declared bytes)`` of a miMATRIX element's content, or None."""
+def _mat5_header(
+    content: bytes, endian: str
+) -> tuple[str, tuple[int, ...], int, int] | None:
+    """``(name, dims, declared bytes, array flags)`` of a miMATRIX element, or None."""
     pos = 0
 
     def element() -> bytes:
@@ -588,18 +657,30 @@ def _mat5_header(content: bytes, endian: str) -> tuple[str, tuple[int, ...], int
     if any(d < 0 for d in dims):
         return None
     width = _MAT_WIDTH.get(flags & 0xFF, 0) * (2 if flags >> 11 & 1 else 1)
-    return name, dims, math.prod(dims) * width
+    return name, dims, math.prod(dims) * width, flags
 
 
-def _check_mat5_header(path: Path, content: bytes, endian: str, k: int) -> str:
-    """The name (for messages) of variable ``k``; refuses a declared size over the limit."""
+#: The array flag of a MATLAB logical (true/false) array, stored as uint8.
+_MAT_LOGICAL = 1 << 9
+
+
+def _check_mat5_header(
+    path: Path, content: bytes, endian: str, k: int, logical: set[str]
+) -> str:
+    """The name (for messages) of variable ``k``; refuses a declared size over the limit.
+
+    Adds the name to ``logical`` when the variable is a logical array (which scipy
+    reads as uint8).
+    """
     header = _mat5_header(content, endian)
     if header is None:
         return f"#{k + 1}"
-    name, dims, declared = header
+    name, dims, declared, flags = header
     limit = max_bytes("member")
     if declared > limit:
         raise _too_big(f"{path}: variable {name!r} (shape {dims})", declared, limit)
+    if flags & _MAT_LOGICAL:
+        logical.add(name)
     return repr(name)
 
 
@@ -622,14 +703,15 @@ def _inflated(f: IO[bytes], n: int) -> Iterator[bytes]:
                 break
 
 
-def _check_mat_sizes(path: Path, limit: int) -> None:
+def _check_mat_sizes(path: Path, limit: int) -> set[str]:
     """Refuse a .mat file whose variables declare or decompress to more than ``limit``.
 
     Walks the top-level elements of a v5 file without scipy: a compressed variable is
     inflated and counted (never kept), so one that decompresses to gigabytes costs
     only time, bounded by the ceiling. v4 files (never compressed) are checked from the
-    shapes scipy's ``whosmat`` lists.
+    shapes scipy's ``whosmat`` lists. Returns the names of the logical variables.
     """
+    logical: set[str] = set()
     size = path.stat().st_size
     with path.open("rb") as f:
         head = f.read(128)
@@ -640,7 +722,7 @@ def _check_mat_sizes(path: Path, limit: int) -> None:
             try:  # a v4 file, or not a .mat: loadmat says what is wrong
                 listed = whosmat(path)
             except Exception:  # loadmat says what is wrong with it
-                return
+                return logical
             for name, shape, kind in listed:
                 declared = math.prod(shape) * _MAT4_WIDTH.get(kind, 8)
                 if declared > limit:
@@ -649,13 +731,13 @@ def _check_mat_sizes(path: Path, limit: int) -> None:
                         declared,
                         limit,
                     )
-            return
+            return logical
         pos, total, k = 128, 0, 0
         while pos + 8 <= size:
             f.seek(pos)
             mdtype, n = struct.unpack(endian + "II", f.read(8))
             if mdtype >> 16 or mdtype not in (_MI_MATRIX, _MI_COMPRESSED):
-                return  # damaged: loadmat says so
+                return logical  # damaged: loadmat says so
             budget = limit - total
             if mdtype == _MI_COMPRESSED:
                 verb, used, content, header = "decompresses to at least", 0, b"", None
@@ -665,7 +747,9 @@ def _check_mat_sizes(path: Path, limit: int) -> None:
                         if header is None:
                             content += out[: 4096 - len(content)]
                             if len(content) >= 4096:  # the miMATRIX tag, then its header
-                                header = _check_mat5_header(path, content[8:], endian, k)
+                                header = _check_mat5_header(
+                                    path, content[8:], endian, k, logical
+                                )
                         if used > budget:
                             break
                 except zlib.error as exc:
@@ -677,10 +761,10 @@ def _check_mat_sizes(path: Path, limit: int) -> None:
                         "re-copy the file"
                     ) from None
                 if header is None:
-                    header = _check_mat5_header(path, content[8:], endian, k)
+                    header = _check_mat5_header(path, content[8:], endian, k, logical)
             else:
                 content, used, verb = f.read(min(n, 4096)), n, "holds"
-                header = _check_mat5_header(path, content, endian, k)
+                header = _check_mat5_header(path, content, endian, k, logical)
             if used > budget:
                 name = f"variable {header}"
                 if used > limit:
@@ -689,6 +773,7 @@ def _check_mat_sizes(path: Path, limit: int) -> None:
             total += used
             pos += 8 + n
             k += 1
+    return logical
 
 
 def read_mat(path: str | os.PathLike) -> dict[str, Any]:
@@ -697,7 +782,8 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
     Wraps :func:`scipy.io.loadmat` with ``simplify_cells=True``: singleton dimensions
     are squeezed (a ``(n, 1)`` column becomes a 1-D array, a ``1x1`` value a scalar),
     structs become dicts; the ``__header__``, ``__version__`` and ``__globals__`` entries
-    are left out.
+    are left out. A logical (true/false) variable is a numpy ``bool`` array (scipy
+    alone reads it as ``uint8``).
 
     Sizes are checked before scipy reads anything, against ``max_bytes("member")``
     (1 GiB by default, ``$PDMKIT_MAX_MEMBER_BYTES``): the shape and class each variable
@@ -741,7 +827,7 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
             f"{path} is a MATLAB v7.3 (HDF5) file, which scipy.io.loadmat cannot read; "
             "re-save it in MATLAB with save(..., '-v7'), or read it with h5py"
         )
-    _check_mat_sizes(path, max_bytes("member"))
+    logical = _check_mat_sizes(path, max_bytes("member"))
     try:
         raw = loadmat(path, simplify_cells=True)
     except NotImplementedError:
@@ -769,6 +855,12 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
     data = {k: v for k, v in raw.items() if not k.startswith("__")}
     if not data:
         raise DataError(f"{path} holds no variables")
+    for name in logical & data.keys():
+        value = data[name]
+        if isinstance(value, np.ndarray | np.generic) and value.dtype.kind in "iu":
+            data[name] = np.asarray(value).astype(bool)
+        elif isinstance(value, int):  # a 1x1 logical, squeezed to a scalar
+            data[name] = bool(value)
     return data
 
 
@@ -900,6 +992,14 @@ def read_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
 
 
 # --------------------------------------------------------------------------- members
+def _member_like(path: Path) -> bool:
+    """True when ``path`` is named like a member file (``x.csv``, ``x.mat``, ...)."""
+    suffixes = [s.lower() for s in path.suffixes]
+    if suffixes and suffixes[-1] in _COMPRESSED:
+        suffixes.pop()
+    return bool(suffixes) and suffixes[-1] in (*_CSV, *_PARQUET, ".mat", ".npz")
+
+
 #: Names of a sampling-rate scalar in a .mat / .npz member file.
 _FS_NAMES = ("fs", "Fs", "FS", "sampling_rate", "sample_rate")
 #: Names of a time column in a CSV / Parquet member file.
@@ -993,9 +1093,13 @@ def _time_rate(path: Path, column: pd.Series, where: Callable[[int], str]) -> fl
 MAX_SIGNALS = 1024
 
 
-def _member_arrays(path: Path) -> tuple[dict[str, np.ndarray], float | None, dict]:
-    """(signals, sampling rate or None, condition values) of one member file."""
-    signals, fs, conditions = _member_contents(path)
+def _member_arrays(path: Path, notes: list) -> tuple[dict, float | None, dict]:
+    """(signals, sampling rate or None, condition values) of one member file.
+
+    What was read other than as written (a boolean signal, a variable skipped) is
+    appended to ``notes`` as ``("variable" or "column", its name, what was done)``.
+    """
+    signals, fs, conditions = _member_contents(path, notes)
     limit = int(os.environ.get("PDMKIT_MAX_SIGNALS", MAX_SIGNALS))
     if len(signals) > limit:
         raise DataError(
@@ -1006,28 +1110,78 @@ def _member_arrays(path: Path) -> tuple[dict[str, np.ndarray], float | None, dic
     return signals, fs, conditions
 
 
-def _member_contents(path: Path) -> tuple[dict[str, np.ndarray], float | None, dict]:
+#: What a member's variable that is not read is, and why (for the DataWarning).
+_NOT_READ = (
+    "not a signal (a numeric vector) or a condition (a scalar); skipped. Save what it "
+    "holds as numeric variables to read it"
+)
+#: What a true/false signal became.
+_READ_AS_01 = (
+    "holds true/false values; read as a signal of 0.0 and 1.0. Save it as numbers if "
+    "that is what it means (or as one scalar if it is a condition)"
+)
+
+
+def _unread_variable(value: Any, arr: np.ndarray | None) -> str | None:
+    """Why a .mat / .npz variable is neither a signal nor a condition (None: it is one)."""
+    if isinstance(value, dict):
+        return f"is a MATLAB struct (fields {sorted(value)[:5]}), {_NOT_READ}"
+    if arr is None:
+        return f"is a {type(value).__name__} object, {_NOT_READ}"
+    kind = arr.dtype.kind
+    if kind == "O":
+        return f"is a MATLAB cell or struct array (shape {arr.shape}), {_NOT_READ}"
+    if kind == "V":
+        return f"is a structured (record) array {arr.dtype}, {_NOT_READ}"
+    if arr.size == 0:
+        return f"is empty ({arr.dtype} of shape {arr.shape}), {_NOT_READ}"
+    if arr.size == 1 and kind in "USiufb":
+        return None  # a condition
+    if kind in "iufb" and arr.ndim >= 1:
+        return None  # a signal
+    return f"holds {arr.dtype} values of shape {arr.shape}, {_NOT_READ}"
+
+
+def _member_contents(path: Path, notes: list) -> tuple[dict, float | None, dict]:
     suffix = path.suffix.lower()
     if suffix in (".mat", ".npz"):
         data = read_mat(path) if suffix == ".mat" else read_npz(path)
         signals, fs, conditions = {}, None, {}
         limit = max_bytes("member")
         for key, value in data.items():
-            arr = np.asarray(value)
+            numeric = isinstance(value, np.ndarray | np.generic | bool | int | float | str)
+            arr = np.asarray(value) if numeric or isinstance(value, complex) else None
+            if arr is not None and arr.dtype.kind == "c":
+                raise DataError(
+                    f"{path}: variable {key!r} holds complex values ({arr.dtype} of shape "
+                    f"{arr.shape}); pdmkit reads real signals. Store the real and "
+                    f"imaginary parts as two signals (e.g. {key}_re and {key}_im)"
+                )
             if key in _FS_NAMES:
                 rate = (
                     float(arr.reshape(-1)[0])
-                    if arr.size == 1 and arr.dtype.kind in "iuf"
+                    if arr is not None and arr.size == 1 and arr.dtype.kind in "iuf"
                     else None
                 )
                 if rate is None or not math.isfinite(rate) or rate <= 0:
+                    found = (
+                        f"{arr.dtype} of shape {arr.shape}"
+                        if arr is not None
+                        else type(value).__name__
+                    )
                     raise DataError(
                         f"{path}: variable {key!r} should be the sampling rate (one "
-                        f"positive number, Hz); it holds {arr.dtype} of shape {arr.shape}"
+                        f"positive number, Hz); it holds {found}"
                         + (f" = {rate:g}" if rate is not None else "")
                     )
                 fs = rate
-            elif arr.dtype.kind in "iuf" and arr.ndim >= 1 and arr.size > 1:
+                continue
+            why = _unread_variable(value, arr)
+            if why is not None:
+                notes.append(("variable", key, why))
+            elif arr.size == 1:
+                conditions[key] = arr.reshape(-1)[0].item()
+            else:
                 if arr.ndim > 1 and sorted(arr.shape)[-2] != 1:
                     raise DataError(
                         f"{path}: variable {key!r} has shape {arr.shape}; a member "
@@ -1040,9 +1194,9 @@ def _member_contents(path: Path) -> tuple[dict[str, np.ndarray], float | None, d
                         limit,
                         "takes",
                     )
+                if arr.dtype.kind == "b":
+                    notes.append(("variable", key, _READ_AS_01))
                 signals[key] = arr.reshape(-1).astype(np.float64)
-            elif arr.size == 1 and arr.dtype.kind in "USiufb":
-                conditions[key] = arr.reshape(-1)[0].item()
         return signals, fs, conditions
     table, where = _read_table(path, {})
     fs = None
@@ -1056,6 +1210,9 @@ def _member_contents(path: Path) -> tuple[dict[str, np.ndarray], float | None, d
             signals[str(c)] = column.to_numpy(dtype=np.float64)
         elif column.nunique(dropna=False) == 1:
             conditions[str(c)] = column.iloc[0]
+        elif pd.api.types.is_bool_dtype(column):
+            notes.append(("column", str(c), _READ_AS_01))
+            signals[str(c)] = column.to_numpy(dtype=np.float64)
         else:
             raise DataError(
                 f"{path}: column {c!r} holds text that changes from row to row; a member "
@@ -1126,7 +1283,16 @@ def read_members(
       more than one unit of the last decimal the stamps are written with, when that is
       larger: stamps rounded to microseconds stay uniform at 25.6 kHz), is an error
       naming the file and the line. The rate is the number of steps over the span;
-    - a signal must fit the ceiling as float64 samples.
+    - a signal must fit the ceiling as float64 samples;
+    - a complex variable of a ``.mat`` / ``.npz`` file is an error naming it (store the
+      real and imaginary parts as two signals); a true/false vector (or CSV column) is
+      read as a signal of 0.0 and 1.0, and a variable that is neither a numeric vector
+      nor a scalar (a MATLAB struct or cell array, text, an empty or structured array)
+      is skipped: a :class:`pdmkit.errors.DataWarning` names each, once for all the
+      files that hold it;
+    - in a folder (or a glob pattern's matches), a sub-folder named like a member file
+      (``x.csv/``) is that member's error; other sub-folders are not read, and a
+      DataWarning names them.
 
     With ``on_error="skip"`` a file that cannot be read or fails a check, a member
     lacking a signal named in ``signals``, a signal with NaN or inf samples, or a
@@ -1158,6 +1324,11 @@ def read_members(
         With ``on_error="raise"``: the first bad file (the message names it and says
         what was expected and found). Always: no file matched, or no member was left.
 
+    Warns
+    -----
+    pdmkit.errors.DataWarning
+        A variable or column read as 0/1 or skipped, or a sub-folder not read.
+
     Examples
     --------
     >>> import tempfile, pathlib
@@ -1184,14 +1355,31 @@ def read_members(
         raise ValueError(f"on_error must be 'raise' or 'skip'; got {on_error!r}")
     patterns = [files] if isinstance(files, str | os.PathLike) else list(files)
     paths: list[Path] = []
+    folders: list[Path] = []  # sub-folders not named like a member file: not read
     for p in patterns:
         p = Path(p)
         if p.is_dir():
-            paths += sorted(q for q in p.iterdir() if q.is_file() and not q.name[0] == ".")
+            found = sorted(q for q in p.iterdir() if not q.name[0] == ".")
         elif any(ch in str(p) for ch in "*?["):
-            paths += sorted(Path(q) for q in glob.glob(str(p)) if Path(q).is_file())
+            found = sorted(Path(q) for q in glob.glob(str(p)))
         else:
-            paths.append(p)
+            paths.append(p)  # a folder named here is the member's error
+            continue
+        for q in found:
+            if q.is_file() or _member_like(q):  # a folder 'x.csv' is the member's error
+                paths.append(q)
+            elif q.is_dir():
+                folders.append(q)
+    if folders:
+        shown = ", ".join(str(q) for q in folders[:3])
+        more = f" and {len(folders) - 3} more" if len(folders) > 3 else ""
+        warnings.warn(
+            f"{len(folders)} sub-folder(s) not read as members: {shown}{more}; a member "
+            "is one file, and only the files directly in a folder are read. Name the "
+            f"files inside a sub-folder to read them too (e.g. {folders[0] / '*'})",
+            DataWarning,
+            stacklevel=2,
+        )
     if not paths:
         raise DataNotFoundError(f"no member files match {[str(p) for p in patterns]}")
     wanted = (
@@ -1216,13 +1404,17 @@ def read_members(
         )
 
     read: list[tuple[str, Path, dict, float | None, dict]] = []
+    noted: dict[tuple[str, str, str], list[Path]] = {}
     for path in paths:
         member = path.name.split(".")[0]
+        notes: list[tuple[str, str, str]] = []
         try:
-            arrays, rate, conds = _member_arrays(path)
+            arrays, rate, conds = _member_arrays(path, notes)
         except DataError as exc:
             fail(member, None, path, str(exc))
             continue
+        for note in notes:
+            noted.setdefault(note, []).append(path)
         if not arrays:
             fail(member, None, path, f"{path.name} holds no numeric signal")
             continue
@@ -1248,6 +1440,14 @@ def read_members(
             continue
         read.append((member, path, arrays, rate, conds))
 
+    for (what, name, done), where in noted.items():
+        files = (
+            str(where[0])
+            if len(where) == 1
+            else f"{len(where)} member files ({', '.join(p.name for p in where[:3])}"
+            + (", ...)" if len(where) > 3 else ")")
+        )
+        warnings.warn(f"{files}: {what} {name!r} {done}", DataWarning, stacklevel=2)
     rates = [r for _, _, _, r, _ in read if r is not None]
     expected, whose = fs, "fs as given"
     if expected is None and rates:

@@ -3,20 +3,23 @@
 Every sub-command writes its results as data (Parquet / JSON) and a self-contained HTML
 report into ``--out DIR``, beside whatever the folder already holds: only the command's
 own files are replaced, all of one run at once (:mod:`pdmkit._outputs`);
-``--json PATH`` writes the machine-readable summary anywhere. Errors in the input end the
-command with exit status 2 and one line that names the problem; results already written
-are never half-overwritten.
+``--json PATH`` writes the machine-readable summary anywhere but in pdmkit's own
+``.pdmkit`` folders. Errors in the input, and usage errors (an unknown option, a missing
+or bad argument), end the command with exit status 2 and one line on stderr that names
+the problem; results already written are never half-overwritten.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NoReturn
 
 import pandas as pd
 
@@ -197,16 +200,19 @@ def _check_label(ensemble, label: str | None, where: str) -> None:
         )
 
 
-def _feature_table(args: argparse.Namespace):
+def _feature_table(args: argparse.Namespace, common: bool = True):
     """Return (table, label, sensors, features) for the input the user named.
 
-    ``features`` lists the indicator columns ``classify``/``rank`` use by default.
+    ``features`` lists the indicator columns ``classify``/``rank`` use by default:
+    without ``--signals`` and with ``common``, those of the signals every member has
+    (:func:`_common_signals`; ``sensors`` scores each sensor on the members that
+    have it, and passes ``common=False``).
     """
     if getattr(args, "features", None) is not None:
         from pdmkit.ensembles import read_table
 
         table = read_table(args.features)
-        return table, args.label, None, _indicator_columns(table, args.signals)
+        return table, args.label, None, _indicator_columns(table, args.signals, common)
     ensemble, groups, options, label, sensors, profile, skipped = _extraction_input(
         args, on_error="skip"
     )
@@ -235,13 +241,15 @@ def _feature_table(args: argparse.Namespace):
     signals = args.signals
     if signals is None and profile is not None:
         signals = profile.classify_signals
-    return table, label, sensors, _indicator_columns(table, signals)
+    return table, label, sensors, _indicator_columns(table, signals, common)
 
 
-def _indicator_columns(table: pd.DataFrame, signals: Sequence[str] | None) -> list[str]:
+def _indicator_columns(
+    table: pd.DataFrame, signals: Sequence[str] | None, common: bool = True
+) -> list[str]:
     columns = [c for c in table.columns if "/" in str(c)]
     if signals is None:
-        return columns
+        return _common_signals(table, columns) if common else columns
     chosen = [c for c in columns if str(c).split("/")[0] in set(signals)]
     if not chosen:
         found = sorted({str(c).split("/")[0] for c in columns})
@@ -249,6 +257,45 @@ def _indicator_columns(table: pd.DataFrame, signals: Sequence[str] | None) -> li
             f"no indicators of signals {list(signals)} in the table; found {found}"
         )
     return chosen
+
+
+def _common_signals(table: pd.DataFrame, columns: list) -> list:
+    """The indicator ``columns`` of the signals every member (row) has.
+
+    A member without a signal has none of its indicators (all NaN); a signal that
+    only some members have would leave the others without finite features, so its
+    indicators are left out, with a DataWarning naming it and the members lacking it.
+    A signal no member has whole stays (the classifier's error names it).
+    """
+    from pdmkit.errors import DataWarning
+
+    by_signal: dict[str, list] = {}
+    for c in columns:
+        by_signal.setdefault(str(c).split("/")[0], []).append(c)
+    partial = {}
+    for signal, cols in by_signal.items():
+        lacking = table[cols].isna().all(axis=1).to_numpy()
+        if lacking.any() and not lacking.all():
+            partial[signal] = table.index[lacking]
+    if not partial:
+        return columns
+    if len(partial) == len(by_signal):
+        raise DataError(
+            f"no signal is present in every member: {sorted(partial)} are each missing "
+            "from some members; pass --signals NAME to use one (the members without it "
+            "are left out), or give members that share their signals"
+        )
+    for signal, lacking in partial.items():
+        shown = [str(m) for m in lacking[:3]] + (["..."] if len(lacking) > 3 else [])
+        warnings.warn(
+            f"signal {signal!r} is missing from {len(lacking)} of {len(table)} members "
+            f"({', '.join(shown)}); its indicators are left out, as those members would "
+            f"have none. Pass --signals naming {signal!r} to use it (the members without "
+            "it are then left out)",
+            DataWarning,
+            stacklevel=4,  # the command that chose the features
+        )
+    return [c for c in columns if str(c).split("/")[0] not in partial]
 
 
 def _require_label(table: pd.DataFrame, label: str | None) -> str:
@@ -437,6 +484,20 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _positive_seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a positive number of seconds, got {text!r}"
+        ) from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(
+            f"expected a positive number of seconds, got {value:g}"
+        )
+    return value
+
+
 def _ranking(table: pd.DataFrame, label: str, method: str, features: list[str]):
     from pdmkit.features import rank_features
 
@@ -517,7 +578,7 @@ def _sensors(args: argparse.Namespace, run: OutputRun) -> int:
     from pdmkit.experiments._report import Report
     from pdmkit.experiments._sensors import compare_sensors, load_sensor_costs
 
-    table, label, default_sensors, _ = _feature_table(args)
+    table, label, default_sensors, _ = _feature_table(args, common=False)
     label = _require_label(table, label)
     sensors = _parse_sensors(args.sensor, table, default_sensors)
     costs = load_sensor_costs(args.costs)
@@ -624,6 +685,7 @@ def _cmd_mismatch(args: argparse.Namespace) -> int:
         effects=effects,
         model_timeout=args.model_timeout,
         input_hold=args.input_hold,
+        max_seconds=args.max_seconds,
     )
     verdict = summary["verdict"]
     fit = summary["fit"]
@@ -677,11 +739,43 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------- parser
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line on stderr, exit status 2.
+
+    The line names the sub-command, the argument and what is wrong, and points to the
+    sub-command's ``--help`` (argparse's own prints the whole usage block first). An
+    unknown option is charged to the sub-command it was given to, with the nearest
+    option when one is close. ``--help`` is argparse's, unchanged.
+    """
+
+    def error(self, message: str) -> NoReturn:
+        text = " ".join(line.strip() for line in str(message).splitlines())
+        self.exit(2, f"{self.prog}: error: {text} (see {self.prog} --help)\n")
+
+    def parse_args(self, args=None, namespace=None):  # type: ignore[override]
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            parser = self._chosen(parsed)
+            unknown = next((e for e in extras if e.startswith("-")), "")
+            hint = did_you_mean(unknown.split("=")[0], parser._option_string_actions)
+            parser.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
+        return parsed
+
+    def _chosen(self, parsed: argparse.Namespace) -> argparse.ArgumentParser:
+        """The parser of the sub-command ``parsed`` names (else this one)."""
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                chosen = action.choices.get(getattr(parsed, action.dest, None))
+                if isinstance(chosen, _Parser):
+                    return chosen._chosen(parsed)
+        return self
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser of the ``pdmkit`` command."""
     from pdmkit import __version__
 
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="pdmkit",
         description="Predictive-maintenance workbench: indicators, ranking, fault "
         "classifiers, sensor comparison.",
@@ -890,6 +984,15 @@ def build_parser() -> argparse.ArgumentParser:
         "straight lines (sampled continuous signals); auto (default) decides from the "
         "data: held when most samples repeat the one before",
     )
+    p.add_argument(
+        "--max-seconds",
+        type=_positive_seconds,
+        default=None,
+        metavar="SECONDS",
+        help="time budget: when it runs out the fits stop, the optional stages (pairs, "
+        "data-driven terms) are skipped and the best verdict so far is reported, marked "
+        "as such (default: no limit)",
+    )
     p.add_argument("--out", type=Path, default=Path("results/mismatch"))
     p.add_argument("--json", type=Path)
     p.set_defaults(func=_cmd_mismatch)
@@ -919,5 +1022,5 @@ def main(argv: Sequence[str] | None = None) -> int:
         PermissionError,
         ConnectionError,
     ) as exc:
-        _say(f"error: {exc}")
+        _say("error: " + " ".join(line.strip() for line in str(exc).splitlines()))
         return 2

@@ -233,6 +233,7 @@ def run_mismatch(
     effects: Sequence[str] | None = None,
     model_timeout: float | None = MODEL_TIMEOUT,
     input_hold: str = "auto",
+    max_seconds: float | None = None,
 ) -> dict:
     """Explain the mismatch between a model file and a recording; write JSON and HTML.
 
@@ -265,6 +266,9 @@ def run_mismatch(
         The inputs between samples: held, or straight lines (sampled continuous
         signals); ``"auto"`` decides from the data (see
         :func:`pdmkit.models._mismatch.choose_input_hold`).
+    max_seconds : float, optional
+        Time budget of the discovery: when it runs out the best verdict so far is
+        reported, marked so (see :func:`pdmkit.models._mismatch.discover_mismatch`).
 
     Returns
     -------
@@ -296,7 +300,13 @@ def run_mismatch(
     inputs = [model_path, data_path, validation_path]
     with OutputRun(out_dir, "mismatch", inputs=inputs, json_path=json_path) as run:
         result, summary, title = _discover(
-            model_path, data_path, validation_path, effects, model_timeout, input_hold
+            model_path,
+            data_path,
+            validation_path,
+            effects,
+            model_timeout,
+            input_hold,
+            max_seconds,
         )
         run.add_csv("candidates.csv", result.candidates, index=False)
         run.add_report("report.html", build_mismatch_report(result, summary, title))
@@ -305,7 +315,9 @@ def run_mismatch(
     return summary
 
 
-def _discover(model_path, data_path, validation_path, effects, model_timeout, input_hold):
+def _discover(
+    model_path, data_path, validation_path, effects, model_timeout, input_hold, max_seconds
+):
     """(result, summary, report title) of :func:`run_mismatch`."""
     data = _read(data_path, "data")
     model = load_model_file(model_path, data=data, model_timeout=model_timeout)
@@ -318,6 +330,7 @@ def _discover(model_path, data_path, validation_path, effects, model_timeout, in
         data_name=os.fspath(data_path),
         validation_name=os.fspath(validation_path) if validation_path is not None else "",
         input_hold=input_hold,
+        max_seconds=max_seconds,
     )
     summary = mismatch_summary(
         result, model=model_path, data=data_path, validation=validation_path

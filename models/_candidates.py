@@ -128,6 +128,14 @@ class Candidate(abc.ABC):
     neutral: Mapping[str, float] = _frozen({})
     n_extra: int = 0
     input_override: bool = False
+    #: also fit from the neutral values (the nominal model itself): for a term linear
+    #: in its strength the first Gauss-Newton step there is the least-squares strength,
+    #: a start no guess of the magnitude can beat
+    start_neutral: bool = False
+    #: effects that real machines show together with this one (Coulomb friction and a
+    #: bias force; an overflowing tank and a saturating level sensor): tried as a pair
+    #: even when one of them alone does not help (each hides the other)
+    companions: tuple[str, ...] = ()
 
     # hooks -------------------------------------------------------------------
     @abc.abstractmethod
@@ -290,6 +298,8 @@ def _eps(eff, a_max, h, xp):
 
 # ---------------------------------------------------------------------------- velocity
 class CoulombFriction(Candidate):
+    companions = ("bias_force",)
+    start_neutral = True
     per_unit_mass = ("a",)
     id = "coulomb_friction"
     attach = "velocity"
@@ -358,6 +368,8 @@ class StribeckFriction(Candidate):
 
 
 class BiasForce(Candidate):
+    companions = ("coulomb_friction",)
+    start_neutral = True
     id = "bias_force"
     attach = "velocity"
     param_names = ("b",)
@@ -384,6 +396,7 @@ class BiasForce(Candidate):
 
 
 class ViscousFriction(Candidate):
+    start_neutral = True
     id = "viscous_friction"
     attach = "velocity"
     param_names = ("b",)
@@ -406,6 +419,7 @@ class ViscousFriction(Candidate):
 
 
 class QuadraticDrag(Candidate):
+    start_neutral = True
     id = "quadratic_drag"
     attach = "velocity"
     param_names = ("d",)
@@ -430,6 +444,7 @@ class QuadraticDrag(Candidate):
 
 
 class CubicStiffness(Candidate):
+    start_neutral = True
     id = "cubic_stiffness"
     attach = "velocity_position"
     param_names = ("k3",)
@@ -692,6 +707,7 @@ class InputBacklash(Candidate):
 
 # ---------------------------------------------------------------------------- level
 class Overflow(Candidate):
+    companions = ("sensor_saturation",)
     id = "overflow"
     attach = "level"
     param_names = ("cap", "into")
@@ -815,6 +831,7 @@ class SensorOffset(Candidate):
 
 
 class SensorSaturation(Candidate):
+    companions = ("overflow",)
     id = "sensor_saturation"
     attach = "output"
     param_names = ("high", "low")
@@ -871,8 +888,8 @@ class SensorDrift(Candidate):
         return [{"offset": 0.0, "rate": 0.0}]
 
     def output(self, xp, eff, th, t, y, z):
-        tt = xp.asarray(t - t[0])
-        return y + th["offset"][:, None] + th["rate"][:, None] * tt[None, :]
+        # t: time since the record start, (1, N) or per row (B, N) for pieces
+        return y + th["offset"][:, None] + th["rate"][:, None] * t
 
 
 class SensorGain(Candidate):

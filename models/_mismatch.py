@@ -48,6 +48,8 @@ from pdmkit.models._candidates import (
     attach_candidates,
 )
 from pdmkit.models._mismatch_fit import (
+    DEADLINE,
+    PIECES_FROM,
     Recording,
     _choose_n_sub,
     _effect_starts,
@@ -57,6 +59,8 @@ from pdmkit.models._mismatch_fit import (
     _make_jobs,
     _nominal_scales,
     _Problem,
+    choose_pieces,
+    data_states,
     make_recording,
     simulate_states,
 )
@@ -66,6 +70,7 @@ from pdmkit.models._mismatch_locate import (
     residual_windows,
     whiteness_test,
 )
+from pdmkit.models._odesim import _DERIV
 
 __all__ = ["MismatchResult", "discover_mismatch", "dm_test"]
 
@@ -332,6 +337,11 @@ def _rmse(err: np.ndarray, weights: np.ndarray) -> float:
         return float(np.sqrt(np.mean((err * weights) ** 2)))
 
 
+#: samples at the start of a validation record on which its initial state is fitted
+#: (a record fitted in pieces: one piece's length)
+VALIDATION_X0_SAMPLES = 2000
+
+
 def _validate(
     model,
     problems: Mapping[int, _Problem],
@@ -350,8 +360,8 @@ def _validate(
 def _validate_one(model, problem, rec_val, scored, x_scale, max_iter) -> None:
     rec = problem.rec
     w = problem.weights
+    rows = [(s.job, s.job.values(), s.job.x0) for s in scored]
     if rec_val is None:
-        rows = [(s.job, s.job.values()) for s in scored]
         Y = problem.simulate(rows, n=rec.n)
         y = rec.y(model)
         for s, Yi in zip(scored, Y, strict=True):
@@ -361,19 +371,32 @@ def _validate_one(model, problem, rec_val, scored, x_scale, max_iter) -> None:
             s.e_val = np.where(np.isfinite(err * w), err * w, 1e3)
             s.rmse_val = _rmse(np.where(np.isfinite(err), err, np.inf), w)
         return
-    rows = [(s.job, s.job.values()) for s in scored]
-    Ytr = problem.simulate(rows, n=rec.n)
-    pv = _Problem(model, rec_val, rec_val.n, w, problem.n_sub)
+    if problem.n_pieces == 1:
+        Ytr = problem.simulate(rows, n=rec.n)
+    else:  # the fitted pieces; samples between them are not simulated (NaN)
+        Ytr = np.full((len(rows), rec.n, len(model.outputs)), np.nan)
+        Ytr[:, problem.sample_index()] = problem.simulate(rows)
+    # the initial state is estimated on the record's first samples, then the whole
+    # record is simulated once: the initial state only shapes the start (a long record
+    # would otherwise be simulated at every iteration of this small fit)
+    n0 = VALIDATION_X0_SAMPLES if problem.n_pieces == 1 else problem.length
+    pv = _Problem(model, rec_val, min(rec_val.n, n0), w, problem.n_sub)
     jobs = []
     for s in scored:
-        vals = s.job.values()
-        for o in model.outputs:
-            vals[f"x0:{o}"] = float(np.mean(rec_val.outputs[o][:3]))
+        x0 = data_states(model, rec_val, np.array([0]), s.job.x0[0])
         jobs += _make_jobs(
-            model, s.effects, None, [{}], vals, x_scale, fit_free=False, fit_effects=False
+            model,
+            s.effects,
+            None,
+            [{}],
+            s.job.values(),
+            x_scale,
+            fit_free=False,
+            fit_effects=False,
+            x0=x0,
         )
-    _lm(pv, jobs, max_iter)
-    Y = pv.simulate([(j, j.values()) for j in jobs])
+    _lm(pv, jobs, max_iter, budgeted=False)
+    Y = pv.simulate([(j, j.values(), j.x0) for j in jobs], n=rec_val.n)
     y = rec_val.y(model)
     for s, Yi, Yt in zip(scored, Y, Ytr, strict=True):
         s.y_train = Yt
@@ -381,6 +404,16 @@ def _validate_one(model, problem, rec_val, scored, x_scale, max_iter) -> None:
         err = Yi - y
         s.e_val = np.where(np.isfinite(err * w), err * w, 1e3)
         s.rmse_val = _rmse(np.where(np.isfinite(err), err, np.inf), w)
+
+
+def _tail(rec: Recording, start: int) -> Recording:
+    """The samples of a recording from ``start`` on (its own clock kept)."""
+    return dataclasses.replace(
+        rec,
+        time=rec.time[start:],
+        inputs={k: v[start:] for k, v in rec.inputs.items()},
+        outputs={k: v[start:] for k, v in rec.outputs.items()},
+    )
 
 
 def _friction_step(job: _Job, ts: float, n_sub: int) -> int:
@@ -462,6 +495,29 @@ _SIGNATURES = {
     "cube": ("cubic_stiffness", "cubic (Duffing) stiffness"),
     "abs*": ("quadratic_drag", "quadratic drag"),
 }
+
+
+def _companion_pairs(singles: list[_Scored], top: int) -> list:
+    """``(single, companion)`` for each of the ``top`` refitted singles (lowest
+    validation RMSE first) and every candidate listed as its companion (on the same
+    target when both act on a state's derivative), screened or refitted alike."""
+    ranked = [s for s in sorted(singles, key=lambda s: s.rmse_val) if s.refit][:top]
+    out, seen = [], set()
+    for s in ranked:
+        e = s.effects[0]
+        for c in singles:
+            f = c.effects[0]
+            if f.id not in e.candidate.companions or c is s:
+                continue
+            same_kind = (e.candidate.attach in _DERIV) and (f.candidate.attach in _DERIV)
+            if same_kind and f.target != e.target:
+                continue
+            key = frozenset((e.key, f.key))
+            if key in seen:
+                continue
+            seen.add(key)
+            out.append((s, c))
+    return out
 
 
 def _signatures(labels: Sequence[str], target: str, partner: str | None) -> list[dict]:
@@ -623,6 +679,8 @@ def discover_mismatch(
     data_name: str = "data",
     validation_name: str = "validation",
     input_hold: str = "auto",
+    max_seconds: float | None = None,
+    progress: bool | None = None,
 ) -> MismatchResult:
     """Find the physics a model leaves out, from a recording.
 
@@ -661,6 +719,12 @@ def discover_mismatch(
         signal, which a hold would lag by half a sample, a mismatch of its own).
         ``"auto"`` (default) picks ``"zoh"`` when the inputs stay on one value for
         runs of samples (:func:`choose_input_hold`), else ``"foh"``.
+    max_seconds : float, optional
+        Time budget. When it runs out, the fits stop where they are, the remaining
+        optional stages (pairs, data-driven terms) are skipped, and the verdict is the
+        best so far, marked so (``verdict["budget"]``).
+    progress : bool, optional
+        Show a progress bar with the stage names (default: when stderr is a terminal).
 
     Returns
     -------
@@ -678,9 +742,121 @@ def discover_mismatch(
     >>> res.fit["rmse_augmented"] < 0.5 * res.fit["rmse_nominal"]
     True
     """
+    if max_seconds is not None and not (
+        isinstance(max_seconds, int | float) and max_seconds > 0
+    ):
+        raise ModelError(
+            "discover_mismatch: max_seconds must be a positive number; got "
+            f"{max_seconds!r}."
+        )
+    stages = _Stages(max_seconds, progress)
+    token = DEADLINE.set(stages.deadline)
+    try:
+        return _discover(
+            model,
+            data,
+            validation,
+            stages,
+            effects=effects,
+            min_improvement=min_improvement,
+            alpha=alpha,
+            tie_tolerance=tie_tolerance,
+            keep=keep,
+            screen_iter=screen_iter,
+            max_iter=max_iter,
+            pairs=pairs,
+            pair_candidates=pair_candidates,
+            data_name=data_name,
+            validation_name=validation_name,
+            input_hold=input_hold,
+        )
+    finally:
+        DEADLINE.reset(token)
+        stages.close()
+
+
+class _Stages:
+    """The stages of a discovery on a progress bar, and its time budget."""
+
+    NAMES = (
+        "nominal fit",
+        "screening",
+        "refit",
+        "validation",
+        "pairs",
+        "data-driven terms",
+        "localisation",
+    )
+
+    def __init__(self, max_seconds: float | None, enable: bool | None):
+        import sys
+        import time
+
+        self.start = time.perf_counter()
+        self.max_seconds = max_seconds
+        self.deadline = self.start + max_seconds if max_seconds else math.inf
+        self.skipped: list[str] = []
+        self._bar = None
+        if enable if enable is not None else sys.stderr.isatty():
+            from tqdm.auto import tqdm
+
+            self._bar = tqdm(total=len(self.NAMES), desc="mismatch", leave=False)
+
+    def enter(self, name: str) -> None:
+        if self._bar is not None:
+            self._bar.set_description(f"mismatch: {name}")
+
+    def leave(self) -> None:
+        if self._bar is not None:
+            self._bar.update(1)
+
+    def over(self) -> bool:
+        import time
+
+        return time.perf_counter() > self.deadline
+
+    def skip(self, name: str) -> None:
+        self.skipped.append(name)
+        self.leave()
+
+    def report(self) -> dict | None:
+        """``{"max_seconds", "reached", "skipped"}`` when a budget was given."""
+        if self.max_seconds is None:
+            return None
+        return {
+            "max_seconds": self.max_seconds,
+            "reached": self.over() or bool(self.skipped),
+            "skipped": list(self.skipped),
+        }
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+
+
+def _discover(
+    model,
+    data,
+    validation,
+    stages: _Stages,
+    *,
+    effects,
+    min_improvement,
+    alpha,
+    tie_tolerance,
+    keep,
+    screen_iter,
+    max_iter,
+    pairs,
+    pair_candidates,
+    data_name,
+    validation_name,
+    input_hold,
+) -> MismatchResult:
+    """:func:`discover_mismatch`'s steps (arguments checked there, budget set)."""
     import time as _time
 
-    t_start = _time.perf_counter()
+    t_start = stages.start
     for name, v in (
         ("min_improvement", min_improvement),
         ("alpha", alpha),
@@ -718,20 +894,28 @@ def discover_mismatch(
     x_scale = {s: 1.0 for s in model.states}
     for o in model.outputs:
         x_scale[o] = float(np.std(rec.outputs[o])) or 1.0
+    # a long record is fitted in pieces, each from its own fitted initial state
+    pieces = choose_pieces(model, rec, n_fit, values0, n_sub)
+    if pieces is not None and rec_val is None:  # validate on the tail, restarted
+        rec_val = _tail(rec, n_fit)
 
     # ------------------------------------------------------------ 1. nominal fit
-    problem = _Problem(model, rec, n_fit, w, n_sub)
+    stages.enter("nominal fit")
+    problem = _Problem(model, rec, n_fit, w, n_sub, *(pieces or (None, None)))
     nom = _make_jobs(model, (), None, [{}], values0, x_scale, tag="nominal")
     _lm(problem, nom, 80)
-    n_sub2 = _choose_n_sub(model, rec, nom[0].values())
+    along = (problem.states(nom[0].values(), nom[0].x0), problem.sample_index())
+    n_sub2 = _choose_n_sub(model, rec, nom[0].values(), along)
     if any(k in ("velocity", "angular_velocity") for k in model.states.values()):
         # friction switches sign at zero speed: at least two RK4 steps per sample keep
         # the smoothed stick-slip close to the real one (Coulomb is otherwise mistaken
         # for Stribeck, whose low-speed peak mimics a sharper transition)
         n_sub2 = max(n_sub2, 2)
     if n_sub2 > n_sub:
-        problem = _Problem(model, rec, n_fit, w, n_sub2)
-        nom = _make_jobs(model, (), None, [{}], nom[0].values(), x_scale, tag="nominal")
+        problem = problem.with_step(n_sub2)
+        nom = _make_jobs(
+            model, (), None, [{}], nom[0].values(), x_scale, tag="nominal", x0=nom[0].x0
+        )
         _lm(problem, nom, 80)
     nominal = nom[0]
     if not math.isfinite(nominal.cost):
@@ -740,15 +924,27 @@ def discover_mismatch(
             "simulation diverges or gives NaN); check PARAMS, INITIAL and the units."
         )
     t_nominal = _time.perf_counter() - t_start
-    sc: Scales = _nominal_scales(model, rec, nominal.values(), problem.n_sub)
+    stages.leave()
+    x_nominal = problem.states(nominal.values(), nominal.x0)  # along the fitted samples
+    sc: Scales = _nominal_scales(
+        model, rec, nominal.values(), problem.n_sub, (x_nominal, problem.sample_index())
+    )
     x_scale = {s: sc.x_scale(s) for s in model.states}
 
     # ------------------------------------------------------------ 2. candidates
+    stages.enter("screening")
     cands = attach_candidates(model, sc, effects)
     jobs: list[_Job] = []
     for e in cands:
         jobs += _make_jobs(
-            model, (e,), sc, _effect_starts((e,), sc), nominal.values(), x_scale, tag=e.key
+            model,
+            (e,),
+            sc,
+            _effect_starts((e,), sc),
+            nominal.values(),
+            x_scale,
+            tag=e.key,
+            x0=nominal.x0,
         )
     _lm(problem, jobs, screen_iter)
     best_by_key: dict[str, _Job] = {}
@@ -757,6 +953,8 @@ def discover_mismatch(
             best_by_key[j.tag] = j
     ranked = sorted(best_by_key.values(), key=lambda j: j.cost)
     kept = _within_reach(ranked, nominal.cost, keep)
+    stages.leave()
+    stages.enter("refit")
     _lm(problem, kept, max_iter)
     # friction whose smoothing is limited by the step: refit on finer steps
     problems = {problem.n_sub: problem}
@@ -765,25 +963,32 @@ def discover_mismatch(
         n_f = _friction_step(j, rec.ts, problem.n_sub)
         if n_f > problem.n_sub:
             if n_f not in problems:
-                problems[n_f] = _Problem(model, rec, n_fit, w, n_f)
-            fine = _make_jobs(model, j.effects, sc, [{}], j.values(), x_scale, tag=j.tag)[0]
+                problems[n_f] = problem.with_step(n_f)
+            fine = _make_jobs(
+                model, j.effects, sc, [{}], j.values(), x_scale, tag=j.tag, x0=j.x0
+            )[0]
             _lm(problems[n_f], [fine], max(5, max_iter // 2))
             if fine.cost <= j.cost:
                 ranked[ranked.index(j)] = fine
                 kept[i] = fine
                 n_sub_of[id(fine)] = n_f
     t_screen = _time.perf_counter() - t_start - t_nominal
+    stages.leave()
+    stages.enter("validation")
 
     # ------------------------------------------------------------ 3. validation, scores
-    m = problem.n_fit * len(model.outputs)
+    m = problem.n_res
     scored = [_Scored(nominal, "nominal", (), n_sub=problem.n_sub)]
     for j in ranked:
         scored.append(_Scored(j, j.tag, j.effects, refit=j in kept, n_sub=n_sub_of[id(j)]))
-    _validate(model, problems, rec_val, scored, x_scale, 30)
+    # a long validation record is simulated for the refitted candidates only
+    n_val = rec_val.n if rec_val is not None else rec.n - n_fit
+    checked = [s for s in scored if s.refit or n_val <= PIECES_FROM]
+    _validate(model, problems, rec_val, checked, x_scale, 30)
     for s in scored:
-        s.bic = _bic(s.job.cost, m, s.job.layout.n)
+        s.bic = _bic(s.job.cost, m, s.job.n_fitted)
     base = scored[0]
-    for s in scored[1:]:
+    for s in checked[1:]:
         s.p_value = dm_test(base.e_val, s.e_val)[1]
     singles = scored[1:]
 
@@ -798,10 +1003,14 @@ def discover_mismatch(
         else None
     )
     accepted = chosen if chosen is not None and significant(chosen, base) else None
+    stages.leave()
 
     # ------------------------------------------------------------ 4. pairs
     pair = None
-    if accepted is not None and pairs:
+    stages.enter("pairs")
+    if accepted is not None and pairs and stages.over():
+        stages.skipped.append("pairs")
+    elif accepted is not None and pairs:
         e0 = accepted.effects[0]
         seen = {(e0.id, e0.target)}
         # a hypothesis and one it nests (Stribeck and Coulomb on one velocity) are no pair
@@ -816,12 +1025,22 @@ def discover_mismatch(
             if s.refit and k not in seen and len(others) < pair_candidates:
                 seen.add(k)
                 others.append(s)
+        couples = {frozenset((accepted.key, o.key)): (accepted, o) for o in others}
+        for first, o in _companion_pairs(singles, pair_candidates):
+            couples.setdefault(frozenset((first.key, o.key)), (first, o))
         pjobs = []
-        for o in others:
-            vals = {**o.job.values(), **accepted.job.values()}
-            eff = (*accepted.effects, *o.effects)
+        for first, o in couples.values():
+            vals = {**o.job.values(), **first.job.values()}
+            eff = (*first.effects, *o.effects)
             pjobs += _make_jobs(
-                model, eff, sc, [{}], vals, x_scale, tag="+".join(e.key for e in eff)
+                model,
+                eff,
+                sc,
+                [{}],
+                vals,
+                x_scale,
+                tag="+".join(e.key for e in eff),
+                x0=first.job.x0,
             )
         if pjobs:
             pp = problem  # the base step: pairs are the costliest fits
@@ -829,26 +1048,36 @@ def discover_mismatch(
             pscored = [_Scored(j, j.tag, j.effects, n_sub=pp.n_sub) for j in pjobs]
             _validate(model, problems, rec_val, pscored, x_scale, 30)
             for s in pscored:
-                s.bic = _bic(s.job.cost, m, s.job.layout.n)
+                s.bic = _bic(s.job.cost, m, s.job.n_fitted)
             best_pair = min(pscored, key=lambda s: s.rmse_val)
             if significant(best_pair, accepted):
                 pair = best_pair
+                # a companion pair may not hold the accepted single: its first
+                # effect leads the verdict
+                lead = best_pair.effects[0]
+                accepted = next(s for s in singles if s.effects[0] == lead)
+
+    stages.leave()
 
     # ------------------------------------------------------------ 5. data-driven fallback
+    stages.enter("data-driven terms")
     sparse_scored: list[_Scored] = []
     sparse_best = None
     ref = pair or accepted or base
     t_sparse = 0.0
-    if (effects is None or SPARSE_ID in effects) and not _white(ref):
+    wanted = (effects is None or SPARSE_ID in effects) and not _white(ref)
+    if wanted and stages.over():
+        stages.skipped.append("data-driven terms")
+    elif wanted:
         from pdmkit.models._sparse import fit_sparse
 
         t0 = _time.perf_counter()
-        sjobs = fit_sparse(problem, model, nominal.values(), sc, x_scale)
+        sjobs = fit_sparse(problem, model, nominal.values(), sc, x_scale, x0=nominal.x0)
         sparse_scored = [_Scored(j, j.tag, j.effects, n_sub=problem.n_sub) for j in sjobs]
         if sparse_scored:
             _validate(model, problems, rec_val, sparse_scored, x_scale, 30)
             for s in sparse_scored:
-                s.bic = _bic(s.job.cost, m, s.job.layout.n)
+                s.bic = _bic(s.job.cost, m, s.job.n_fitted)
                 s.p_value = dm_test(base.e_val, s.e_val)[1]
             cand = min(sparse_scored, key=lambda s: s.rmse_val)
             # it replaces an accepted named effect only when it also whitens the
@@ -858,6 +1087,8 @@ def discover_mismatch(
                 sparse_best = cand
                 accepted, pair = cand, None
         t_sparse = _time.perf_counter() - t0
+    stages.leave()
+    stages.enter("localisation")
     t_total = _time.perf_counter() - t_start
 
     # ------------------------------------------------------------ 5. summary
@@ -872,18 +1103,21 @@ def discover_mismatch(
     rows = []
     for s in by_target.values():
         e = s.effects[0]
+        checked = s.e_val is not None  # screened only, on a long record: not validated
         rows.append(
             {
                 "effect": e.id,
                 "target": e.target,
                 "variant": _variant(e),
-                "rmse_validation": s.rmse_val,
-                "improvement": 1.0 - s.rmse_val / base.rmse_val
-                if base.rmse_val > 0
-                else 0.0,
+                "rmse_validation": s.rmse_val if checked else math.nan,
+                "improvement": (
+                    1.0 - s.rmse_val / base.rmse_val if base.rmse_val > 0 else 0.0
+                )
+                if checked
+                else math.nan,
                 "criterion": s.bic - base.bic,
-                "p_value": s.p_value,
-                "n_params": s.job.layout.n,
+                "p_value": s.p_value if checked else math.nan,
+                "n_params": s.job.n_fitted,
                 "refit": s.refit,
                 "_s": s,
             }
@@ -960,15 +1194,27 @@ def discover_mismatch(
                 + "."
             )
     verdict["warnings"] = _at_bounds((final or base).job)
+    budget = stages.report()
+    if budget is not None:
+        verdict["budget"] = budget
+        if budget["reached"]:
+            skipped = ", ".join(budget["skipped"])
+            verdict["warnings"].append(
+                f"the time budget of {budget['max_seconds']:g} s ran out: this is the "
+                "best verdict so far (fits stopped early"
+                + (f"; skipped: {skipped}" if skipped else "")
+                + ")."
+            )
     for text in verdict["warnings"]:
         warnings.warn(f"mismatch: {text}", ConvergenceWarning, stacklevel=2)
-    train_err_nom = y_all[:n_fit] - base.y_train[:n_fit]
+    fitted = problem.sample_index()  # the training samples simulated
+    train_err_nom = y_all[fitted] - base.y_train[fitted]
     fit = {
         "rmse_nominal": base.rmse_val,
         "rmse_augmented": final.rmse_val if final is not None else base.rmse_val,
         "rmse_train_nominal": _rmse(train_err_nom, w),
         "rmse_train_augmented": (
-            _rmse(y_all[:n_fit] - final.y_train[:n_fit], w)
+            _rmse(y_all[fitted] - final.y_train[fitted], w)
             if final is not None
             else _rmse(train_err_nom, w)
         ),
@@ -980,17 +1226,27 @@ def discover_mismatch(
         ),
         "validation": "separate recording" if rec_val is not None else "last third",
         "n_sub": problem.n_sub,
+        "pieces": (
+            {"n": problem.n_pieces, "samples": int(problem.length)}
+            if problem.n_pieces > 1
+            else None
+        ),
         "input_hold": hold,
         "n_sub_augmented": final.n_sub if final is not None else None,
     }
 
     # ------------------------------------------------------------ 6. localisation
-    Xt = simulate_states(model, rec, nominal.values(), problem.n_sub)
+    if problem.n_pieces == 1:  # the whole training recording
+        Xt = simulate_states(model, rec, nominal.values(), problem.n_sub)
+        at = np.arange(rec.n)
+    else:  # the fitted pieces
+        Xt, at = x_nominal, fitted
     xs = {s: Xt[:, j] for j, s in enumerate(model.states)}
-    res_nom = (y_all - base.y_train) * w  # weighted residual, whole training recording
-    located = residual_windows(rec.time, res_nom)
-    regions = region_statistics(model, xs, rec.inputs, res_nom)
-    spectrum = residual_spectrum(res_nom.sum(axis=1), rec.inputs, 1.0 / rec.ts)
+    res_nom = (y_all[at] - base.y_train[at]) * w  # weighted residual
+    u_at = {k: v[at] for k, v in rec.inputs.items()}
+    located = residual_windows(rec.time[at], res_nom)
+    regions = region_statistics(model, xs, u_at, res_nom)
+    spectrum = residual_spectrum(res_nom.sum(axis=1), u_at, 1.0 / rec.ts)
     if rec_val is None:
         uval = {k: v[n_fit:] for k, v in rec.inputs.items()}
         yval = y_all[n_fit:]

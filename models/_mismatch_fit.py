@@ -10,8 +10,10 @@ Jacobian. Positive parameters are optimised in log space; all have bounds.
 
 from __future__ import annotations
 
+import contextvars
 import dataclasses
 import math
+import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -20,7 +22,7 @@ import numpy as np
 from pdmkit._checks import uniform_step
 from pdmkit.errors import DataError, ModelError
 from pdmkit.models._candidates import Effect, Scales
-from pdmkit.models._odesim import _NP, _run, _stable_n_sub
+from pdmkit.models._odesim import _NP, _jacobians, _run, _stable_n_sub
 
 __all__ = ["FitResult", "Recording", "fit_model", "make_recording", "nominal_scales"]
 
@@ -147,12 +149,36 @@ def make_recording(model, data: Any, name: str = "data") -> Recording:
     )
 
 
+def data_states(model, rec: Recording, samples: np.ndarray, fallback) -> np.ndarray:
+    """States at ``samples`` guessed from the data, ``(len(samples), nx)``.
+
+    A measured output is its own state; a velocity is the slope of its measured
+    position (over four samples); any other state takes ``fallback`` (``(nx,)``).
+    """
+    k = np.asarray(samples, dtype=int)
+    X = np.tile(np.asarray(fallback, dtype=float), (k.size, 1))
+    position = [
+        q
+        for q, kq in model.states.items()
+        if kq in ("position", "angle") and q in rec.outputs
+    ]
+    for j, (s, kind) in enumerate(model.states.items()):
+        if s in rec.outputs:
+            X[:, j] = rec.outputs[s][k]
+        elif kind in ("velocity", "angular_velocity") and len(position) == 1:
+            y = rec.outputs[position[0]]
+            lo, hi = np.maximum(k - 2, 0), np.minimum(k + 2, rec.n - 1)
+            X[:, j] = (y[hi] - y[lo]) / ((hi - lo) * rec.ts)
+    lo = np.array([0.0 if kd == "level" else -np.inf for kd in model.states.values()])
+    return np.maximum(X, lo[None, :])
+
+
 # ---------------------------------------------------------------------------- layout
 @dataclasses.dataclass
 class _Layout:
     """Which values a job fits, in what space, within what bounds."""
 
-    names: list[str]  # "p:<param>", "x0:<state>", "<effect key>.<param>"
+    names: list[str]  # "p:<param>", "<effect key>.<param>"
     log: np.ndarray
     lo: np.ndarray  # transformed bounds
     hi: np.ndarray
@@ -175,17 +201,29 @@ class _Layout:
 
 @dataclasses.dataclass
 class _Job:
-    """One structure fitted from one start: state of its Levenberg-Marquardt run."""
+    """One structure fitted from one start: state of its Levenberg-Marquardt run.
+
+    ``theta`` holds the values the layout names (model and effect parameters, in the
+    optimiser's space); ``x0`` the initial state of every fitted piece of the record,
+    ``(K, n_states)`` (one row when the record is fitted whole), fitted alongside when
+    ``fit_x0``.
+    """
 
     effects: tuple[Effect, ...]
     layout: _Layout
-    fixed: dict[str, float]  # every value ("p:", "x0:", effect params) not in layout
+    fixed: dict[str, float]  # every parameter value not in layout
     theta: np.ndarray
     sign: dict[str, float]  # sign of log-space values (negative nominal parameters)
+    x0: np.ndarray  # (K, nx) initial state of each fitted piece
+    x0_scale: np.ndarray  # (nx,) typical magnitude of each state (finite differences)
+    x0_lo: np.ndarray  # (nx,) lower bound of each state (0 for levels)
+    fit_x0: bool = True
+    state_names: tuple[str, ...] = ()
     tag: str = ""
     cost: float = math.inf
     r: np.ndarray | None = None
-    J: np.ndarray | None = None
+    J: np.ndarray | None = None  # (m, n_theta) Jacobian of r in theta
+    Jx: np.ndarray | None = None  # (K, m / K, nx) Jacobian of each piece in its x0
     lam: float = 1e-2
     small: int = 0
     done: bool = False
@@ -193,12 +231,20 @@ class _Job:
     n_eval: int = 0
 
     def values(self, theta: np.ndarray | None = None) -> dict[str, float]:
+        """Every parameter value and the first piece's initial state (``x0:``)."""
         th = self.theta if theta is None else theta
         vals = dict(self.fixed)
         dec = self.layout.decode(th)
         for k, v in dec.items():
             vals[k] = v * self.sign.get(k, 1.0)
+        for j, name in enumerate(self.state_names):
+            vals[f"x0:{name}"] = float(self.x0[0, j])
         return vals
+
+    @property
+    def n_fitted(self) -> int:
+        """How many values the fit adjusts (parameters and initial states)."""
+        return self.layout.n + (self.x0.size if self.fit_x0 else 0)
 
 
 def _param_layout(
@@ -206,8 +252,6 @@ def _param_layout(
     effects: Sequence[Effect],
     scales: Scales | None,
     fit_free: bool,
-    fit_x0: bool,
-    x_scale: Mapping[str, float],
     values: Mapping[str, float],
     fit_effects: bool = True,
 ):
@@ -229,13 +273,6 @@ def _param_layout(
                 lo.append(-math.inf)
                 hi.append(math.inf)
                 sc.append(ref)
-    if fit_x0:
-        for s, kind in model.states.items():
-            names.append(f"x0:{s}")
-            log.append(False)
-            lo.append(0.0 if kind == "level" else -math.inf)
-            hi.append(math.inf)
-            sc.append(max(x_scale.get(s, 1.0), 1e-9))
     for e in effects if fit_effects else ():
         specs = e.candidate.specs(e, scales)
         for p in e.param_names:
@@ -263,23 +300,91 @@ def _param_layout(
 # ---------------------------------------------------------------------------- batch sim
 @dataclasses.dataclass
 class _Problem:
-    """What every job of one batch shares: model, recording, fitted span, weights."""
+    """What every job of one batch shares: model, recording, fitted span, weights.
+
+    The fit covers samples ``[0, n_fit)``; long records are fitted in pieces
+    (``starts``, ``length``: multiple shooting, each piece from its own fitted initial
+    state), short ones whole (one piece from sample 0).
+    """
 
     model: Any
     rec: Recording
     n_fit: int  # samples simulated (fit on [0, n_fit))
     weights: np.ndarray  # (n_out,) 1 / output scale
     n_sub: int
+    starts: np.ndarray | None = None  # (K,) first sample of each fitted piece
+    length: int | None = None  # samples per piece
 
-    def simulate(
-        self, rows: Sequence[tuple[_Job, Mapping[str, float]]], n: int | None = None
-    ):
-        """Outputs ``(B, n, n_out)`` for rows of (job, values)."""
+    def __post_init__(self):
+        if self.starts is None:
+            self.starts, self.length = np.array([0]), self.n_fit
+        self.starts = np.asarray(self.starts, dtype=int)
+        idx = (self.starts[:, None] + np.arange(self.length)[None, :]).ravel()
+        self._y = self.rec.y(self.model)[idx]  # (K * L, n_out) the data fitted
+
+    @property
+    def n_pieces(self) -> int:
+        return int(self.starts.size)
+
+    @property
+    def n_res(self) -> int:
+        """Number of fitted residuals (samples x outputs)."""
+        return int(self._y.size)
+
+    def sample_index(self) -> np.ndarray:
+        """The recording's sample of every fitted residual row, ``(K * L,)``."""
+        return (self.starts[:, None] + np.arange(self.length)[None, :]).ravel()
+
+    def initial_pieces(self, x0_first: np.ndarray) -> np.ndarray:
+        """A first guess of every piece's initial state, ``(K, nx)``, from the data.
+
+        The first piece starts from ``x0_first``; the others from the measured
+        outputs at their first sample, a velocity from the slope of its measured
+        position, and any other state from ``x0_first``.
+        """
+        X = data_states(self.model, self.rec, self.starts, x0_first)
+        X[0] = x0_first
+        return X
+
+    def states(self, values: Mapping[str, float], x0: np.ndarray) -> np.ndarray:
+        """States along the fitted samples, ``(K * L, nx)``, pieces from ``x0``."""
+        P = {k: values.get(f"p:{k}", v) for k, v in self.model.params.items()}
+        whole = self.n_pieces == 1 and self.starts[0] == 0
+        n = self.n_fit if whole else int(self.starts[-1] + self.length)
+        X0 = np.asarray(x0, dtype=float)[None, :1] if whole else np.asarray(x0)[None]
+        with np.errstate(all="ignore"):
+            _, Xt = _run(
+                self.model,
+                [],
+                [],
+                [],
+                self.rec.time[:n],
+                {k: v[:n] for k, v in self.rec.inputs.items()},
+                P,
+                X0[:, 0] if whole else X0,
+                self.n_sub,
+                _NP,
+                True,
+                hold=self.rec.hold,
+                segments=None if whole else (self.starts, self.length),
+            )
+        return Xt[0]
+
+    def with_step(self, n_sub: int) -> _Problem:
+        """The same problem with another number of RK4 steps per sample."""
+        return dataclasses.replace(self, n_sub=n_sub)
+
+    def simulate(self, rows: Sequence[tuple], n: int | None = None):
+        """Outputs for rows of ``(job, values, x0)``.
+
+        Without ``n``: the fitted pieces, ``(B, K * L, n_out)``, ``x0`` of each row
+        ``(K, nx)``. With ``n``: the first ``n`` samples simulated whole from the first
+        piece's initial state ``x0[0]``, ``(B, n, n_out)``.
+        """
         model = self.model
-        n = self.n_fit if n is None else n
         B = len(rows)
         union: list[Effect] = []
-        for job, _ in rows:
+        for job, *_ in rows:
             for e in job.effects:
                 if e not in union:
                     union.append(e)
@@ -289,15 +394,12 @@ class _Problem:
         ]
         masks = [np.zeros(B, dtype=bool) for _ in union]
         P = {k: np.full(B, v) for k, v in model.params.items()}
-        X0 = np.empty((B, len(model.states)))
         index = {e: i for i, e in enumerate(union)}
-        for r, (job, vals) in enumerate(rows):
+        for r, (job, vals, _x0) in enumerate(rows):
             for k in model.params:
                 v = vals.get(f"p:{k}")
                 if v is not None:
                     P[k][r] = v
-            for j, s in enumerate(model.states):
-                X0[r, j] = vals[f"x0:{s}"]
             for e in job.effects:
                 i = index[e]
                 masks[i][r] = True
@@ -306,6 +408,20 @@ class _Problem:
         # parameters identical in every row stay scalars (cheaper arithmetic)
         P = {k: (float(v[0]) if np.all(v == v[0]) else v) for k, v in P.items()}
         masks = [None if m.all() else m for m in masks]
+        whole = n is not None or (self.n_pieces == 1 and self.starts[0] == 0)
+        if whole:
+            n = self.n_fit if n is None else n
+            X0 = np.stack(
+                [
+                    np.asarray(x0, dtype=float).reshape(-1, x0.shape[-1])[0]
+                    for *_, x0 in rows
+                ]
+            )
+            segments = None
+        else:
+            n = int(self.starts[-1] + self.length)
+            X0 = np.stack([np.asarray(x0, dtype=float) for *_, x0 in rows])
+            segments = (self.starts, self.length)
         t = self.rec.time[:n]
         useq = {k: v[:n] for k, v in self.rec.inputs.items()}
         with np.errstate(all="ignore"):
@@ -321,13 +437,13 @@ class _Problem:
                 self.n_sub,
                 _NP,
                 hold=self.rec.hold,
+                segments=segments,
             )
         return Y
 
     def residuals(self, Y: np.ndarray) -> np.ndarray:
-        """Weighted residuals ``(B, n_fit * n_out)`` (simulated minus measured)."""
-        y = self.rec.y(self.model)[: self.n_fit]
-        R = (Y - y[None]) * self.weights[None, None, :]
+        """Weighted residuals ``(B, K * L * n_out)`` (simulated minus measured)."""
+        R = (Y - self._y[None]) * self.weights[None, None, :]
         R = R.reshape(R.shape[0], -1)
         return np.where(np.isfinite(R), R, np.nan)
 
@@ -345,86 +461,178 @@ def _fd_steps(job: _Job, theta: np.ndarray) -> np.ndarray:
     return d
 
 
-def _lm(problem: _Problem, jobs: Sequence[_Job], max_iter: int, ftol: float = 1e-5) -> None:
-    """Batched Levenberg-Marquardt: update ``jobs`` in place for up to ``max_iter``."""
+def _fd_rows(job: _Job, theta: np.ndarray, x0: np.ndarray):
+    """Rows for ``r`` at ``(theta, x0)`` and its finite-difference Jacobian.
+
+    One row per parameter; one row per *state* for the initial states of all pieces at
+    once (each piece's residual depends on its own initial state only, so perturbing
+    that state in every piece together gives every piece's column in one
+    simulation). Returns ``(rows, theta steps, x0 steps (K, nx) or None)``.
+    """
+    steps = _fd_steps(job, theta)
+    rows = [(job, job.values(theta), x0)]
+    for i in range(job.layout.n):
+        th2 = theta.copy()
+        th2[i] += steps[i]
+        rows.append((job, job.values(th2), x0))
+    dx = None
+    if job.fit_x0:
+        dx = 1e-6 * np.maximum(np.abs(x0), job.x0_scale[None, :])
+        vals = job.values(theta)
+        for j in range(x0.shape[1]):
+            x2 = x0.copy()
+            x2[:, j] += dx[:, j]
+            rows.append((job, vals, x2))
+    return rows, steps, dx
+
+
+def _fd_jacobians(R: np.ndarray, r0: int, job: _Job, steps, dx):
+    """``(r, J, Jx)`` from the residual rows of :func:`_fd_rows` starting at ``r0``."""
+    n = job.layout.n
+    r = R[r0]
+    J = (R[r0 + 1 : r0 + 1 + n] - r[None]).T / steps[None]
+    J = np.where(np.isfinite(J), J, 0.0)
+    Jx = None
+    if dx is not None:
+        K, nx = dx.shape
+        D = R[r0 + 1 + n : r0 + 1 + n + nx] - r[None]  # (nx, m)
+        D = D.reshape(nx, K, -1).transpose(1, 2, 0)  # (K, m / K, nx)
+        Jx = D / dx[:, None, :]
+        Jx = np.where(np.isfinite(Jx), Jx, 0.0)
+    return r, J, Jx
+
+
+def _lm_step(job: _Job, lam: float) -> tuple[np.ndarray, np.ndarray]:
+    """Damped Gauss-Newton step ``(d theta, d x0)`` for the job's ``r``, ``J``, ``Jx``.
+
+    The initial states of the pieces enter block-diagonally: each piece's states are
+    eliminated first (Schur complement), so a record cut into hundreds of pieces costs
+    a few small solves, not one large one.
+    """
+    r, J = job.r, job.J
+    n = J.shape[1]
+    g = J.T @ r
+    A = J.T @ J
+    if job.Jx is None:
+        D = np.clip(np.diag(A), 1e-12 * max(np.max(np.diag(A), initial=0.0), 1e-300), None)
+        return _solve(A + lam * np.diag(D), -g), np.zeros_like(job.x0)
+    K, mk, nx = job.Jx.shape
+    Jx, rk = job.Jx, r.reshape(K, mk)
+    Jk = J.reshape(K, mk, n)
+    Axx = np.einsum("kmi,kmj->kij", Jx, Jx)  # (K, nx, nx)
+    Agx = np.einsum("kmi,kmj->kij", Jk, Jx)  # (K, n, nx)
+    gx = np.einsum("kmi,km->ki", Jx, rk)  # (K, nx)
+    dA = np.diag(A) if n else np.zeros(0)
+    dX = np.einsum("kii->ki", Axx)
+    top = max(np.max(dA, initial=0.0), np.max(dX, initial=0.0), 1e-300)
+    Axx = Axx + lam * np.einsum("ki,ij->kij", np.clip(dX, 1e-12 * top, None), np.eye(nx))
+    Ainv = np.linalg.pinv(Axx)  # (K, nx, nx), batched
+    if n:
+        S = A + lam * np.diag(np.clip(dA, 1e-12 * top, None))
+        S = S - np.einsum("kij,kjl,kml->im", Agx, Ainv, Agx)
+        rhs = -g + np.einsum("kij,kjl,kl->i", Agx, Ainv, gx)
+        dth = _solve(S, rhs)
+    else:
+        dth = np.zeros(0)
+    dx = -np.einsum("kij,kj->ki", Ainv, gx + np.einsum("kji,j->ki", Agx, dth))
+    return dth, dx
+
+
+def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    try:
+        return np.linalg.solve(A, b)
+    except np.linalg.LinAlgError:
+        return np.linalg.lstsq(A, b, rcond=None)[0]
+
+
+#: ``time.perf_counter()`` after which budgeted fits stop where they are (a discovery's
+#: ``max_seconds``); each job keeps its best point so far
+DEADLINE: contextvars.ContextVar[float] = contextvars.ContextVar(
+    "deadline", default=math.inf
+)
+
+
+def _lm(
+    problem: _Problem,
+    jobs: Sequence[_Job],
+    max_iter: int,
+    ftol: float = 1e-5,
+    budgeted: bool = True,
+) -> None:
+    """Batched Levenberg-Marquardt: update ``jobs`` in place for up to ``max_iter``
+    iterations (fewer when ``budgeted`` and :data:`DEADLINE` has passed)."""
+    deadline = DEADLINE.get() if budgeted else math.inf
+    for job in jobs:  # pieces' initial states start from the data when not given
+        if job.x0.shape[0] != problem.n_pieces:
+            job.x0 = problem.initial_pieces(job.x0[0])
+            job.r = job.J = job.Jx = None
     for _ in range(max_iter + 1):
         active = [j for j in jobs if not j.done]
         if not active:
             return
-        rows: list[tuple[_Job, Mapping[str, float]]] = []
+        if time.perf_counter() > deadline and all(j.r is not None for j in active):
+            return
+        rows: list[tuple] = []
         plan = []  # (job, kind, payload, first row)
         for job in active:
             if job.J is None:
                 if job.n_iter >= max_iter and job.r is not None:
                     continue
-                th = job.theta
-                steps = _fd_steps(job, th)
-                plan.append((job, "jac", (th, steps), len(rows)))
-                rows.append((job, job.values(th)))
-                for i in range(job.layout.n):
-                    th2 = th.copy()
-                    th2[i] += steps[i]
-                    rows.append((job, job.values(th2)))
+                frows, steps, dx = _fd_rows(job, job.theta, job.x0)
+                plan.append((job, "jac", (steps, dx), len(rows)))
+                rows += frows
             else:
                 if job.n_iter >= max_iter:
                     continue
                 trials = []
-                g = job.J.T @ job.r
-                A = job.J.T @ job.J
-                D = np.clip(np.diag(A), 1e-12 * max(np.max(np.diag(A)), 1e-300), None)
                 for lam in (job.lam, 10.0 * job.lam):
-                    try:
-                        delta = np.linalg.solve(A + lam * np.diag(D), -g)
-                    except np.linalg.LinAlgError:
-                        delta = np.linalg.lstsq(A + lam * np.diag(D), -g, rcond=None)[0]
-                    trials.append(np.clip(job.theta + delta, job.layout.lo, job.layout.hi))
-                steps = _fd_steps(job, trials[0])
-                plan.append((job, "step", (trials, steps), len(rows)))
-                rows.append((job, job.values(trials[0])))
-                for i in range(job.layout.n):
-                    th2 = trials[0].copy()
-                    th2[i] += steps[i]
-                    rows.append((job, job.values(th2)))
-                rows.append((job, job.values(trials[1])))
+                    dth, dx0 = _lm_step(job, lam)
+                    th = np.clip(job.theta + dth, job.layout.lo, job.layout.hi)
+                    x0 = np.maximum(job.x0 + dx0, job.x0_lo[None, :])
+                    trials.append((th, x0))
+                frows, steps, dx = _fd_rows(job, *trials[0])
+                plan.append((job, "step", (trials, steps, dx), len(rows)))
+                rows += frows
+                rows.append((job, job.values(trials[1][0]), trials[1][1]))
         if not rows:
             return
         R = problem.residuals(problem.simulate(rows))
         for job, kind, payload, r0 in plan:
-            n = job.layout.n
             job.n_eval += 1
             if kind == "jac":
-                th, steps = payload
-                job.r = R[r0]
-                job.cost = _cost(job.r)
+                steps, dx = payload
+                r, J, Jx = _fd_jacobians(R, r0, job, steps, dx)
+                job.r, job.cost = r, _cost(r)
                 if not math.isfinite(job.cost):
                     job.done = True
                     continue
-                J = (R[r0 + 1 : r0 + 1 + n] - job.r[None]).T / steps[None]
-                job.J = np.where(np.isfinite(J), J, 0.0)
+                job.J, job.Jx = J, Jx
                 continue
-            trials, steps = payload
+            trials, steps, dx = payload
+            n_rows = 1 + job.layout.n + (job.x0.shape[1] if dx is not None else 0)
             job.n_iter += 1
             c1 = _cost(R[r0])
-            c2 = _cost(R[r0 + n + 1])
+            c2 = _cost(R[r0 + n_rows])
             old = job.cost
+            before = np.concatenate([job.theta, job.x0.ravel()])
             if c1 < old and c1 <= c2:
-                step = trials[0] - job.theta
-                job.theta, job.r, job.cost = trials[0], R[r0], c1
-                J = (R[r0 + 1 : r0 + 1 + n] - job.r[None]).T / steps[None]
-                job.J = np.where(np.isfinite(J), J, 0.0)
+                (job.theta, job.x0), job.cost = trials[0], c1
+                job.r, job.J, job.Jx = _fd_jacobians(R, r0, job, steps, dx)
                 job.lam = max(job.lam / 3.0, 1e-9)
             elif c2 < old:
-                step = trials[1] - job.theta
-                job.theta, job.r, job.cost = trials[1], R[r0 + n + 1], c2
-                job.J = None
+                (job.theta, job.x0), job.r, job.cost = trials[1], R[r0 + n_rows], c2
+                job.J = job.Jx = None
                 job.lam = job.lam * 2.0
             else:
                 job.lam *= 10.0
                 if job.lam > 1e10:
                     job.done = True
                 continue
+            after = np.concatenate([job.theta, job.x0.ravel()])
             rel = (old - job.cost) / max(old, 1e-300)
-            tiny_step = np.linalg.norm(step) <= 1e-10 * (np.linalg.norm(job.theta) + 1e-10)
+            tiny_step = np.linalg.norm(after - before) <= 1e-10 * (
+                np.linalg.norm(after) + 1e-10
+            )
             job.small = job.small + 1 if (rel < ftol or tiny_step) else 0
             if job.small >= 2 or job.cost < 1e-30:
                 job.done = True
@@ -444,12 +652,24 @@ def simulate_states(model, rec: Recording, values: Mapping[str, float], n_sub: i
 
 
 def _nominal_scales(
-    model, rec: Recording, values: Mapping[str, float], n_sub: int
+    model,
+    rec: Recording,
+    values: Mapping[str, float],
+    n_sub: int,
+    along: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> Scales:
-    """Magnitudes of the trajectory simulated with ``values`` (for candidate guesses)."""
+    """Magnitudes of the trajectory simulated with ``values`` (for candidate guesses).
+
+    ``along = (X, index)``: states already simulated at the recording's samples
+    ``index`` (the fitted pieces of a long record), instead of a whole simulation.
+    """
     t = rec.time
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
-    X = simulate_states(model, rec, values, n_sub)
+    if along is None:
+        X, index = simulate_states(model, rec, values, n_sub), np.arange(rec.n)
+    else:
+        X, index = along
+    inputs = {k: v[index] for k, v in rec.inputs.items()}
     if not np.all(np.isfinite(X)):
         raise ModelError(
             f"{model.name}: the simulation with the fitted nominal parameters is not "
@@ -458,8 +678,8 @@ def _nominal_scales(
     states = model.state_names
     xd = {s: X[:, j] for j, s in enumerate(states)}
     with np.errstate(all="ignore"):
-        d = model.derivatives(xd, dict(rec.inputs), P)
-    F = {s: np.broadcast_to(np.asarray(d[s], dtype=float), (rec.n,)) for s in states}
+        d = model.derivatives(xd, dict(inputs), P)
+    F = {s: np.broadcast_to(np.asarray(d[s], dtype=float), (index.size,)) for s in states}
     stiffness = {}
     kinds = model.states
     pos_of = {"velocity": "position", "angular_velocity": "angle"}
@@ -473,7 +693,7 @@ def _nominal_scales(
             x2 = dict(xd)
             x2[p] = xd[p] + dx
             with np.errstate(all="ignore"):
-                d2 = model.derivatives(x2, dict(rec.inputs), P)
+                d2 = model.derivatives(x2, dict(inputs), P)
             k = -(np.asarray(d2[v], dtype=float) - F[v]) / dx
             k = k[np.isfinite(k)] if np.ndim(k) else np.array([k])
             stiffness[(v, p)] = float(np.median(k)) if k.size else 0.0
@@ -482,9 +702,9 @@ def _nominal_scales(
         if kv not in pos_of:
             continue
         for u in model.inputs:
-            du = 1e-6 * max(float(np.std(rec.inputs[u])), 1e-9)
-            u2 = dict(rec.inputs)
-            u2[u] = rec.inputs[u] + du
+            du = 1e-6 * max(float(np.std(inputs[u])), 1e-9)
+            u2 = dict(inputs)
+            u2[u] = inputs[u] + du
             with np.errstate(all="ignore"):
                 d2 = model.derivatives(xd, u2, P)
             g = (np.asarray(d2[v], dtype=float) - F[v]) / du
@@ -579,17 +799,117 @@ def _initial_values(model, rec: Recording) -> dict[str, float]:
     return vals
 
 
-def _choose_n_sub(model, rec: Recording, values: Mapping[str, float]) -> int:
+#: samples of a record's start simulated to choose the step and the pieces
+_PREFIX = 4000
+
+
+def _choose_n_sub(
+    model,
+    rec: Recording,
+    values: Mapping[str, float],
+    along: tuple[np.ndarray, np.ndarray] | None = None,
+) -> int:
+    """RK4 steps per sample for a stable simulation, from the model's fastest mode
+    along the record's first samples (or along given states ``(X, index)``)."""
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
-    for n_sub in (1, 4, 16):
-        Xt = simulate_states(model, rec, values, n_sub)[None]
-        if np.all(np.isfinite(Xt)):
-            break
+    if along is None:
+        head = _head(rec, _PREFIX)
+        for n_sub in (1, 4, 16):
+            X = simulate_states(model, head, values, n_sub)
+            if np.all(np.isfinite(X)):
+                break
+        else:
+            return 16
+        index = np.arange(head.n)
     else:
-        return 16
+        X, index = along
     with np.errstate(all="ignore"):
-        need = _stable_n_sub(model, P, Xt[0], rec.ts, rec.inputs)
+        need = _stable_n_sub(
+            model, P, X, rec.ts, {k: v[index] for k, v in rec.inputs.items()}
+        )
     return int(min(max(need, 1), 32))
+
+
+def _head(rec: Recording, n: int) -> Recording:
+    """The first ``n`` samples of a recording."""
+    return dataclasses.replace(
+        rec,
+        time=rec.time[:n],
+        inputs={k: v[:n] for k, v in rec.inputs.items()},
+        outputs={k: v[:n] for k, v in rec.outputs.items()},
+    )
+
+
+#: records of up to this many fitted samples are simulated whole
+PIECES_FROM = 3000
+#: at most this many samples in the fitted pieces of a long record
+PIECES_BUDGET = 16000
+#: a piece lasts this many of the model's slowest time constants ...
+PIECE_TIME_CONSTANTS = 10
+#: ... and at least this many samples
+PIECE_MIN = 400
+
+
+def choose_pieces(
+    model, rec: Recording, n_fit: int, values: Mapping[str, float], n_sub: int
+) -> tuple[np.ndarray, int] | None:
+    """Where a long record is cut into pieces for the fit (multiple shooting).
+
+    Returns ``(starts, length)`` or ``None`` (fit the record whole): records of up to
+    :data:`PIECES_FROM` samples, and models whose right-hand side reads the time,
+    are fitted whole. A piece lasts :data:`PIECE_TIME_CONSTANTS` of the model's
+    slowest decaying mode (at least :data:`PIECE_MIN` samples), so that its own
+    initial state, fitted with it, has faded long before its end; at most
+    :data:`PIECES_BUDGET` samples are fitted, in pieces spread evenly over the record.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models._mismatch_cases import showcase_model
+    >>> from pdmkit.models._mismatch_fit import choose_pieces, make_recording
+    >>> msd = showcase_model("mass_spring_damper")
+    >>> t = np.arange(20000) * 0.01
+    >>> rec = make_recording(msd, {"time": t, "F": np.sin(t), "x": 0 * t})
+    >>> values = {"p:" + k: v for k, v in msd.params.items()} | {"x0:x": 0.0, "x0:v": 0.0}
+    >>> starts, length = choose_pieces(msd, rec, rec.n, values, 1)
+    >>> int(starts[0]), len(starts) * length <= 16000
+    (0, True)
+    """
+    if n_fit <= PIECES_FROM:
+        return None
+    head = _head(rec, min(n_fit, _PREFIX))
+    X = simulate_states(model, head, values, n_sub)
+    if not np.all(np.isfinite(X)):
+        return None
+    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    idx = np.unique(np.linspace(0, head.n - 1, 12).astype(int))
+    x = {s: X[idx, j] for j, s in enumerate(model.states)}
+    u = {k: v[idx] for k, v in head.inputs.items()}
+    later = float(head.time[-1] - head.time[0]) * 3.7 + 11.3
+    with np.errstate(all="ignore"):
+        d0 = model.derivatives(x, u, P, t=float(head.time[0]))
+        d1 = model.derivatives(x, u, P, t=float(head.time[0]) + later)
+    for s in model.states:  # the model reads the clock: pieces would shift it
+        a, b = np.asarray(d0[s], dtype=float), np.asarray(d1[s], dtype=float)
+        if not np.allclose(a, b, rtol=1e-12, atol=0.0, equal_nan=True):
+            return None
+    rates = []
+    for J in _jacobians(model, P, X, {k: v for k, v in head.inputs.items()}, 12):
+        lam = np.linalg.eigvals(J)
+        fast = float(np.max(np.abs(lam)))
+        decay = -lam.real[-lam.real > 1e-6 * max(fast, 1e-300)]
+        if decay.size:
+            rates.append(float(np.min(decay)))
+    ts = rec.ts
+    if rates:
+        length = math.ceil(PIECE_TIME_CONSTANTS / float(np.median(rates)) / ts)
+    else:  # no decaying mode: long pieces
+        length = n_fit // 4
+    length = int(min(max(length, PIECE_MIN), n_fit // 2))
+    k_all = n_fit // length
+    k = int(max(2, min(k_all, PIECES_BUDGET // length)))
+    starts = np.round(np.linspace(0, n_fit - length, k)).astype(int)
+    return starts, length
 
 
 def _make_jobs(
@@ -603,7 +923,16 @@ def _make_jobs(
     fit_x0=True,
     tag="",
     fit_effects=True,
+    x0=None,
 ):
+    """Jobs for one structure, one per start; ``x0`` ``(K, nx)`` the pieces' initial
+    states (default: ``values``' ``x0:`` entries, spread over the pieces from the data
+    when the fit starts)."""
+    states = list(model.states)
+    if x0 is None:
+        x0 = np.array([[values[f"x0:{s}"] for s in states]], dtype=float)
+    x0_scale = np.array([max(x_scale.get(s, 1.0), 1e-9) for s in states])
+    x0_lo = np.array([0.0 if k == "level" else -np.inf for k in model.states.values()])
     jobs = []
     for start in starts:
         vals = dict(values)
@@ -611,12 +940,24 @@ def _make_jobs(
             for k, v in start.items():
                 if k.startswith(e.key + "."):
                     vals[k] = v
-        layout, sign = _param_layout(
-            model, effects, scales, fit_free, fit_x0, x_scale, vals, fit_effects
-        )
+        layout, sign = _param_layout(model, effects, scales, fit_free, vals, fit_effects)
         fixed = {k: v for k, v in vals.items() if k not in layout.names}
         enc = {k: vals[k] * sign.get(k, 1.0) for k in layout.names}
-        jobs.append(_Job(tuple(effects), layout, fixed, layout.encode(enc), sign, tag=tag))
+        jobs.append(
+            _Job(
+                tuple(effects),
+                layout,
+                fixed,
+                layout.encode(enc),
+                sign,
+                x0=np.array(x0, dtype=float, copy=True),
+                x0_scale=x0_scale,
+                x0_lo=x0_lo,
+                fit_x0=fit_x0,
+                state_names=tuple(states),
+                tag=tag,
+            )
+        )
     return jobs
 
 
@@ -624,9 +965,13 @@ def _effect_starts(effects: Sequence[Effect], scales: Scales) -> list[dict[str, 
     """Cartesian product of every effect's guesses (qualified names)."""
     starts: list[dict[str, float]] = [{}]
     for e in effects:
+        guesses = list(e.candidate.guesses(e, scales))
+        neutral = {p: float(e.candidate.neutral[p]) for p in e.param_names}
+        if e.candidate.start_neutral and neutral not in guesses:
+            guesses.append(neutral)
         new = []
         for s in starts:
-            for gss in e.candidate.guesses(e, scales):
+            for gss in guesses:
                 new.append({**s, **{f"{e.key}.{k}": v for k, v in gss.items()}})
         starts = new
     return starts
@@ -713,7 +1058,7 @@ def _result(problem: _Problem, job: _Job, n_full: int | None = None) -> FitResul
     vals = job.values()
     y = problem.rec.y(problem.model)[: problem.n_fit]
     n = problem.rec.n if n_full is None else n_full
-    Y = problem.simulate([(job, vals)], n=n)[0]
+    Y = problem.simulate([(job, vals, job.x0)], n=n)[0]
     err = Y[: problem.n_fit] - y
     if y.shape[1] == 1:
         rmse = float(np.sqrt(np.mean(err**2)))
@@ -724,7 +1069,7 @@ def _result(problem: _Problem, job: _Job, n_full: int | None = None) -> FitResul
         values=vals,
         cost=job.cost,
         rmse_fit=rmse,
-        n_params=job.layout.n,
+        n_params=job.n_fitted,
         n_iter=job.n_iter,
         y_sim=Y,
         tag=job.tag,

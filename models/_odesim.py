@@ -74,8 +74,18 @@ def _run(
     xp,
     want_states: bool = False,
     hold: str = "zoh",
+    segments: tuple[np.ndarray, int] | None = None,
 ):
     """Integrate a batch; return ``(y (B, N, n_out), x (B, N, nx) or None)``.
+
+    ``segments = (starts, L)`` simulates, for every row, ``K = len(starts)`` pieces of
+    the record side by side instead of the whole record (multiple shooting): piece
+    ``k`` covers samples ``starts[k] .. starts[k] + L - 1`` and starts from its own
+    state, ``x0`` then being ``(B, K, nx)``; the result is ``(B, K * L, ...)``, pieces
+    one after the other. The pieces run as extra rows of the batch, so a long record
+    costs ``L`` steps of Python instead of ``N``. Input transforms (dead time, lags of
+    the sequence) are applied to the whole record first. The model must not depend on
+    time (the right-hand side sees the piece's own clock); numpy only.
 
     ``hold`` says what the inputs do between samples: ``"zoh"`` held constant (a
     digital controller's output, steps), ``"foh"`` straight lines from sample to sample
@@ -95,8 +105,11 @@ def _run(
     N = t.size
     X = xp.asarray(x0)
     B = int(X.shape[0])
-    if tuple(X.shape) != (B, nx):
-        raise ModelError(f"internal: x0 has shape {tuple(X.shape)}, expected (B, {nx}).")
+    want = (B, nx) if segments is None else (B, len(segments[0]), nx)
+    if tuple(X.shape) != want:
+        raise ModelError(f"internal: x0 has shape {tuple(X.shape)}, expected {want}.")
+    if segments is not None and xp.name != "numpy":
+        raise ModelError("internal: segmented simulation runs in numpy only.")
     ts = float(t[1] - t[0])
     h = ts / n_sub
     M = [None if m is None else (m if is_torch(m) else np.asarray(m, bool)) for m in masks]
@@ -124,6 +137,22 @@ def _run(
                 i, c.input_sequence(xp, e, theta[i], U[e.target], ts), U[e.target]
             )
     Useq = xp.stack([U[n] for n in inputs], 2) if inputs else None  # (B, N, nu)
+    t_out = xp.asarray(t - t[0])[None, :]  # output hooks: time since the record start
+    if segments is not None:  # pieces become rows: row b * K + k is piece k of row b
+        starts, L = np.asarray(segments[0], dtype=int), int(segments[1])
+        K = starts.size
+        idx = starts[:, None] + np.arange(L)[None, :]  # (K, L)
+        if inputs:
+            Useq = Useq[:, idx, :].reshape(B * K, L, len(inputs))
+        t_out = np.tile(t[idx] - t[0], (B, 1))
+        theta = [{p: np.repeat(np.asarray(v), K) for p, v in th.items()} for th in theta]
+        M = [None if m is None else np.repeat(m, K) for m in M]
+        params = {
+            k: (v if isinstance(v, float | int) or np.ndim(v) == 0 else np.repeat(v, K))
+            for k, v in params.items()
+        }
+        X = X.reshape(B * K, nx)
+        B, N, t = B * K, L, t[:L]
 
     theta = [
         e.candidate.prepare(xp, e, th, h) for e, th in zip(effects, theta, strict=True)
@@ -237,9 +266,13 @@ def _run(
             o = zoff.get(i)
             zz = [Zt[:, :, o + j] for j in range(c.n_extra)] if o is not None else []
             Y[e.target] = where(
-                i, c.output(xp, e, theta[i], t, Y[e.target], zz), Y[e.target]
+                i, c.output(xp, e, theta[i], t_out, Y[e.target], zz), Y[e.target]
             )
-    return xp.stack([Y[o] for o in outs], 2), (Xt if want_states else None)
+    Yt = xp.stack([Y[o] for o in outs], 2)
+    if segments is not None:  # rows of pieces back to one row per member
+        Yt = Yt.reshape(B // K, K * N, Yt.shape[2])
+        Xt = Xt.reshape(B // K, K * N, nx)
+    return Yt, (Xt if want_states else None)
 
 
 # ---------------------------------------------------------------------------- public
@@ -406,10 +439,19 @@ def _stable_n_sub(model, params, x_traj: np.ndarray, ts: float, u_traj=None) -> 
     The local Jacobian is estimated by finite differences at a few points of ``x_traj``
     ``(N, nx)``.
     """
+    lam = 0.0
+    for J in _jacobians(model, params, x_traj, u_traj, 25):
+        lam = max(lam, float(np.max(np.abs(np.linalg.eigvals(J)))))
+    return max(1, math.ceil(ts * lam / 0.5))
+
+
+def _jacobians(model, params, x_traj: np.ndarray, u_traj, n_points: int):
+    """Finite-difference state Jacobians of ``rhs`` at ``n_points`` points of a
+    trajectory ``x_traj (N, nx)`` (inputs ``u_traj``); only finite ones."""
     states = model.state_names
     N = x_traj.shape[0]
-    idx = np.unique(np.linspace(0, N - 1, min(N, 25)).astype(int))
-    lam = 0.0
+    idx = np.unique(np.linspace(0, N - 1, min(N, n_points)).astype(int))
+    out = []
     for i in idx:
         x = {s: float(x_traj[i, j]) for j, s in enumerate(states)}
         u = {n: float(u_traj[n][i]) for n in model.inputs} if u_traj else None
@@ -422,5 +464,5 @@ def _stable_n_sub(model, params, x_traj: np.ndarray, ts: float, u_traj=None) -> 
             d2 = model.derivatives(x2, u, params)
             J[:, j] = [(float(d2[r]) - float(base[r])) / dxs for r in states]
         if np.all(np.isfinite(J)):
-            lam = max(lam, float(np.max(np.abs(np.linalg.eigvals(J)))))
-    return max(1, math.ceil(ts * lam / 0.5))
+            out.append(J)
+    return out

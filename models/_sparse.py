@@ -454,21 +454,33 @@ def make_sparse_effect(
 
 
 # ---------------------------------------------------------------------------- fitting
-def _jacobian(problem, job) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted residual ``r`` at ``job.theta`` and its finite-difference Jacobian."""
-    from pdmkit.models._mismatch_fit import _fd_steps
+def _jacobian(problem, job):
+    """Weighted residual ``r`` at the job's point, its finite-difference Jacobian ``J``
+    in the job's parameters, and ``recover(d)``: the change of the pieces' initial
+    states that goes with a parameter step ``d``.
 
-    th = job.theta
-    steps = _fd_steps(job, th)
-    rows = [(job, job.values(th))]
-    for i in range(job.layout.n):
-        th2 = th.copy()
-        th2[i] += steps[i]
-        rows.append((job, job.values(th2)))
+    The initial states are nuisance values: ``r`` and ``J`` are projected onto what
+    they cannot explain (piece by piece), so a selection on ``(r, J)`` is the selection
+    with the initial states refitted at every step.
+    """
+    from pdmkit.models._mismatch_fit import _fd_jacobians, _fd_rows
+
+    rows, steps, dx = _fd_rows(job, job.theta, job.x0)
     R = problem.residuals(problem.simulate(rows))
-    r = np.where(np.isfinite(R[0]), R[0], 0.0)
-    J = (R[1:] - R[0][None]).T / steps[None]
-    return r, np.where(np.isfinite(J), J, 0.0)
+    R = np.where(np.isfinite(R), R, 0.0)
+    r, J, Jx = _fd_jacobians(R, 0, job, steps, dx)
+    if Jx is None:
+        return r, J, lambda d: np.zeros_like(job.x0)
+    K, mk, _ = Jx.shape
+    pinv = np.linalg.pinv(Jx)  # (K, nx, mk)
+    rk, Jk = r.reshape(K, mk), J.reshape(K, mk, -1)
+    r_p = rk - np.einsum("kmi,kil,kl->km", Jx, pinv, rk)
+    J_p = Jk - np.einsum("kmi,kil,klj->kmj", Jx, pinv, Jk)
+
+    def recover(d):
+        return -np.einsum("kil,kl->ki", pinv, rk + Jk @ d)
+
+    return r_p.ravel(), J_p.reshape(K * mk, -1), recover
 
 
 def _bic_lin(cost: float, m: int, k: int) -> float:
@@ -568,6 +580,7 @@ def fit_sparse(
     refit_sets: int = 3,
     max_terms: int = 4,
     max_targets: int = 1,
+    x0: np.ndarray | None = None,
 ) -> list:
     """Data-driven terms for each target state, selected by STLSQ through the simulation.
 
@@ -593,6 +606,9 @@ def fit_sparse(
     max_targets : int
         Targets refitted by simulation, best linearised BIC first (the others are only
         linearised).
+    x0 : ndarray, shape (n_pieces, n_states), optional
+        The nominal fit's initial state of every fitted piece (default: ``values``'
+        ``x0:`` entries, the other pieces guessed from the data).
 
     Returns
     -------
@@ -611,17 +627,21 @@ def fit_sparse(
     >>> "x**2*v" in res.verdict["params"]["equation"]
     True
     """
-    from pdmkit.models._mismatch_fit import _lm, _make_jobs, simulate_states
+    from pdmkit.models._mismatch_fit import _lm, _make_jobs
 
     rec = problem.rec
     base = {k: v for k, v in values.items() if not k.startswith("sparse@")}
     P = {k: base.get(f"p:{k}", v) for k, v in model.params.items()}
-    Xt = simulate_states(model, rec, base, problem.n_sub)
+    if x0 is None:
+        x0 = np.array([[base[f"x0:{s}"] for s in model.states]])
+    if x0.shape[0] != problem.n_pieces:
+        x0 = problem.initial_pieces(x0[0])
+    Xt = problem.states(base, x0)  # along the fitted samples
     X = {s: Xt[:, j] for j, s in enumerate(model.states)}
-    U = dict(rec.inputs)
+    U = {k: v[problem.sample_index()] for k, v in rec.inputs.items()}
     if targets is None:
         targets = [s for s, k in model.states.items() if k in _TARGET_KINDS]
-    m = problem.n_fit * len(model.outputs)
+    m = problem.n_res
     # the first linearisation of every target ranks them; only the best are refitted
     ctx = []
     for target in targets:
@@ -629,7 +649,9 @@ def fit_sparse(
         if len(terms) == 0:
             continue
         eff_all = make_sparse_effect(model, target, terms, X, U, sc)
-        lin = _linearise(problem, model, eff_all, base, np.zeros(len(terms)), sc, x_scale)
+        lin = _linearise(
+            problem, model, eff_all, base, np.zeros(len(terms)), sc, x_scale, x0
+        )
         ranked = _ranked_sets(lin, m, max_terms)
         if ranked:
             ctx.append((ranked[0][0], target, eff_all, lin, ranked))
@@ -641,10 +663,11 @@ def fit_sparse(
         chosen: tuple[int, ...] | None = None
         best_job = None
         for _ in range(max_rounds):
-            job_all = lin[0]
+            job_all, recover = lin[0], lin[5]
             jobs = []
             for _, active, d in ranked[:refit_sets]:
                 lin_vals = job_all.values(job_all.theta + d)
+                lin_x0 = np.maximum(job_all.x0 + recover(d), job_all.x0_lo[None, :])
                 sub = Effect(
                     SparseTerms(
                         [terms[a] for a in active],
@@ -658,16 +681,23 @@ def fit_sparse(
                 }
                 start_vals = {k: v for k, v in lin_vals.items() if not k.startswith(key)}
                 jobs += _make_jobs(
-                    model, (sub,), sc, [start], start_vals, x_scale, tag=f"sparse@{target}"
+                    model,
+                    (sub,),
+                    sc,
+                    [start],
+                    start_vals,
+                    x_scale,
+                    tag=f"sparse@{target}",
+                    x0=lin_x0,
                 )
                 jobs[-1].active = active
             _lm(problem, jobs, max_iter)
             good = [j for j in jobs if math.isfinite(j.cost)]
             if not good:
                 break
-            best = min(good, key=lambda j: _bic_lin(j.cost, m, j.layout.n))
-            if best_job is None or _bic_lin(best.cost, m, best.layout.n) < _bic_lin(
-                best_job.cost, m, best_job.layout.n
+            best = min(good, key=lambda j: _bic_lin(j.cost, m, j.n_fitted))
+            if best_job is None or _bic_lin(best.cost, m, best.n_fitted) < _bic_lin(
+                best_job.cost, m, best_job.n_fitted
             ):
                 best_job = best
             if best.active == chosen:
@@ -678,7 +708,7 @@ def fit_sparse(
             coefs = np.zeros(len(terms))
             for i, a in enumerate(best.active):
                 coefs[a] = bv[f"{key}.c{i}"]
-            lin = _linearise(problem, model, eff_all, point, coefs, sc, x_scale)
+            lin = _linearise(problem, model, eff_all, point, coefs, sc, x_scale, best.x0)
             ranked = _ranked_sets(lin, m, max_terms)
             if not ranked:
                 break
@@ -687,24 +717,24 @@ def fit_sparse(
     return out
 
 
-def _linearise(problem, model, eff_all, point, coefs, sc, x_scale):
+def _linearise(problem, model, eff_all, point, coefs, sc, x_scale, x0):
     """``(job with every term, r, J, term columns)`` at ``point`` and ``coefs``."""
     from pdmkit.models._mismatch_fit import _make_jobs
 
     key = eff_all.key
     vals = {**point, **{f"{key}.c{j}": float(c) for j, c in enumerate(coefs)}}
-    job_all = _make_jobs(model, (eff_all,), sc, [{}], vals, x_scale)[0]
-    r, J = _jacobian(problem, job_all)
+    job_all = _make_jobs(model, (eff_all,), sc, [{}], vals, x_scale, x0=x0)[0]
+    r, J, recover = _jacobian(problem, job_all)
     names = job_all.layout.names
     tcols = [names.index(f"{key}.c{j}") for j in range(len(coefs))]
-    return job_all, r, J, tcols, np.asarray(coefs, dtype=float)
+    return job_all, r, J, tcols, np.asarray(coefs, dtype=float), recover
 
 
 def _ranked_sets(lin, m: int, max_terms: int):
     """STLSQ path of a linearisation, ``(linear BIC, active, step)`` best first."""
-    job_all, r, J, tcols, coefs = lin
+    job_all, r, J, tcols, coefs, _ = lin
     path = stlsq_path(r, J, tcols, coefs)
-    k0 = job_all.layout.n - len(tcols)
+    k0 = job_all.n_fitted - len(tcols)
     return sorted(
         (
             (_bic_lin(cost, m, k0 + len(a)), a, d)
@@ -737,10 +767,12 @@ def _prune(problem, model, job, sc, x_scale, m, max_iter):
             )
             start = {f"{eff.key}.c{n}": vals[f"{eff.key}.c{i}"] for n, i in enumerate(keep)}
             base = {q: v for q, v in vals.items() if not q.startswith(eff.key)}
-            jobs += _make_jobs(model, (sub,), sc, [start], base, x_scale, tag=job.tag)
+            jobs += _make_jobs(
+                model, (sub,), sc, [start], base, x_scale, tag=job.tag, x0=job.x0
+            )
         _lm(problem, jobs, max_iter)
-        best = min(jobs, key=lambda j: _bic_lin(j.cost, m, j.layout.n))
-        if _bic_lin(best.cost, m, best.layout.n) < _bic_lin(job.cost, m, job.layout.n):
+        best = min(jobs, key=lambda j: _bic_lin(j.cost, m, j.n_fitted))
+        if _bic_lin(best.cost, m, best.n_fitted) < _bic_lin(job.cost, m, job.n_fitted):
             job = best
         else:
             return job

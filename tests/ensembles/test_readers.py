@@ -72,7 +72,7 @@ def test_read_table_unknown_extension_and_missing_file(tmp_path: Path) -> None:
         read_table(tmp_path / "data.xlsx")
     with pytest.raises(DataNotFoundError, match=r"nothere.csv"):
         read_table(tmp_path / "nothere.csv")
-    with pytest.raises(DataError, match="is a directory"):
+    with pytest.raises(DataError, match="is a folder, not a file"):
         read_table(tmp_path)
 
 

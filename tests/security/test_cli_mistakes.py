@@ -199,3 +199,111 @@ def test_classify_members_leaves_out_bad_and_unlabelled_files_and_says_so(
     assert code == 0
     said = " ".join(json.loads((out / "classify.json").read_text())["warnings"])
     assert "broken.csv" in said and "'nolabel'" in said
+
+
+# --------------------------------------------------------------------------- red team 2
+def test_a_signal_only_some_members_have_does_not_poison_the_others(
+    members, tmp_path, capsys
+):
+    """Red-team finding: one member with an extra column gave every other member NaN
+    features for it, and `classify` refused them all (exit 2)."""
+    t = np.arange(2048) / FS
+    rng = np.random.default_rng(5)
+    extra = pd.DataFrame(
+        {
+            "time": t,
+            "vib": np.sin(2 * np.pi * 60 * t) + 0.1 * rng.normal(size=t.size),
+            "extra": rng.normal(size=t.size),
+            "fault": "ok",
+        }
+    )
+    extra.to_csv(tmp_path / "wide.csv", index=False)
+    for command in ("classify", "rank"):
+        out = tmp_path / command
+        argv = [command, "--members", *members, str(tmp_path / "wide.csv")]
+        argv += ["--label", "fault", "--out", str(out)]
+        if command == "classify":
+            argv += ["--test-size", "0.5"]
+        assert main(argv) == 0, capsys.readouterr().err
+        summary = json.loads(next(out.glob("*.json")).read_text())
+        (said,) = [w for w in summary["warnings"] if "'extra'" in w]
+        assert "signal 'extra' is missing from 4 of 5 members (m0, m1, m2, ...)" in said
+        assert "its indicators are left out" in said
+        if command == "classify":
+            assert summary["features"] and not any(
+                f.startswith("extra/") for f in summary["features"]
+            )
+        else:
+            ranked = pd.read_parquet(out / "ranking.parquet")
+            assert not ranked["feature"].str.startswith("extra/").any()
+            assert np.isfinite(ranked.select_dtypes("number").to_numpy()).all()
+
+
+def test_a_member_with_a_repeated_column_is_left_out_not_renamed(members, tmp_path, capsys):
+    t = np.arange(2048) / FS
+    noise = np.random.default_rng(6).normal(size=t.size)
+    rows = "\n".join(
+        f"{x},{np.sin(2 * np.pi * 60 * x) + 0.1 * e},{np.cos(x)},ok"
+        for x, e in zip(t, noise, strict=True)
+    )
+    (tmp_path / "dup.csv").write_text(f"time,vib,vib,fault\n{rows}\n")
+    out = tmp_path / "out"
+    argv = ["features", "--members", *members, str(tmp_path / "dup.csv")]
+    assert main([*argv, "--out", str(out)]) == 3  # finished, a member left out
+    table = pd.read_parquet(out / "features.parquet")
+    assert not any(c.startswith("vib.1/") for c in table.columns)
+    assert np.isfinite(table.filter(like="vib/").to_numpy()).all()
+    (error,) = pd.read_parquet(out / "errors.parquet")["error"]
+    assert "dup.csv: the header names column 'vib' 2 times" in error
+
+
+@pytest.mark.parametrize(
+    ("argv", "prog", "words"),
+    [
+        (["features", "--members", "m.csv", "--foo"], "pdmkit features", "--foo"),
+        (["features", "--members", "m.csv", "--jsn", "x"], "pdmkit features", "'--json'"),
+        (["classify", "--members", "m.csv", "--model", "knm"], "pdmkit classify", "'knn'"),
+        (["identify", "x.csv"], "pdmkit identify", "--input, --output"),
+        (["features", "--members"], "pdmkit features", "argument --members"),
+        (["features"], "pdmkit features", "--dataset --ensemble --members"),
+        (["featurs"], "pdmkit", "'features'"),
+        ([], "pdmkit", "COMMAND"),
+    ],
+)
+def test_usage_errors_are_one_line_naming_the_argument(capsys, argv, prog, words):
+    """Red-team finding: argparse printed its multi-line usage block before the error."""
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    (line,) = captured.err.splitlines()
+    assert line.startswith(f"{prog}: error: ") and words in line
+    assert line.endswith(f"(see {prog} --help)")
+
+
+def test_help_is_still_the_usage_block(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["features", "--help"])
+    assert exc.value.code == 0
+    text = capsys.readouterr().out
+    assert text.startswith("usage: pdmkit features [-h]") and "--members FILE" in text
+
+
+@pytest.mark.parametrize("inside", [".pdmkit/run.json", ".pdmkit/lock", ".pdmkit"])
+def test_json_inside_pdmkit_s_own_folder_is_refused(members, tmp_path, capsys, inside):
+    """Red-team finding: `--json OUT/.pdmkit/run.json` was accepted (the summary then
+    replaced the run manifest)."""
+    out = tmp_path / "out"
+    argv = ["rank", "--members", *members, "--label", "fault", "--out", str(out)]
+    assert main([*argv, "--json", str(out / inside)]) == 2
+    line = _error_line(capsys)
+    assert f"--json {out / inside} is inside {out / '.pdmkit'}, pdmkit's own" in line
+    assert f"e.g. {out / 'ranking.json'}" in line
+    assert not (out / "ranking.json").exists()
+    # another output folder's .pdmkit is pdmkit's too
+    (tmp_path / "other" / ".pdmkit").mkdir(parents=True)
+    js = tmp_path / "other" / ".pdmkit" / "x.json"
+    assert main([*argv, "--json", str(js)]) == 2
+    assert "pdmkit's own folder" in _error_line(capsys)
+    assert not js.exists()

@@ -10,6 +10,7 @@ common rate; one text cell in a ``rul --train`` table silently dropped that sens
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import json
@@ -665,3 +666,147 @@ def test_a_sampling_rate_that_is_not_one_positive_number_is_named(tmp_path, fs):
     ens, errors = read_members(files, on_error="skip", return_errors=True)
     assert ens.member_ids.tolist() == ["good"]
     assert "variable 'fs' should be the sampling rate" in errors["error"].iloc[0]
+
+
+# --------------------------------------------------------------------------- red team 2
+def _csv_member(path: Path, **signals: np.ndarray) -> None:
+    t = np.arange(256) / FS
+    pd.DataFrame({"time": t, **signals}).to_csv(path, index=False)
+
+
+def test_a_csv_header_naming_a_column_twice_is_the_member_s_error(tmp_path):
+    """Red-team finding: `time,vib,vib` was read with pandas' renamed signal 'vib.1'."""
+    t = np.arange(256) / FS
+    _csv_member(tmp_path / "good.csv", vib=np.sin(40 * t))
+    rows = "\n".join(f"{x},{np.sin(x)},{np.cos(x)}" for x in t)
+    (tmp_path / "dup.csv").write_text(f"time,vib,vib\n{rows}\n")
+    ens, errors = read_members(tmp_path, on_error="skip", return_errors=True)
+    assert ens.member_ids.tolist() == ["good"] and ens.signal_names == ["vib"]
+    (error,) = errors["error"]
+    assert "\n" not in error
+    assert f"{tmp_path / 'dup.csv'}: the header names column 'vib' 2 times" in error
+    assert "columns 2, 3" in error and "'vib.1'" in error
+    with pytest.raises(DataError, match="names column 'vib' 2 times"):
+        read_table(tmp_path / "dup.csv")
+    # a column really named like pandas' renaming is no repeat
+    (tmp_path / "dotted.csv").write_text(f"time,vib,vib.1\n{rows}\n")
+    assert read_table(tmp_path / "dotted.csv").columns.tolist() == ["time", "vib", "vib.1"]
+
+
+def _savez_or_mat(path: Path, data: dict) -> None:
+    if path.suffix == ".mat":
+        savemat(path, data)
+    else:
+        np.savez(path, **data)
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".mat"])
+def test_a_complex_variable_is_refused_by_name(tmp_path, suffix):
+    """Red-team finding: a complex signal was dropped silently (the member read
+    without it)."""
+    rng = np.random.default_rng(0)
+    _savez_or_mat(tmp_path / f"good{suffix}", {"vib": rng.normal(size=500), "fs": FS})
+    z = rng.normal(size=500) + 1j * rng.normal(size=500)
+    _savez_or_mat(
+        tmp_path / f"cplx{suffix}", {"vib": rng.normal(size=500), "z": z, "fs": FS}
+    )
+    ens, errors = read_members(tmp_path, on_error="skip", return_errors=True)
+    assert ens.member_ids.tolist() == ["good"]
+    (error,) = errors["error"]
+    assert "\n" not in error
+    assert f"cplx{suffix}: variable 'z' holds complex values" in error
+    assert "real and imaginary parts as two signals" in error
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".mat"])
+def test_a_boolean_signal_is_read_as_0_and_1_and_said(tmp_path, suffix):
+    """Red-team finding: a true/false vector was dropped silently."""
+    rng = np.random.default_rng(0)
+    flag = rng.normal(size=500) > 0
+    _savez_or_mat(
+        tmp_path / f"b{suffix}", {"vib": rng.normal(size=500), "flag": flag, "fs": FS}
+    )
+    with pytest.warns(DataWarning) as seen:
+        ens = read_members(tmp_path / f"b{suffix}")
+    np.testing.assert_array_equal(ens.signal("flag")[0], flag.astype(float))
+    (said,) = [str(w.message) for w in seen if "'flag'" in str(w.message)]
+    assert "\n" not in said
+    assert f"b{suffix}: variable 'flag' holds true/false values" in said
+    assert "read as a signal of 0.0 and 1.0" in said
+
+
+def test_a_true_false_csv_column_is_a_0_1_signal_not_a_text_error(tmp_path):
+    flag = np.arange(256) % 3 == 0
+    _csv_member(tmp_path / "b.csv", vib=np.sin(np.arange(256.0)), flag=flag)
+    with pytest.warns(DataWarning, match=r"b\.csv: column 'flag' holds true/false"):
+        ens = read_members(tmp_path / "b.csv")
+    np.testing.assert_array_equal(ens.signal("flag")[0], flag.astype(float))
+
+
+def test_mat_structs_cells_and_text_are_skipped_with_a_warning_naming_them(tmp_path):
+    """Red-team finding: struct, cell and text variables vanished without a word."""
+    rng = np.random.default_rng(0)
+    for name in ("a", "b"):
+        savemat(
+            tmp_path / f"{name}.mat",
+            {
+                "vib": rng.normal(size=500),
+                "fs": FS,
+                "meta": {"gain": 2.0, "site": "pump 3"},
+                "runs": np.array([np.arange(3.0), np.arange(4.0)], dtype=object),
+                "names": np.array(["ab", "cd"]),
+                "fault": "ir",
+            },
+        )
+    with pytest.warns(DataWarning) as seen:
+        ens = read_members(tmp_path)
+    assert ens.member_ids.tolist() == ["a", "b"] and ens.signal_names == ["vib"]
+    assert ens.conditions["fault"].tolist() == ["ir", "ir"]
+    said = [str(w.message) for w in seen]
+    for name, what in [
+        ("meta", "is a MATLAB struct"),
+        ("runs", "is a MATLAB cell or struct array"),
+        ("names", "holds <U2 values"),
+    ]:
+        (line,) = [s for s in said if f"variable {name!r}" in s]  # once for both files
+        assert line.startswith("2 member files (a.mat, b.mat): ") and what in line
+        assert "skipped" in line and "\n" not in line
+
+
+def test_an_npz_record_array_is_skipped_with_a_warning(tmp_path):
+    rng = np.random.default_rng(0)
+    record = np.zeros(3, dtype=[("gain", float), ("channel", int)])
+    np.savez(tmp_path / "r.npz", vib=rng.normal(size=500), fs=FS, setup=record)
+    with pytest.warns(DataWarning, match=r"r\.npz: variable 'setup' is a structured"):
+        ens = read_members(tmp_path / "r.npz")
+    assert ens.signal_names == ["vib"]
+
+
+def test_a_folder_named_like_a_member_file_is_that_member_s_error(tmp_path):
+    """Red-team finding: a folder `x.csv/` in a data folder was skipped silently."""
+    data = tmp_path / "data"
+    (data / "x.csv").mkdir(parents=True)
+    (data / "notes").mkdir()
+    _csv_member(data / "good.csv", vib=np.sin(np.arange(256.0)))
+    _csv_member(data / "x.csv" / "inner.csv", vib=np.sin(np.arange(256.0)))
+    for files in (data, data / "*.csv"):
+        with pytest.warns(DataWarning) if files == data else _no_warning() as seen:
+            ens, errors = read_members(files, on_error="skip", return_errors=True)
+        assert ens.member_ids.tolist() == ["good"]
+        (error,) = errors["error"]
+        assert error.startswith(f"{data / 'x.csv'} is a folder, not a file")
+        assert errors["member"].tolist() == ["x"]
+        if files == data:
+            (said,) = [str(w.message) for w in seen]
+            assert "sub-folder(s) not read as members" in said and "notes" in said
+    with pytest.raises(DataError, match=r"x\.csv is a folder, not a file"):
+        read_members(data / "*.csv")  # on_error="raise"
+
+
+@contextlib.contextmanager
+def _no_warning():
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        yield []
