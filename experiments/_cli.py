@@ -690,6 +690,7 @@ def _cmd_mismatch(args: argparse.Namespace) -> int:
     verdict = summary["verdict"]
     fit = summary["fit"]
     target = f" on {verdict['target']}" if verdict["target"] else ""
+    target += "".join(f" + {a['effect']} on {a['target']}" for a in verdict.get("also", []))
     _say(
         f"verdict: {verdict['effect']}{target}; validation RMSE "
         f"{fit['rmse_nominal']:.4g} -> {fit['rmse_augmented']:.4g}. "

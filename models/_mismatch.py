@@ -15,8 +15,11 @@
    accept the best only when its gain is significant against the noise (a
    Diebold-Mariano test on the validation errors with a HAC variance, a minimum
    relative improvement, and a lower BIC); otherwise the verdict is ``none``;
-5. when one effect is accepted, try it together with each runner-up and keep the pair
-   when it improves significantly again;
+5. when one effect is accepted, try it together with each runner-up and with its
+   companions (effects that real machines show together and that hide each other
+   alone: Coulomb friction and a bias force, an overflow and a saturating sensor), and
+   keep adding the one that helps most while it improves significantly again (up to
+   ``max_effects``);
 6. when the residual left (after the accepted effect, or of the nominal model when none
    was accepted) still fails the whiteness test, run the data-driven fallback
    (:mod:`pdmkit.models._sparse`): a short equation selected by sparse regression
@@ -52,6 +55,7 @@ from pdmkit.models._mismatch_fit import (
     PIECES_FROM,
     Recording,
     _choose_n_sub,
+    _cost,
     _effect_starts,
     _initial_values,
     _Job,
@@ -59,8 +63,10 @@ from pdmkit.models._mismatch_fit import (
     _make_jobs,
     _nominal_scales,
     _Problem,
+    choose_decimation,
     choose_pieces,
     data_states,
+    decimate,
     make_recording,
     simulate_states,
 )
@@ -154,7 +160,8 @@ class MismatchResult:
     ----------
     verdict : dict
         ``effect`` (id or ``"none"``), ``target``, ``physics`` (one sentence),
-        ``params``; ``also`` lists a second effect when a pair was accepted.
+        ``params``; ``also`` lists the further effects when more than one was
+        accepted.
     candidates : pandas.DataFrame
         Every candidate (best variant per effect and target), best first: ``effect``,
         ``target``, ``variant``, ``rmse_validation``, ``improvement`` (relative to the
@@ -442,7 +449,13 @@ def _friction_step(job: _Job, ts: float, n_sub: int) -> int:
 
 
 #: a hypothesis that contains another one (with a parameter at zero) -> the simpler one
-_NESTED = {"stribeck_friction": "coulomb_friction", "sensor_drift": "sensor_offset"}
+#: (Bouc-Wen hysteresis with a small yield displacement is Dahl's friction model, whose
+#: limit is Coulomb friction)
+_NESTED = {
+    "stribeck_friction": "coulomb_friction",
+    "sensor_drift": "sensor_offset",
+    "hysteresis": "coulomb_friction",
+}
 
 
 def _choose(scored: list[_Scored], tol: float, min_gain: float) -> _Scored:
@@ -495,6 +508,72 @@ _SIGNATURES = {
     "cube": ("cubic_stiffness", "cubic (Duffing) stiffness"),
     "abs*": ("quadratic_drag", "quadratic drag"),
 }
+
+
+def _grow(current: _Scored, singles: list[_Scored], top: int) -> dict:
+    """``{effect keys: (current, single)}`` for the ``top`` refitted runner-ups (lowest
+    validation RMSE first) and the companions of ``current``'s effects: effects it
+    does not hold already, nor nests (Stribeck and Coulomb on one velocity)."""
+    held = {(e.id, e.target) for e in current.effects}
+    for e in current.effects:
+        for big, small in _NESTED.items():
+            if e.id == big:
+                held.add((small, e.target))
+            if e.id == small:
+                held.add((big, e.target))
+    keys = {e.key for e in current.effects}
+    out: dict = {}
+    for s in sorted(singles, key=lambda s: s.rmse_val):
+        f = s.effects[0]
+        if (f.id, f.target) in held:
+            continue
+        companion = any(f.id in e.candidate.companions for e in current.effects)
+        if (s.refit and len(out) < top) or companion:
+            held.add((f.id, f.target))
+            out[frozenset({*keys, f.key})] = (current, s)
+    return out
+
+
+def _simpler_rival(chosen: _Scored, considered: list[_Scored], min_gain: float):
+    """A considered structure that holds, instead of each effect of ``chosen`` that
+    nests a simpler one (:data:`_NESTED`), that simpler effect on the same target, with
+    no more fitted values and a validation RMSE within ``min_gain`` of ``chosen``'s
+    (the best such, or None)."""
+    nesting = [(e, _NESTED[e.id]) for e in chosen.effects if e.id in _NESTED]
+    if not nesting:
+        return None
+    best = None
+    for s in considered:
+        held = {(f.id, f.target) for f in s.effects}
+        if s is chosen or any((e.id, e.target) in held for e, _ in nesting):
+            continue
+        if not all((small, e.target) in held for e, small in nesting):
+            continue
+        close = s.rmse_val <= chosen.rmse_val * (1.0 + min_gain)
+        if close and s.job.n_fitted <= chosen.job.n_fitted:
+            if best is None or s.rmse_val < best.rmse_val:
+                best = s
+    return best
+
+
+def _by_weight(problem: _Problem, s: _Scored) -> list:
+    """The effects of a structure, the one whose removal (its parameters at their
+    neutral values, nothing refitted) raises the fitted cost most first."""
+    vals = s.job.values()
+    rows, order = [], []
+    for e in s.effects:
+        if set(e.param_names) <= set(e.candidate.neutral):
+            off = {
+                **vals,
+                **{f"{e.key}.{p}": e.candidate.neutral[p] for p in e.param_names},
+            }
+            rows.append((s.job, off, s.job.x0))
+            order.append(e)
+    if len(rows) < 2:
+        return list(s.effects)
+    costs = [_cost(r) for r in problem.residuals(problem.simulate(rows))]
+    ranked = [e for _, e in sorted(zip(costs, order, strict=True), key=lambda z: -z[0])]
+    return ranked + [e for e in s.effects if e not in ranked]
 
 
 def _companion_pairs(singles: list[_Scored], top: int) -> list:
@@ -676,6 +755,7 @@ def discover_mismatch(
     max_iter: int = 30,
     pairs: bool = True,
     pair_candidates: int = 3,
+    max_effects: int = 3,
     data_name: str = "data",
     validation_name: str = "validation",
     input_hold: str = "auto",
@@ -711,6 +791,9 @@ def discover_mismatch(
         Try pairs of effects when one is accepted.
     pair_candidates : int
         How many runner-up effects (distinct effect and target) are paired with it.
+    max_effects : int
+        Most effects in one explanation: after a pair, the effect that helps most is
+        added while it helps significantly (forward selection).
     data_name, validation_name : str
         Names used in error messages (e.g. the file names).
     input_hold : {"auto", "zoh", "foh"}
@@ -766,6 +849,7 @@ def discover_mismatch(
             max_iter=max_iter,
             pairs=pairs,
             pair_candidates=pair_candidates,
+            max_effects=max_effects,
             data_name=data_name,
             validation_name=validation_name,
             input_hold=input_hold,
@@ -849,6 +933,7 @@ def _discover(
     max_iter,
     pairs,
     pair_candidates,
+    max_effects,
     data_name,
     validation_name,
     input_hold,
@@ -886,6 +971,11 @@ def _discover(
     rec = dataclasses.replace(rec, hold=hold)
     if rec_val is not None:
         rec_val = dataclasses.replace(rec_val, hold=hold)
+    # an oversampled record is decimated first (the model and the inputs say how far)
+    factor = choose_decimation(model, rec, _initial_values(model, rec), 1)
+    if factor > 1:
+        rec = decimate(rec, factor)
+        rec_val = decimate(rec_val, factor) if rec_val is not None else None
     n_fit = rec.n if rec_val is not None else round(rec.n * 2 / 3)
     y_all = rec.y(model)
     w = 1.0 / np.maximum(np.std(y_all[:n_fit], axis=0), 1e-12)
@@ -1007,56 +1097,67 @@ def _discover(
 
     # ------------------------------------------------------------ 4. pairs
     pair = None
+    pair_order: list = []
     stages.enter("pairs")
-    if accepted is not None and pairs and stages.over():
+    if pairs and stages.over():
         stages.skipped.append("pairs")
-    elif accepted is not None and pairs:
-        e0 = accepted.effects[0]
-        seen = {(e0.id, e0.target)}
-        # a hypothesis and one it nests (Stribeck and Coulomb on one velocity) are no pair
-        for big, small in _NESTED.items():
-            if e0.id == big:
-                seen.add((small, e0.target))
-            if e0.id == small:
-                seen.add((big, e0.target))
-        others = []
-        for s in sorted(singles, key=lambda s: s.rmse_val):
-            k = (s.effects[0].id, s.effects[0].target)
-            if s.refit and k not in seen and len(others) < pair_candidates:
-                seen.add(k)
-                others.append(s)
-        couples = {frozenset((accepted.key, o.key)): (accepted, o) for o in others}
-        for first, o in _companion_pairs(singles, pair_candidates):
-            couples.setdefault(frozenset((first.key, o.key)), (first, o))
-        pjobs = []
-        for first, o in couples.values():
-            vals = {**o.job.values(), **first.job.values()}
-            eff = (*first.effects, *o.effects)
-            pjobs += _make_jobs(
-                model,
-                eff,
-                sc,
-                [{}],
-                vals,
-                x_scale,
-                tag="+".join(e.key for e in eff),
-                x0=first.job.x0,
-            )
-        if pjobs:
-            pp = problem  # the base step: pairs are the costliest fits
+    elif pairs:
+        # forward selection: add the runner-up (or a companion) that helps most, while
+        # it helps significantly, up to max_effects effects in all; companions are
+        # paired even when neither helps alone (each hides the other)
+        current = accepted
+        considered = [s for s in singles if s.refit and s.e_val is not None]
+        for size in range(2, max_effects + 1):
+            if stages.over():
+                stages.skipped.append(f"{size} effects")
+                break
+            grown = _grow(current, singles, pair_candidates) if current else {}
+            if size == 2:
+                for first, o in _companion_pairs(singles, pair_candidates):
+                    grown.setdefault(frozenset((first.key, o.key)), (first, o))
+            if not grown:
+                break
+            pjobs = []
+            for first, o in grown.values():
+                vals = {**o.job.values(), **first.job.values()}
+                eff = (*first.effects, *o.effects)
+                pjobs += _make_jobs(
+                    model,
+                    eff,
+                    sc,
+                    [{}],
+                    vals,
+                    x_scale,
+                    tag="+".join(e.key for e in eff),
+                    x0=first.job.x0,
+                )
+            if not pjobs:
+                break
+            pp = problem  # the base step: these are the costliest fits
             _lm(pp, pjobs, max_iter, ftol=1e-7)
             pscored = [_Scored(j, j.tag, j.effects, n_sub=pp.n_sub) for j in pjobs]
             _validate(model, problems, rec_val, pscored, x_scale, 30)
             for s in pscored:
                 s.bic = _bic(s.job.cost, m, s.job.n_fitted)
-            best_pair = min(pscored, key=lambda s: s.rmse_val)
-            if significant(best_pair, accepted):
-                pair = best_pair
-                # a companion pair may not hold the accepted single: its first
-                # effect leads the verdict
-                lead = best_pair.effects[0]
-                accepted = next(s for s in singles if s.effects[0] == lead)
-
+            considered += pscored
+            best = min(pscored, key=lambda s: s.rmse_val)
+            if not significant(best, current or base):
+                break
+            current = best
+        # a structure with the simpler effect that a chosen one nests (Coulomb friction
+        # for hysteresis), within min_improvement of it and not larger, is preferred
+        simpler = _simpler_rival(current, considered, min_improvement) if current else None
+        if simpler is not None and significant(simpler, base):
+            current = simpler
+        if current is None:
+            pass
+        elif len(current.effects) > 1:
+            pair = current
+            pair_order = _by_weight(problem, pair)
+            # the effect whose removal costs most leads the verdict
+            accepted = next(s for s in singles if s.effects[0] == pair_order[0])
+        else:
+            accepted = current
     stages.leave()
 
     # ------------------------------------------------------------ 5. data-driven fallback
@@ -1173,7 +1274,6 @@ def _discover(
             verdict["params"] = {p: pv[f"{e.key}.{p}"] for p in e.param_names}
             if e.partner and e.id == "overflow":
                 verdict["params"]["into_state"] = e.partner
-            e2 = pair.effects[1]
             verdict["also"] = [
                 {
                     "effect": e2.id,
@@ -1181,6 +1281,7 @@ def _discover(
                     "physics": _explain(e2, pv, model, rec),
                     "params": {p: pv[f"{e2.key}.{p}"] for p in e2.param_names},
                 }
+                for e2 in pair_order[1:]
             ]
             verdict["physics"] = _explain(e, pv, model, rec)
     if accepted is not None and accepted.effects[0].id == SPARSE_ID:
@@ -1226,6 +1327,7 @@ def _discover(
         ),
         "validation": "separate recording" if rec_val is not None else "last third",
         "n_sub": problem.n_sub,
+        "decimated": factor,
         "pieces": (
             {"n": problem.n_pieces, "samples": int(problem.length)}
             if problem.n_pieces > 1

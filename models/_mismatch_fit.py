@@ -840,6 +840,97 @@ def _head(rec: Recording, n: int) -> Recording:
     )
 
 
+#: the step after decimation still resolves the model's fastest mode this many times
+DECIMATE_SAMPLES_PER_TIME_CONSTANT = 20
+#: ... and keeps at least this share of the inputs' variance below half its Nyquist
+DECIMATE_KEEP_POWER = 0.99
+#: largest decimation factor, and fewest samples left
+DECIMATE_MAX, DECIMATE_MIN_SAMPLES = 10, 1000
+
+
+def choose_decimation(
+    model, rec: Recording, values: Mapping[str, float], n_sub: int
+) -> int:
+    """How many samples of an oversampled record to merge into one (1: none).
+
+    A record sampled far faster than the model's fastest mode and its inputs need is
+    decimated: the new step must resolve the fastest mode
+    :data:`DECIMATE_SAMPLES_PER_TIME_CONSTANT` times, the inputs must keep
+    :data:`DECIMATE_KEEP_POWER` of their variance below half the new Nyquist
+    frequency, at most :data:`DECIMATE_MAX`, and :data:`DECIMATE_MIN_SAMPLES` samples
+    must remain (see :func:`decimate`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models._mismatch_cases import showcase_model
+    >>> from pdmkit.models._mismatch_fit import choose_decimation, make_recording
+    >>> msd = showcase_model("mass_spring_damper")  # resonance near 3 Hz
+    >>> t = np.arange(40000) * 1e-4  # sampled at 10 kHz
+    >>> F = 20 * np.sin(2 * np.pi * 0.5 * t)
+    >>> rec = make_recording(msd, {"time": t, "F": F, "x": 0 * t})
+    >>> values = {"p:" + k: v for k, v in msd.params.items()} | {"x0:x": 0.0, "x0:v": 0.0}
+    >>> choose_decimation(msd, rec, values, 1)
+    10
+    """
+    head = _head(rec, min(rec.n, _PREFIX))
+    X = simulate_states(model, head, values, n_sub)
+    if not np.all(np.isfinite(X)):
+        return 1
+    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    fast = [
+        float(np.max(np.abs(np.linalg.eigvals(J))))
+        for J in _jacobians(model, P, X, head.inputs, 12)
+    ]
+    if not fast or max(fast) <= 0:
+        return 1
+    d = int(1.0 / (DECIMATE_SAMPLES_PER_TIME_CONSTANT * max(fast) * rec.ts))
+    d = min(d, DECIMATE_MAX, rec.n // DECIMATE_MIN_SAMPLES)
+    for u in rec.inputs.values():
+        if d < 2:
+            break
+        spec = np.abs(np.fft.rfft(u - np.mean(u))) ** 2
+        total = float(np.sum(spec[1:]))
+        if total <= 0:
+            continue
+        cum = np.cumsum(spec[1:]) / total
+        f = np.fft.rfftfreq(u.size, rec.ts)[1:]
+        f_need = float(f[min(np.searchsorted(cum, DECIMATE_KEEP_POWER), f.size - 1)])
+        # half the new Nyquist frequency must lie above f_need
+        d = min(d, int(1.0 / (4.0 * f_need * rec.ts)) if f_need > 0 else d)
+    return max(int(d), 1)
+
+
+def decimate(rec: Recording, factor: int) -> Recording:
+    """Every ``factor``-th sample. A held input (``rec.hold == "zoh"``) becomes the
+    mean over the ``factor`` samples it stands for (held over that interval it delivers
+    the same impulse); an interpolated one (``"foh"``, a smooth sampled signal) and
+    each output are the samples themselves.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models._mismatch_fit import Recording, decimate
+    >>> t = np.arange(6) * 0.1
+    >>> rec = Recording(t, 0.1, {"u": np.arange(6.0)}, {"y": 10 * np.arange(6.0)})
+    >>> r = decimate(rec, 3)
+    >>> r.time.tolist(), r.inputs["u"].tolist(), r.outputs["y"].tolist()
+    ([0.0, 0.30000000000000004], [1.0, 4.0], [0.0, 30.0])
+    """
+    n = (rec.n // factor) * factor
+    if rec.hold == "zoh":
+        blocks = {k: v[:n].reshape(-1, factor).mean(axis=1) for k, v in rec.inputs.items()}
+    else:
+        blocks = {k: v[:n:factor] for k, v in rec.inputs.items()}
+    return dataclasses.replace(
+        rec,
+        time=rec.time[:n:factor],
+        ts=rec.ts * factor,
+        inputs=blocks,
+        outputs={k: v[:n:factor] for k, v in rec.outputs.items()},
+    )
+
+
 #: records of up to this many fitted samples are simulated whole
 PIECES_FROM = 3000
 #: at most this many samples in the fitted pieces of a long record
