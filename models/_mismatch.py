@@ -84,6 +84,11 @@ _NONE_PHYSICS = (
     "No candidate effect improves the validation fit significantly beyond the noise: "
     "the model explains these data as well as they allow."
 )
+_PARTIAL_PHYSICS = (
+    "A named effect explains part of the residual (best_partial), but a data-driven "
+    "equation beats it clearly without leaving a noise-like residual either: the "
+    "missing physics is not (only) a named effect. See lead_equation."
+)
 _UNEXPLAINED_PHYSICS = (
     "Something systematic is left in the residual, but no effect of the library (nor a "
     "sparse equation) explains it significantly: the missing physics is not a named "
@@ -417,6 +422,7 @@ def _tail(rec: Recording, start: int) -> Recording:
     """The samples of a recording from ``start`` on (its own clock kept)."""
     return dataclasses.replace(
         rec,
+        t_origin=float(rec.time[0]) if rec.t_origin is None else rec.t_origin,
         time=rec.time[start:],
         inputs={k: v[start:] for k, v in rec.inputs.items()},
         outputs={k: v[start:] for k, v in rec.outputs.items()},
@@ -1164,6 +1170,7 @@ def _discover(
     stages.enter("data-driven terms")
     sparse_scored: list[_Scored] = []
     sparse_best = None
+    beaten: _Scored | None = None  # a named explanation an equation beat
     ref = pair or accepted or base
     t_sparse = 0.0
     wanted = (effects is None or SPARSE_ID in effects) and not _white(ref)
@@ -1187,6 +1194,10 @@ def _discover(
             if significant(cand, ref) and (ref is base or _white(cand)):
                 sparse_best = cand
                 accepted, pair = cand, None
+            elif significant(cand, ref):
+                # an equation beats the named explanation clearly, without whitening
+                # the residual either: the named effect is only part of the story
+                beaten, accepted, pair = ref, None, None
         t_sparse = _time.perf_counter() - t0
     stages.leave()
     stages.enter("localisation")
@@ -1237,13 +1248,13 @@ def _discover(
     final = pair or accepted
     if accepted is None:
         verdict = {"effect": "none", "target": None, "physics": _NONE_PHYSICS, "params": {}}
-        if _structured(base):
+        if _structured(base) or beaten is not None:
             # something systematic is left, but no candidate explains it: say so
-            lead = min(singles, key=lambda s: s.rmse_val) if singles else None
+            lead = beaten or (min(singles, key=lambda s: s.rmse_val) if singles else None)
             verdict = {
                 "effect": "unexplained",
                 "target": None,
-                "physics": _UNEXPLAINED_PHYSICS,
+                "physics": _UNEXPLAINED_PHYSICS if beaten is None else _PARTIAL_PHYSICS,
                 "params": {},
             }
             if lead is not None:
@@ -1251,6 +1262,7 @@ def _discover(
                 verdict["best_partial"] = {
                     "effect": e.id,
                     "target": e.target,
+                    "also": [f"{f.id}@{f.target}" for f in lead.effects[1:]],
                     "improvement": 1.0 - lead.rmse_val / base.rmse_val
                     if base.rmse_val > 0
                     else 0.0,

@@ -62,6 +62,9 @@ class Recording:
     name: str = "data"
     #: the inputs between samples: "zoh" (held) or "foh" (straight lines)
     hold: str = "zoh"
+    #: the time from which a drift counts (None: the first sample; a part of a longer
+    #: record keeps the record's start)
+    t_origin: float | None = None
 
     @property
     def n(self) -> int:
@@ -438,6 +441,7 @@ class _Problem:
                 _NP,
                 hold=self.rec.hold,
                 segments=segments,
+                t_origin=self.rec.t_origin,
             )
         return Y
 

@@ -75,8 +75,12 @@ def _run(
     want_states: bool = False,
     hold: str = "zoh",
     segments: tuple[np.ndarray, int] | None = None,
+    t_origin: float | None = None,
 ):
     """Integrate a batch; return ``(y (B, N, n_out), x (B, N, nx) or None)``.
+
+    ``t_origin`` is the time from which time-dependent sensor effects (a drift) count
+    (default ``t[0]``; the start of the training record when ``t`` is a later part).
 
     ``segments = (starts, L)`` simulates, for every row, ``K = len(starts)`` pieces of
     the record side by side instead of the whole record (multiple shooting): piece
@@ -137,14 +141,15 @@ def _run(
                 i, c.input_sequence(xp, e, theta[i], U[e.target], ts), U[e.target]
             )
     Useq = xp.stack([U[n] for n in inputs], 2) if inputs else None  # (B, N, nu)
-    t_out = xp.asarray(t - t[0])[None, :]  # output hooks: time since the record start
+    origin = float(t[0]) if t_origin is None else float(t_origin)
+    t_out = xp.asarray(t - origin)[None, :]  # output hooks: time since the origin
     if segments is not None:  # pieces become rows: row b * K + k is piece k of row b
         starts, L = np.asarray(segments[0], dtype=int), int(segments[1])
         K = starts.size
         idx = starts[:, None] + np.arange(L)[None, :]  # (K, L)
         if inputs:
             Useq = Useq[:, idx, :].reshape(B * K, L, len(inputs))
-        t_out = np.tile(t[idx] - t[0], (B, 1))
+        t_out = np.tile(t[idx] - origin, (B, 1))
         theta = [{p: np.repeat(np.asarray(v), K) for p, v in th.items()} for th in theta]
         M = [None if m is None else np.repeat(m, K) for m in M]
         params = {
