@@ -22,9 +22,8 @@ import time
 import numpy as np
 import pandas as pd
 
-from pdmkit.models._candidates import CANDIDATE_IDS
-from pdmkit.models._mismatch import discover_mismatch
-from pdmkit.models._mismatch_cases import _PLACES, generate_concealed_case
+from pdmkit.models.mismatch import CANDIDATE_IDS, discover_mismatch, generate_concealed_case
+from pdmkit.models.mismatch._cases import _PLACES
 
 
 def _case(effect, seed, n, effects=None, right=None):

@@ -717,7 +717,7 @@ def simulate_sweep(
 # --------------------------------------------------------------------------- mismatch
 def _mismatch_task(job: Mapping[str, Any]) -> dict[str, Any]:
     from pdmkit.models import discover_mismatch, load_model_file
-    from pdmkit.models._odefile import _load_source
+    from pdmkit.models.mismatch._modelfile import _load_source
 
     job = dict(job)
     model = job.pop("model")
@@ -751,7 +751,7 @@ def discover_mismatch_batch(
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import generate_concealed_case
+    >>> from pdmkit.models.mismatch._cases import generate_concealed_case
     >>> case = generate_concealed_case("overflow", 0.2, seed=3, n_samples=300)
     >>> [out] = discover_mismatch_batch(
     ...     [{"model": case.source, "data": case.data, "effects": ["overflow"],

@@ -2,7 +2,7 @@
 
 ``pdmkit mismatch MODEL.py DATA.csv [--validation DATA2.csv] --json OUT.json --out DIR``
 calls :func:`run_mismatch`. The model file follows the contract of
-:func:`pdmkit.models._odefile.load_model_file`; the data are CSV or Parquet tables with a
+:func:`pdmkit.models.mismatch.load_model_file`; the data are CSV or Parquet tables with a
 ``time`` column and one column per model input and output.
 """
 
@@ -19,8 +19,12 @@ from pdmkit._outputs import OutputRun, to_jsonable
 from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError
 from pdmkit.experiments._report import Report
-from pdmkit.models._mismatch import MismatchResult, discover_mismatch
-from pdmkit.models._odefile import MODEL_TIMEOUT, load_model_file
+from pdmkit.models.mismatch import (
+    MODEL_TIMEOUT,
+    MismatchResult,
+    discover_mismatch,
+    load_model_file,
+)
 
 __all__ = ["build_mismatch_report", "mismatch_summary", "run_mismatch"]
 
@@ -37,7 +41,7 @@ def mismatch_summary(result: MismatchResult, **sources: Any) -> dict:
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import example_result
+    >>> from pdmkit.models.mismatch._cases import example_result
     >>> res = example_result()
     >>> list(mismatch_summary(res))[:4]
     ['verdict', 'located', 'candidates', 'fit']
@@ -135,7 +139,7 @@ def build_mismatch_report(result: MismatchResult, summary: dict, title: str) -> 
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import example_result
+    >>> from pdmkit.models.mismatch._cases import example_result
     >>> res = example_result()
     >>> rep = build_mismatch_report(res, mismatch_summary(res), "demo")
     >>> "Ranked candidates" in rep.to_html()
@@ -240,12 +244,12 @@ def run_mismatch(
     The model file is Python code run with your rights; trust it like code you would
     run. It is first imported and ``rhs`` evaluated on the data's first samples in a
     child process limited to ``model_timeout`` seconds (see
-    :func:`pdmkit.models._odefile.load_model_file`).
+    :func:`pdmkit.models.mismatch.load_model_file`).
 
     Parameters
     ----------
     model_path : path
-        The user's model file (see :func:`pdmkit.models._odefile.load_model_file`).
+        The user's model file (see :func:`pdmkit.models.mismatch.load_model_file`).
     data_path : path
         CSV or Parquet: ``time`` (s, uniform), the model's inputs and outputs. Without
         ``validation_path`` its last third is the validation part.
@@ -265,10 +269,10 @@ def run_mismatch(
     input_hold : {"auto", "zoh", "foh"}
         The inputs between samples: held, or straight lines (sampled continuous
         signals); ``"auto"`` decides from the data (see
-        :func:`pdmkit.models._mismatch.choose_input_hold`).
+        :func:`pdmkit.models.mismatch.choose_input_hold`).
     max_seconds : float, optional
         Time budget of the discovery: when it runs out the best verdict so far is
-        reported, marked so (see :func:`pdmkit.models._mismatch.discover_mismatch`).
+        reported, marked so (see :func:`pdmkit.models.mismatch.discover_mismatch`).
 
     Returns
     -------
@@ -288,7 +292,7 @@ def run_mismatch(
     Examples
     --------
     >>> import pathlib, tempfile
-    >>> from pdmkit.models._mismatch_cases import generate_concealed_case
+    >>> from pdmkit.models.mismatch._cases import generate_concealed_case
     >>> folder = pathlib.Path(tempfile.mkdtemp())
     >>> case = generate_concealed_case("none", 0.2, seed=1, n_samples=300)
     >>> paths = case.write(folder)

@@ -38,13 +38,6 @@ Examples
 0.16
 """
 
-from pdmkit.models._candidates import (
-    CANDIDATE_IDS,
-    Candidate,
-    Effect,
-    attach_candidates,
-    candidate_library,
-)
 from pdmkit.models._diagnosis import DiagnosticMask, DiagnosticMatrix, MaskResult
 from pdmkit.models._estimate import EstimationResult, estimate_parameters
 from pdmkit.models._fractional import (
@@ -94,31 +87,6 @@ from pdmkit.models._ident_pem import armax, bj, oe
 from pdmkit.models._integrate import simulate, simulate_ivp
 from pdmkit.models._linearize import LinearModel, linearize
 from pdmkit.models._massbeam import MassBeamRig
-from pdmkit.models._mismatch import MismatchResult, discover_mismatch, dm_test
-from pdmkit.models._mismatch_cases import (
-    SHOWCASE_NAMES,
-    ConcealedCase,
-    example_result,
-    generate_concealed_case,
-    score_concealed_cases,
-    showcase_model,
-    showcase_source,
-)
-from pdmkit.models._mismatch_fit import (
-    FitResult,
-    Recording,
-    fit_model,
-    make_recording,
-    nominal_scales,
-)
-from pdmkit.models._mismatch_locate import (
-    region_statistics,
-    residual_spectrum,
-    residual_windows,
-    whiteness_test,
-)
-from pdmkit.models._odefile import KINDS, OdeModel, load_model_file
-from pdmkit.models._odesim import simulate_ode
 from pdmkit.models._pneumatic import (
     STATE_NAMES,
     PneumaticParams,
@@ -137,19 +105,47 @@ from pdmkit.models._sensors import (
     SensorSpec,
     default_sensor_specs,
 )
-from pdmkit.models._sparse import (
-    SparseTerms,
-    Term,
-    library_terms,
-    sparse_equation,
-    stlsq_path,
-)
 from pdmkit.models._subspace import n4sid, ss_predict, ss_simulate
 from pdmkit.models._symbolic import (
     SymbolicAnomaly,
     max_entropy_partition,
     state_probabilities,
     symbolize,
+)
+from pdmkit.models.mismatch import (
+    CANDIDATE_IDS,
+    KINDS,
+    SHOWCASE_NAMES,
+    Candidate,
+    ConcealedCase,
+    Effect,
+    FitResult,
+    MismatchResult,
+    OdeModel,
+    Recording,
+    SparseTerms,
+    Term,
+    attach_candidates,
+    candidate_library,
+    discover_mismatch,
+    dm_test,
+    example_result,
+    fit_model,
+    generate_concealed_case,
+    library_terms,
+    load_model_file,
+    make_recording,
+    nominal_scales,
+    region_statistics,
+    residual_spectrum,
+    residual_windows,
+    score_concealed_cases,
+    showcase_model,
+    showcase_source,
+    simulate_ode,
+    sparse_equation,
+    stlsq_path,
+    whiteness_test,
 )
 
 __all__ = [

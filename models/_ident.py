@@ -439,14 +439,14 @@ class IdentifiedModel:
     def residual_test(self, u, y, max_lag: int | None = None) -> dict:
         """Whiteness of the one-step prediction errors and their correlation with ``u``.
 
-        Uses :func:`pdmkit.models._mismatch_locate.whiteness_test` (Ljung-Box test and
+        Uses :func:`pdmkit.models.mismatch.whiteness_test` (Ljung-Box test and
         the ``2.58 / sqrt(N)`` band on the auto- and cross-correlations, Ljung 1999,
         sec. 16.6). ``white`` and ``inputs["u"]["uncorrelated"]`` are the verdicts; the
         latter asks every one of the ``2 max_lag + 1`` cross-correlations to lie in
         the 99 % band, so it fails by chance more often than 1 % of the time:
         ``xcorr_outside`` (the fraction outside) is the gentler reading.
         """
-        from pdmkit.models._mismatch_locate import whiteness_test
+        from pdmkit.models.mismatch import whiteness_test
 
         e = self.prediction_errors(u, y)
         # the predictor starts from zero past: drop its start-up transient

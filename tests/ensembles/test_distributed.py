@@ -129,7 +129,7 @@ def test_simulation_sweep_equals_in_process(client):
 
 
 def test_mismatch_batch_equals_in_process(client):
-    from pdmkit.models._mismatch_cases import generate_concealed_case
+    from pdmkit.models.mismatch._cases import generate_concealed_case
 
     jobs = []
     for effect, seed in (("overflow", 3), ("none", 4)):

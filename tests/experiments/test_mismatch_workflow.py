@@ -10,7 +10,7 @@ import pytest
 
 from pdmkit.errors import DataError, ModelError
 from pdmkit.experiments._mismatch import run_mismatch
-from pdmkit.models._mismatch_cases import generate_concealed_case
+from pdmkit.models.mismatch._cases import generate_concealed_case
 
 ISSUE_KEYS = {"verdict", "located", "candidates", "fit"}
 

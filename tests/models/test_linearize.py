@@ -6,7 +6,7 @@ import torch
 
 from pdmkit.errors import ModelError
 from pdmkit.models._linearize import linearize
-from pdmkit.models._odefile import OdeModel
+from pdmkit.models.mismatch._modelfile import OdeModel
 
 
 def _msd():

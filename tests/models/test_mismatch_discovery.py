@@ -7,9 +7,9 @@ import pandas as pd
 import pytest
 
 from pdmkit.errors import ModelError
-from pdmkit.models._mismatch import discover_mismatch, dm_test
-from pdmkit.models._mismatch_cases import generate_concealed_case, showcase_model
-from pdmkit.models._odesim import simulate_ode
+from pdmkit.models.mismatch._cases import generate_concealed_case, showcase_model
+from pdmkit.models.mismatch._discover import discover_mismatch, dm_test
+from pdmkit.models.mismatch._simulate import simulate_ode
 
 # a competing set for each concealed case: the true effect and its look-alikes
 FRICTION = [
@@ -140,10 +140,23 @@ def test_real_cascaded_tanks_overflow_on_upper_tank(require_data):
     est = pd.DataFrame({"time": t, "u": d["uEst"], "h2": d["yEst"]})
     val = pd.DataFrame({"time": t, "u": d["uVal"], "h2": d["yVal"]})
     model = showcase_model("cascaded_tanks")
-    res = discover_mismatch(model, est, val, pairs=False)
-    assert (res.verdict["effect"], res.verdict["target"]) == ("overflow", "h1")
+    # one effect alone is only part of the story here: a sparse equation beats the
+    # upper-tank overflow by a third without a white residual either, so the honest
+    # single-effect verdict is `unexplained` with the overflow as the best partial
+    single = discover_mismatch(model, est, val, pairs=False)
+    assert single.verdict["effect"] in ("overflow", "unexplained")
+    if single.verdict["effect"] == "unexplained":
+        partial = single.verdict["best_partial"]
+        assert (partial["effect"], partial["target"]) == ("overflow", "h1")
+        assert partial["improvement"] >= 0.15 and single.verdict["lead_equation"]
+    # with more effects allowed (the default) the overflow is named among them
+    res = discover_mismatch(model, est, val)
+    named = [(res.verdict["effect"], res.verdict["target"], res.verdict["params"])]
+    named += [(a["effect"], a["target"], a["params"]) for a in res.verdict.get("also", [])]
+    overflow = [p for e, tg, p in named if (e, tg) == ("overflow", "h1")]
+    assert overflow, named
     drop = 1 - res.fit["rmse_augmented"] / res.fit["rmse_nominal"]
-    assert drop >= 0.15
+    assert drop >= 0.4
     # literature: Torricelli without overflow about 0.64 V validation RMSE
     assert 0.6 < res.fit["rmse_nominal"] < 0.7
     # the two located windows with most residual energy hold the episodes where the
@@ -165,7 +178,7 @@ def test_real_cascaded_tanks_overflow_on_upper_tank(require_data):
         effect_params={q: vals[q] for e in effs for q in e.qualified()},
     )
     h1 = sim.states["h1"][0]
-    cap = res.verdict["params"]["cap"]
+    cap = overflow[0]["cap"]
     for w in res.located[:2]:
         inside = (t >= w["start"]) & (t < w["end"])
         assert h1[inside].max() >= 0.97 * cap

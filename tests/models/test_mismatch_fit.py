@@ -7,10 +7,10 @@ import pandas as pd
 import pytest
 
 from pdmkit.errors import DataError
-from pdmkit.models._candidates import CANDIDATES, Effect
-from pdmkit.models._mismatch_cases import showcase_model
-from pdmkit.models._mismatch_fit import fit_model, make_recording, nominal_scales
-from pdmkit.models._odesim import simulate_ode
+from pdmkit.models.mismatch._candidates import CANDIDATES, Effect
+from pdmkit.models.mismatch._cases import showcase_model
+from pdmkit.models.mismatch._fit import fit_model, make_recording, nominal_scales
+from pdmkit.models.mismatch._simulate import simulate_ode
 
 
 @pytest.fixture

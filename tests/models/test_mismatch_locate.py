@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy import signal, stats
 
-from pdmkit.models._mismatch_cases import showcase_model
-from pdmkit.models._mismatch_locate import (
+from pdmkit.models.mismatch._cases import showcase_model
+from pdmkit.models.mismatch._locate import (
     region_statistics,
     residual_spectrum,
     residual_windows,

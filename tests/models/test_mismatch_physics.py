@@ -16,11 +16,15 @@ import pandas as pd
 import pytest
 from scipy.integrate import solve_ivp
 
-from pdmkit.models._mismatch import _signatures, choose_input_hold, discover_mismatch
-from pdmkit.models._mismatch_cases import generate_concealed_case, showcase_model
-from pdmkit.models._mismatch_fit import make_recording
-from pdmkit.models._odefile import OdeModel, load_model_file
-from pdmkit.models._odesim import simulate_ode
+from pdmkit.models.mismatch._cases import generate_concealed_case, showcase_model
+from pdmkit.models.mismatch._discover import (
+    _signatures,
+    choose_input_hold,
+    discover_mismatch,
+)
+from pdmkit.models.mismatch._fit import make_recording
+from pdmkit.models.mismatch._modelfile import OdeModel, load_model_file
+from pdmkit.models.mismatch._simulate import simulate_ode
 
 LINEAR_MSD = """
 STATES = {"x": "position", "v": "velocity"}
@@ -142,9 +146,9 @@ def test_a_value_on_its_bound_is_warned_about_unless_the_effect_fades_there():
     """A free model parameter at the end of its range (1/1000 or 1000 x nominal) is
     a warning; an effect parameter at the bound where the effect vanishes (no
     friction, a saturation level at its far end) is not."""
-    from pdmkit.models._candidates import _dummy_scales, attach_candidates
-    from pdmkit.models._mismatch import _at_bounds
-    from pdmkit.models._mismatch_fit import _make_jobs
+    from pdmkit.models.mismatch._candidates import _dummy_scales, attach_candidates
+    from pdmkit.models.mismatch._discover import _at_bounds
+    from pdmkit.models.mismatch._fit import _make_jobs
 
     msd = showcase_model("mass_spring_damper")
     values = {f"p:{k}": v for k, v in msd.params.items()}

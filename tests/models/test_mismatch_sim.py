@@ -11,10 +11,15 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from pdmkit.errors import ModelError
-from pdmkit.models._candidates import CANDIDATES, Effect, _dummy_scales, attach_candidates
-from pdmkit.models._mismatch_cases import showcase_model
-from pdmkit.models._odefile import OdeModel
-from pdmkit.models._odesim import simulate_ode
+from pdmkit.models.mismatch._candidates import (
+    CANDIDATES,
+    Effect,
+    _dummy_scales,
+    attach_candidates,
+)
+from pdmkit.models.mismatch._cases import showcase_model
+from pdmkit.models.mismatch._modelfile import OdeModel
+from pdmkit.models.mismatch._simulate import simulate_ode
 
 
 def zoh_reference(f, y0, t, u):

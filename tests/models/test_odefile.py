@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pdmkit.errors import ModelError
-from pdmkit.models._odefile import KINDS, OdeModel, load_model_file
+from pdmkit.models.mismatch._modelfile import KINDS, OdeModel, load_model_file
 
 GOOD = """
 STATES = {"x": "position", "v": "velocity"}

@@ -1,15 +1,15 @@
-"""The data-driven fallback of mismatch discovery (pdmkit.models._sparse)."""
+"""The data-driven fallback of mismatch discovery (pdmkit.models.mismatch._sparse)."""
 
 import numpy as np
 import pytest
 
 from pdmkit.errors import ModelError
-from pdmkit.models._candidates import CANDIDATE_IDS, Effect, candidate_library
-from pdmkit.models._mismatch import discover_mismatch
-from pdmkit.models._mismatch_cases import generate_concealed_case, showcase_model
-from pdmkit.models._odefile import OdeModel
-from pdmkit.models._odesim import simulate_ode
-from pdmkit.models._sparse import (
+from pdmkit.models.mismatch._candidates import CANDIDATE_IDS, Effect, candidate_library
+from pdmkit.models.mismatch._cases import generate_concealed_case, showcase_model
+from pdmkit.models.mismatch._discover import discover_mismatch
+from pdmkit.models.mismatch._modelfile import OdeModel
+from pdmkit.models.mismatch._simulate import simulate_ode
+from pdmkit.models.mismatch._sparse import (
     SparseTerms,
     Term,
     library_terms,

@@ -94,7 +94,7 @@ def _command(command: str, inputs: Path, out: Path) -> list[str]:
         args = ["identify", data, "--input", "force", "--output", "acc"]
         args += ["--order", "na=2,nb=1"]
     elif command == "mismatch":
-        from pdmkit.models._mismatch_cases import generate_concealed_case
+        from pdmkit.models.mismatch._cases import generate_concealed_case
 
         paths = generate_concealed_case("none", 0.2, seed=1, n_samples=300).write(inputs)
         args = ["mismatch", paths["model"], paths["data"], "--effects", "sensor_offset"]
@@ -255,7 +255,7 @@ def test_an_output_that_would_overwrite_an_input_is_refused(tmp_path, capsys):
         capsys,
         over,
     )
-    from pdmkit.models._mismatch_cases import generate_concealed_case
+    from pdmkit.models.mismatch._cases import generate_concealed_case
 
     paths = generate_concealed_case("none", 0.2, seed=1, n_samples=300).write(tmp_path)
     paths["data"].rename(out / "summary.json")

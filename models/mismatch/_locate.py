@@ -56,7 +56,7 @@ def residual_windows(time, residual, n_windows: int = 20, top: int = 5) -> list[
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch_locate import residual_windows
+    >>> from pdmkit.models.mismatch._locate import residual_windows
     >>> t = np.arange(1000) * 0.1
     >>> r = np.random.default_rng(0).normal(0, 0.01, 1000)
     >>> r[300:350] += 1.0
@@ -179,8 +179,8 @@ def region_statistics(model, x, u, residual):
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch_cases import showcase_model
-    >>> from pdmkit.models._mismatch_locate import region_statistics
+    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.mismatch._locate import region_statistics
     >>> t = np.linspace(0, 20, 2000)
     >>> x, v = np.sin(t), np.cos(t)
     >>> r = 0.01 * np.sign(v) * (np.abs(v) < 0.1)  # residual only near v = 0
@@ -264,7 +264,7 @@ def whiteness_test(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch_locate import whiteness_test
+    >>> from pdmkit.models.mismatch._locate import whiteness_test
     >>> rng = np.random.default_rng(0)
     >>> whiteness_test(rng.normal(size=2000))["white"]
     True
@@ -329,7 +329,7 @@ def residual_spectrum(residual, inputs: Mapping[str, np.ndarray], fs: float):
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch_locate import residual_spectrum
+    >>> from pdmkit.models.mismatch._locate import residual_spectrum
     >>> rng = np.random.default_rng(0)
     >>> u = rng.normal(size=4096)
     >>> spec = residual_spectrum(np.convolve(u, [0.5, 0.5], "same"), {"u": u}, fs=100.0)

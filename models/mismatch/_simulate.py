@@ -2,10 +2,11 @@
 
 Members run together, batch on the first axis, in numpy (fast, float64) or in torch
 (autograd through the whole trajectory). A batch may mix *structures*: groups of rows
-that share a set of candidate effects (:mod:`pdmkit.models._candidates`), so that many
-hypotheses, parameter sets and finite-difference perturbations are simulated in one
-pass. Between samples the inputs are held constant; each sample interval takes
-``n_sub`` classical Runge-Kutta steps.
+that share a set of candidate effects (:mod:`pdmkit.models.mismatch._candidates`), so
+that many hypotheses, parameter sets and finite-difference perturbations are simulated
+in one pass. Between samples the inputs are held or interpolated; each sample interval
+takes ``n_sub`` classical Runge-Kutta steps. Long records can run as pieces side by
+side (multiple shooting, ``segments``).
 """
 
 from __future__ import annotations
@@ -372,8 +373,8 @@ def simulate_ode(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._odefile import OdeModel
-    >>> from pdmkit.models._odesim import simulate_ode
+    >>> from pdmkit.models.mismatch._modelfile import OdeModel
+    >>> from pdmkit.models.mismatch._simulate import simulate_ode
     >>> decay = OdeModel({"h": "level"}, {}, ["h"], {"a": 1.0},
     ...                  lambda t, x, u, p: {"h": -p["a"] * x["h"]}, initial={"h": 1.0})
     >>> t = np.linspace(0.0, 1.0, 11)

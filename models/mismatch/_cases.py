@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 
 from pdmkit.errors import ModelError
-from pdmkit.models._candidates import CANDIDATE_IDS, CANDIDATES, Effect, Scales
-from pdmkit.models._odefile import _load_source
-from pdmkit.models._odesim import _NP, _run
+from pdmkit.models.mismatch._candidates import CANDIDATE_IDS, CANDIDATES, Effect, Scales
+from pdmkit.models.mismatch._modelfile import _load_source
+from pdmkit.models.mismatch._simulate import _NP, _run
 
 __all__ = [
     "SHOWCASE_NAMES",
@@ -58,7 +58,7 @@ def showcase_source(name: str) -> str:
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import showcase_source
+    >>> from pdmkit.models.mismatch._cases import showcase_source
     >>> "def rhs(t, x, u, p):" in showcase_source("two_tanks")
     True
     """
@@ -72,7 +72,7 @@ def showcase_model(name: str, **params: float):
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import showcase_model
+    >>> from pdmkit.models.mismatch._cases import showcase_model
     >>> showcase_model("mass_spring_damper")
     <OdeModel 'mass_spring_damper': states x(position), v(velocity); ...; free k>
     """
@@ -276,7 +276,7 @@ class ConcealedCase:
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import generate_concealed_case
+    >>> from pdmkit.models.mismatch._cases import generate_concealed_case
     >>> case = generate_concealed_case("overflow", 0.2, seed=3)
     >>> case.system, case.effect, case.target, round(case.strength, 2)
     ('two_tanks', 'overflow', 'h1', 0.2)
@@ -300,7 +300,7 @@ class ConcealedCase:
         Examples
         --------
         >>> import tempfile
-        >>> from pdmkit.models._mismatch_cases import generate_concealed_case
+        >>> from pdmkit.models.mismatch._cases import generate_concealed_case
         >>> paths = generate_concealed_case("none", 0.2, seed=0).write(tempfile.mkdtemp())
         >>> sorted(paths)
         ['data', 'model']
@@ -316,7 +316,7 @@ class ConcealedCase:
 
 def _sparse_truth(model, system: str, target: str, X, u, sc: Scales) -> Effect:
     """The hidden data-driven term of a ``sparse`` case (its coefficient is c0)."""
-    from pdmkit.models._sparse import SparseTerms, Term
+    from pdmkit.models.mismatch._sparse import SparseTerms, Term
 
     label, sign = _SPARSE_TRUTH[system, target]
     term = Term.parse(label)
@@ -378,12 +378,12 @@ def generate_concealed_case(
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import generate_concealed_case
+    >>> from pdmkit.models.mismatch._cases import generate_concealed_case
     >>> case = generate_concealed_case("coulomb_friction", 0.2, seed=0)
     >>> case.target, list(case.data.columns), case.model.free
     ('v', ['time', 'F', 'x'], ['k'])
     """
-    from pdmkit.models._mismatch_fit import Recording, _nominal_scales
+    from pdmkit.models.mismatch._fit import Recording, _nominal_scales
 
     if not (isinstance(strength, int | float) and 0 < strength < 5):
         raise ModelError(
@@ -452,7 +452,7 @@ def generate_concealed_case(
         else:
             cand = CANDIDATES[effect, attach]
             probe = Effect(cand, tgt, partner, {})
-            from pdmkit.models._candidates import attach_candidates
+            from pdmkit.models.mismatch._candidates import attach_candidates
 
             opts = next(
                 e.options
@@ -542,7 +542,7 @@ def generate_concealed_case(
 
 
 def example_result(seed: int = 1):
-    """A small, fast :class:`~pdmkit.models._mismatch.MismatchResult` for examples.
+    """A small, fast :class:`~pdmkit.models.mismatch.MismatchResult` for examples.
 
     Discovery on a 300-sample effect-free control (:func:`generate_concealed_case`
     with ``"none"``), trying only the ``sensor_offset`` candidate: about a second.
@@ -558,11 +558,11 @@ def example_result(seed: int = 1):
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import example_result
+    >>> from pdmkit.models.mismatch._cases import example_result
     >>> example_result().verdict["effect"]
     'none'
     """
-    from pdmkit.models._mismatch import discover_mismatch
+    from pdmkit.models.mismatch._discover import discover_mismatch
 
     case = generate_concealed_case("none", 0.2, seed=seed, n_samples=300)
     return discover_mismatch(case.model, case.data, effects=["sensor_offset"])
@@ -596,7 +596,7 @@ def score_concealed_cases(
     verbose : bool
         Print one line per case.
     **options
-        Passed to :func:`~pdmkit.models._mismatch.discover_mismatch`
+        Passed to :func:`~pdmkit.models.mismatch.discover_mismatch`
         (``candidates=`` restricts the effect ids it tries).
 
     Returns
@@ -608,7 +608,7 @@ def score_concealed_cases(
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import score_concealed_cases
+    >>> from pdmkit.models.mismatch._cases import score_concealed_cases
     >>> tab = score_concealed_cases(["sensor_offset"], controls=1, n_samples=300,
     ...                             candidates=["sensor_offset", "sensor_gain"],
     ...                             pairs=False)
@@ -619,7 +619,7 @@ def score_concealed_cases(
 
     import pandas as pd
 
-    from pdmkit.models._mismatch import discover_mismatch
+    from pdmkit.models.mismatch._discover import discover_mismatch
 
     if "candidates" in options:
         options["effects"] = options.pop("candidates")

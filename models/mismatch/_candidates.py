@@ -50,7 +50,7 @@ class ParamSpec:
 class Scales:
     """Magnitudes of a nominal trajectory that candidates use for guesses and widths.
 
-    Built by :func:`pdmkit.models._mismatch_fit.nominal_scales` from the fitted
+    Built by :func:`pdmkit.models.mismatch.nominal_scales` from the fitted
     nominal model; every dict is keyed by state / input / output name.
     """
 
@@ -114,7 +114,7 @@ class Candidate(abc.ABC):
 
     Examples
     --------
-    >>> from pdmkit.models._candidates import candidate_library
+    >>> from pdmkit.models.mismatch._candidates import candidate_library
     >>> lib = candidate_library()
     >>> lib.loc[lib["id"] == "coulomb_friction", "attach"].tolist()
     ['velocity']
@@ -220,7 +220,7 @@ class Effect:
 
     Examples
     --------
-    >>> from pdmkit.models._candidates import CANDIDATES, Effect
+    >>> from pdmkit.models.mismatch._candidates import CANDIDATES, Effect
     >>> Effect(CANDIDATES["coulomb_friction", "velocity"], "v").key
     'coulomb_friction@v'
     """
@@ -968,7 +968,7 @@ _ALL: tuple[Candidate, ...] = (
 #: candidate by ``(id, attach)``
 CANDIDATES: dict[tuple[str, str], Candidate] = {(c.id, c.attach): c for c in _ALL}
 
-#: id of the data-driven fallback (:mod:`pdmkit.models._sparse`), tried after the others
+#: id of the data-driven fallback (``mismatch._sparse``), tried after the others
 SPARSE_ID = "sparse"
 
 #: the effect ids, in library order (``saturation`` and ``backlash`` attach in two
@@ -989,8 +989,8 @@ def candidate_library():
     """The candidate effects as a table: id, where each attaches, parameters, physics.
 
     The last row is the data-driven fallback ``sparse``
-    (:mod:`pdmkit.models._sparse`), whose parameters are the coefficients of the terms
-    it selects.
+    (:mod:`pdmkit.models.mismatch._sparse`), whose parameters are the coefficients of
+    the terms it selects.
 
     Returns
     -------
@@ -999,7 +999,7 @@ def candidate_library():
 
     Examples
     --------
-    >>> from pdmkit.models._candidates import candidate_library
+    >>> from pdmkit.models.mismatch._candidates import candidate_library
     >>> lib = candidate_library()
     >>> len(lib), sorted(lib.loc[lib["id"] == "saturation", "attach"])
     (22, ['input', 'level'])
@@ -1092,8 +1092,8 @@ def attach_candidates(
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import showcase_model
-    >>> from pdmkit.models._candidates import attach_candidates, _dummy_scales
+    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.mismatch._candidates import attach_candidates, _dummy_scales
     >>> msd = showcase_model("mass_spring_damper")
     >>> [e.key for e in attach_candidates(msd, _dummy_scales(msd))][:4]
     ['coulomb_friction@v', 'stribeck_friction@v', 'bias_force@v', 'viscous_friction@v']

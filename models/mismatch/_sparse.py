@@ -1,6 +1,6 @@
 """Data-driven fallback of mismatch discovery: a sparse term found through the simulation.
 
-When no named candidate of :mod:`pdmkit.models._candidates` explains the residual,
+When no named candidate of :mod:`pdmkit.models.mismatch._candidates` explains the residual,
 pdmkit looks for a short equation instead: a sum of a few functions of the states and
 inputs (monomials up to degree 3, ``abs``, ``sign``, ``sqrt`` of levels and pressures,
 ``v*abs(v)``) added to the derivative of one state. The terms are selected by
@@ -29,7 +29,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from pdmkit.errors import ModelError
-from pdmkit.models._candidates import Candidate, Effect, ParamSpec, Scales
+from pdmkit.models.mismatch._candidates import Candidate, Effect, ParamSpec, Scales
 
 __all__ = ["SparseTerms", "Term", "library_terms", "sparse_equation", "stlsq_path"]
 
@@ -81,7 +81,7 @@ class Term:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._sparse import Term
+    >>> from pdmkit.models.mismatch._sparse import Term
     >>> t = Term((("x", 2), ("v", 1)))
     >>> t.label
     'x**2*v'
@@ -173,7 +173,7 @@ def sparse_equation(target: str, labels: Sequence[str], coefs: Sequence[float]) 
 
     Examples
     --------
-    >>> from pdmkit.models._sparse import sparse_equation
+    >>> from pdmkit.models.mismatch._sparse import sparse_equation
     >>> sparse_equation("v", ["x**2*v", "sign(v)"], [-2.3141, 0.5])
     'dv/dt += -2.31*x**2*v + 0.5*sign(v)'
     """
@@ -206,8 +206,8 @@ class SparseTerms(Candidate):
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._sparse import SparseTerms, Term
-    >>> from pdmkit.models._candidates import Effect
+    >>> from pdmkit.models.mismatch._sparse import SparseTerms, Term
+    >>> from pdmkit.models.mismatch._candidates import Effect
     >>> cand = SparseTerms([Term((("x", 2), ("v", 1)))], [0.5], {})
     >>> eff = Effect(cand, "v")
     >>> eff.key, eff.param_names
@@ -343,8 +343,8 @@ def library_terms(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch_cases import showcase_model
-    >>> from pdmkit.models._sparse import library_terms
+    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.mismatch._sparse import library_terms
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.linspace(0, 6, 300)
     >>> X = {"x": 0.1 * np.sin(3 * t), "v": 0.3 * np.cos(3 * t)}
@@ -463,7 +463,7 @@ def _jacobian(problem, job):
     they cannot explain (piece by piece), so a selection on ``(r, J)`` is the selection
     with the initial states refitted at every step.
     """
-    from pdmkit.models._mismatch_fit import _fd_jacobians, _fd_rows
+    from pdmkit.models.mismatch._fit import _fd_jacobians, _fd_rows
 
     rows, steps, dx = _fd_rows(job, job.theta, job.x0)
     R = problem.residuals(problem.simulate(rows))
@@ -511,7 +511,7 @@ def stlsq_path(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._sparse import stlsq_path
+    >>> from pdmkit.models.mismatch._sparse import stlsq_path
     >>> rng = np.random.default_rng(0)
     >>> J = rng.normal(size=(200, 5))
     >>> r = -(J @ np.array([1.0, 0.0, 0.0, 2.0, 0.0])) + 0.01 * rng.normal(size=200)
@@ -618,8 +618,8 @@ def fit_sparse(
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import generate_concealed_case
-    >>> from pdmkit.models._mismatch import discover_mismatch
+    >>> from pdmkit.models.mismatch._cases import generate_concealed_case
+    >>> from pdmkit.models.mismatch._discover import discover_mismatch
     >>> case = generate_concealed_case("sparse", 0.3, seed=0, n_samples=600)
     >>> res = discover_mismatch(case.model, case.data, effects=["sparse"])
     >>> res.verdict["effect"], res.verdict["target"], case.params["term"]
@@ -627,7 +627,7 @@ def fit_sparse(
     >>> "x**2*v" in res.verdict["params"]["equation"]
     True
     """
-    from pdmkit.models._mismatch_fit import _lm, _make_jobs
+    from pdmkit.models.mismatch._fit import _lm, _make_jobs
 
     rec = problem.rec
     base = {k: v for k, v in values.items() if not k.startswith("sparse@")}
@@ -719,7 +719,7 @@ def fit_sparse(
 
 def _linearise(problem, model, eff_all, point, coefs, sc, x_scale, x0):
     """``(job with every term, r, J, term columns)`` at ``point`` and ``coefs``."""
-    from pdmkit.models._mismatch_fit import _make_jobs
+    from pdmkit.models.mismatch._fit import _make_jobs
 
     key = eff_all.key
     vals = {**point, **{f"{key}.c{j}": float(c) for j, c in enumerate(coefs)}}
@@ -747,7 +747,7 @@ def _ranked_sets(lin, m: int, max_terms: int):
 
 def _prune(problem, model, job, sc, x_scale, m, max_iter):
     """Backward elimination: drop terms while that lowers the BIC."""
-    from pdmkit.models._mismatch_fit import _lm, _make_jobs
+    from pdmkit.models.mismatch._fit import _lm, _make_jobs
 
     while True:
         eff = job.effects[0]

@@ -6,9 +6,9 @@
    training part (the first two thirds, or all of ``data`` when a separate validation
    recording is given);
 2. locate the residual in time, in the state / input space and in frequency, and test
-   it for whiteness (:mod:`pdmkit.models._mismatch_locate`);
-3. attach every candidate of the library (:mod:`pdmkit.models._candidates`) that the
-   model admits and screen them all cheaply (a few batched Levenberg-Marquardt
+   it for whiteness (:mod:`pdmkit.models.mismatch._locate`);
+3. attach every candidate of the library (:mod:`pdmkit.models.mismatch._candidates`)
+   that the model admits and screen them all cheaply (a few batched Levenberg-Marquardt
    iterations each, from several starting points), then refit the best ones to
    convergence (their parameters + the free ones + the initial state);
 4. rank by validation RMSE (ties within ``tie_tolerance`` go to the lower BIC), and
@@ -22,7 +22,7 @@
    ``max_effects``);
 6. when the residual left (after the accepted effect, or of the nominal model when none
    was accepted) still fails the whiteness test, run the data-driven fallback
-   (:mod:`pdmkit.models._sparse`): a short equation selected by sparse regression
+   (:mod:`pdmkit.models.mismatch._sparse`): a short equation selected by sparse regression
    through the simulation. It becomes the verdict (``sparse``) only when it beats that
    model by the same significance test and, when it would replace an accepted named
    effect, also leaves a white validation residual; its output is an equation such as
@@ -43,14 +43,14 @@ from typing import Any
 import numpy as np
 
 from pdmkit.errors import ConvergenceWarning, ModelError
-from pdmkit.models._candidates import (
+from pdmkit.models.mismatch._candidates import (
     SPARSE_ID,
     Effect,
     Scales,
     _position_partner,
     attach_candidates,
 )
-from pdmkit.models._mismatch_fit import (
+from pdmkit.models.mismatch._fit import (
     DEADLINE,
     PIECES_FROM,
     Recording,
@@ -68,15 +68,16 @@ from pdmkit.models._mismatch_fit import (
     data_states,
     decimate,
     make_recording,
+    part,
     simulate_states,
 )
-from pdmkit.models._mismatch_locate import (
+from pdmkit.models.mismatch._locate import (
     region_statistics,
     residual_spectrum,
     residual_windows,
     whiteness_test,
 )
-from pdmkit.models._odesim import _DERIV
+from pdmkit.models.mismatch._simulate import _DERIV
 
 __all__ = ["MismatchResult", "discover_mismatch", "dm_test"]
 
@@ -121,7 +122,7 @@ def dm_test(e_ref: np.ndarray, e_new: np.ndarray) -> tuple[float, float]:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch import dm_test
+    >>> from pdmkit.models.mismatch._discover import dm_test
     >>> rng = np.random.default_rng(0)
     >>> noise = rng.normal(size=500)
     >>> round(dm_test(noise + 1.0, noise)[1], 6)
@@ -191,11 +192,11 @@ class MismatchResult:
     augmented_effects : tuple of Effect
         The accepted effects (empty for the verdict ``none``); with
         ``augmented_values`` they re-simulate the augmented model
-        (:func:`~pdmkit.models._odesim.simulate_ode`).
+        (:func:`~pdmkit.models.mismatch.simulate_ode`).
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import example_result
+    >>> from pdmkit.models.mismatch._cases import example_result
     >>> res = example_result()
     >>> res.verdict["effect"], res.augmented_effects
     ('none', ())
@@ -220,7 +221,7 @@ class MismatchResult:
 
         Examples
         --------
-        >>> from pdmkit.models._mismatch_cases import example_result
+        >>> from pdmkit.models.mismatch._cases import example_result
         >>> res = example_result()
         >>> sorted(res.to_dict())[:4]
         ['candidates', 'fit', 'located', 'regions']
@@ -252,7 +253,7 @@ class MismatchResult:
 
         Examples
         --------
-        >>> from pdmkit.models._mismatch_cases import example_result
+        >>> from pdmkit.models.mismatch._cases import example_result
         >>> res = example_result()
         >>> list(res.to_pandas().columns)[:3]
         ['effect', 'target', 'variant']
@@ -266,7 +267,7 @@ class MismatchResult:
 
         Examples
         --------
-        >>> from pdmkit.models._mismatch_cases import example_result
+        >>> from pdmkit.models.mismatch._cases import example_result
         >>> res = example_result()
         >>> res.plot().shape
         (2,)
@@ -418,22 +419,11 @@ def _validate_one(model, problem, rec_val, scored, x_scale, max_iter) -> None:
         s.rmse_val = _rmse(np.where(np.isfinite(err), err, np.inf), w)
 
 
-def _tail(rec: Recording, start: int) -> Recording:
-    """The samples of a recording from ``start`` on (its own clock kept)."""
-    return dataclasses.replace(
-        rec,
-        t_origin=float(rec.time[0]) if rec.t_origin is None else rec.t_origin,
-        time=rec.time[start:],
-        inputs={k: v[start:] for k, v in rec.inputs.items()},
-        outputs={k: v[start:] for k, v in rec.outputs.items()},
-    )
-
-
 def _friction_step(job: _Job, ts: float, n_sub: int) -> int:
     """RK4 steps per sample at which a fitted friction's smoothing is not step-limited.
 
     The smoothing width of Coulomb / Stribeck friction is widened to ``a h / 2`` so the
-    explicit step stays stable (:func:`pdmkit.models._candidates._eps`); when that
+    explicit step stays stable (:func:`pdmkit.models.mismatch._candidates._eps`); when that
     dominates the intended width, the term is much smoother than real friction and the
     refit needs finer steps (at most twice as many: the cost grows with them).
     """
@@ -730,7 +720,7 @@ def choose_input_hold(rec: Recording) -> str:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch_fit import Recording
+    >>> from pdmkit.models.mismatch._fit import Recording
     >>> t = np.arange(100) * 0.01
     >>> steps = np.repeat([0.0, 1.0, -1.0, 0.5], 25)
     >>> choose_input_hold(Recording(t, 0.01, {"u": steps}, {}))
@@ -821,8 +811,8 @@ def discover_mismatch(
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_cases import generate_concealed_case
-    >>> from pdmkit.models._mismatch import discover_mismatch
+    >>> from pdmkit.models.mismatch._cases import generate_concealed_case
+    >>> from pdmkit.models.mismatch._discover import discover_mismatch
     >>> case = generate_concealed_case("coulomb_friction", 0.2, seed=0, n_samples=600)
     >>> res = discover_mismatch(case.model, case.data, pairs=False,
     ...                         effects=["coulomb_friction", "viscous_friction"])
@@ -993,7 +983,7 @@ def _discover(
     # a long record is fitted in pieces, each from its own fitted initial state
     pieces = choose_pieces(model, rec, n_fit, values0, n_sub)
     if pieces is not None and rec_val is None:  # validate on the tail, restarted
-        rec_val = _tail(rec, n_fit)
+        rec_val = part(rec, n_fit)
 
     # ------------------------------------------------------------ 1. nominal fit
     stages.enter("nominal fit")
@@ -1177,7 +1167,7 @@ def _discover(
     if wanted and stages.over():
         stages.skipped.append("data-driven terms")
     elif wanted:
-        from pdmkit.models._sparse import fit_sparse
+        from pdmkit.models.mismatch._sparse import fit_sparse
 
         t0 = _time.perf_counter()
         sjobs = fit_sparse(problem, model, nominal.values(), sc, x_scale, x0=nominal.x0)

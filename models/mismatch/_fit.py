@@ -21,8 +21,8 @@ import numpy as np
 
 from pdmkit._checks import uniform_step
 from pdmkit.errors import DataError, ModelError
-from pdmkit.models._candidates import Effect, Scales
-from pdmkit.models._odesim import _NP, _jacobians, _run, _stable_n_sub
+from pdmkit.models.mismatch._candidates import Effect, Scales
+from pdmkit.models.mismatch._simulate import _NP, _jacobians, _run, _stable_n_sub
 
 __all__ = ["FitResult", "Recording", "fit_model", "make_recording", "nominal_scales"]
 
@@ -46,8 +46,8 @@ class Recording:
     --------
     >>> import numpy as np
     >>> import pandas as pd
-    >>> from pdmkit.models._mismatch_fit import make_recording
-    >>> from pdmkit.models._mismatch_cases import showcase_model
+    >>> from pdmkit.models.mismatch._fit import make_recording
+    >>> from pdmkit.models.mismatch._cases import showcase_model
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.arange(20) * 0.1
     >>> rec = make_recording(msd, pd.DataFrame({"time": t, "F": 1 + 0 * t, "x": 0 * t}))
@@ -99,8 +99,8 @@ def make_recording(model, data: Any, name: str = "data") -> Recording:
 
     Examples
     --------
-    >>> from pdmkit.models._mismatch_fit import make_recording
-    >>> from pdmkit.models._mismatch_cases import showcase_model
+    >>> from pdmkit.models.mismatch._fit import make_recording
+    >>> from pdmkit.models.mismatch._cases import showcase_model
     >>> import numpy as np
     >>> t = np.arange(12) * 0.1
     >>> t[5:] += 0.1
@@ -762,8 +762,8 @@ class FitResult:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch_cases import showcase_model
-    >>> from pdmkit.models._mismatch_fit import fit_model
+    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.mismatch._fit import fit_model
     >>> tank = showcase_model("two_tanks")
     >>> t = np.arange(100) * 2.0
     >>> fit = fit_model(tank, {"time": t, "u": 3 + 0 * t, "h1": 0.1 + 0 * t,
@@ -817,7 +817,7 @@ def _choose_n_sub(
     along the record's first samples (or along given states ``(X, index)``)."""
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
     if along is None:
-        head = _head(rec, _PREFIX)
+        head = part(rec, 0, _PREFIX)
         for n_sub in (1, 4, 16):
             X = simulate_states(model, head, values, n_sub)
             if np.all(np.isfinite(X)):
@@ -834,13 +834,15 @@ def _choose_n_sub(
     return int(min(max(need, 1), 32))
 
 
-def _head(rec: Recording, n: int) -> Recording:
-    """The first ``n`` samples of a recording."""
+def part(rec: Recording, start: int = 0, stop: int | None = None) -> Recording:
+    """Samples ``start:stop`` of a recording (a drift still counts from its start)."""
+    cut = slice(start, stop)
     return dataclasses.replace(
         rec,
-        time=rec.time[:n],
-        inputs={k: v[:n] for k, v in rec.inputs.items()},
-        outputs={k: v[:n] for k, v in rec.outputs.items()},
+        t_origin=float(rec.time[0]) if rec.t_origin is None else rec.t_origin,
+        time=rec.time[cut],
+        inputs={k: v[cut] for k, v in rec.inputs.items()},
+        outputs={k: v[cut] for k, v in rec.outputs.items()},
     )
 
 
@@ -867,8 +869,8 @@ def choose_decimation(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch_cases import showcase_model
-    >>> from pdmkit.models._mismatch_fit import choose_decimation, make_recording
+    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.mismatch._fit import choose_decimation, make_recording
     >>> msd = showcase_model("mass_spring_damper")  # resonance near 3 Hz
     >>> t = np.arange(40000) * 1e-4  # sampled at 10 kHz
     >>> F = 20 * np.sin(2 * np.pi * 0.5 * t)
@@ -877,7 +879,7 @@ def choose_decimation(
     >>> choose_decimation(msd, rec, values, 1)
     10
     """
-    head = _head(rec, min(rec.n, _PREFIX))
+    head = part(rec, 0, min(rec.n, _PREFIX))
     X = simulate_states(model, head, values, n_sub)
     if not np.all(np.isfinite(X)):
         return 1
@@ -914,7 +916,7 @@ def decimate(rec: Recording, factor: int) -> Recording:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch_fit import Recording, decimate
+    >>> from pdmkit.models.mismatch._fit import Recording, decimate
     >>> t = np.arange(6) * 0.1
     >>> rec = Recording(t, 0.1, {"u": np.arange(6.0)}, {"y": 10 * np.arange(6.0)})
     >>> r = decimate(rec, 3)
@@ -960,8 +962,8 @@ def choose_pieces(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch_cases import showcase_model
-    >>> from pdmkit.models._mismatch_fit import choose_pieces, make_recording
+    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.mismatch._fit import choose_pieces, make_recording
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.arange(20000) * 0.01
     >>> rec = make_recording(msd, {"time": t, "F": np.sin(t), "x": 0 * t})
@@ -972,7 +974,7 @@ def choose_pieces(
     """
     if n_fit <= PIECES_FROM:
         return None
-    head = _head(rec, min(n_fit, _PREFIX))
+    head = part(rec, 0, min(n_fit, _PREFIX))
     X = simulate_states(model, head, values, n_sub)
     if not np.all(np.isfinite(X)):
         return None
@@ -1111,9 +1113,9 @@ def fit_model(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch_cases import showcase_model
-    >>> from pdmkit.models._odesim import simulate_ode
-    >>> from pdmkit.models._mismatch_fit import fit_model
+    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.mismatch._simulate import simulate_ode
+    >>> from pdmkit.models.mismatch._fit import fit_model
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.arange(400) * 0.02
     >>> F = np.repeat(np.random.default_rng(0).normal(0, 40, 40), 10)
@@ -1177,8 +1179,8 @@ def nominal_scales(model, data: Recording | Any, fit: FitResult, n_sub: int) -> 
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._mismatch_cases import showcase_model
-    >>> from pdmkit.models._mismatch_fit import fit_model, nominal_scales
+    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.mismatch._fit import fit_model, nominal_scales
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.arange(200) * 0.02
     >>> F = np.repeat(np.random.default_rng(1).normal(0, 40, 20), 10)
