@@ -298,7 +298,7 @@ def _eps(eff, a_max, h, xp):
 
 # ---------------------------------------------------------------------------- velocity
 class CoulombFriction(Candidate):
-    companions = ("bias_force",)
+    companions = ("bias_force", "asymmetric_friction")
     start_neutral = True
     per_unit_mass = ("a",)
     id = "coulomb_friction"
@@ -416,6 +416,35 @@ class ViscousFriction(Candidate):
     def derivs(self, xp, eff, th, t, x, u, dx):
         dx[eff.target] = dx[eff.target] - th["b"] * x[eff.target]
         return dx
+
+
+class AsymmetricFriction(Candidate):
+    start_neutral = True
+    companions = ("coulomb_friction",)
+    id = "asymmetric_friction"
+    attach = "velocity"
+    param_names = ("d",)
+    neutral = _frozen({"d": 0.0})
+    physics = (
+        "Direction-dependent viscous friction: the damping differs with the direction of "
+        "motion, by 2 d = {d2} per unit mass between {target} > 0 and {target} < 0 (a "
+        "force d |{target}| that always pushes one way: a seal, a cable or a guide that "
+        "drags more in one direction)."
+    )
+
+    def specs(self, eff, sc):
+        b = sc.f_scale(eff.target) / sc.x_scale(eff.target)
+        return {"d": _lin("d", -50 * b, 50 * b, b)}
+
+    def guesses(self, eff, sc):
+        return [{"d": 0.0}]
+
+    def derivs(self, xp, eff, th, t, x, u, dx):
+        dx[eff.target] = dx[eff.target] - th["d"] * xp.abs(x[eff.target])
+        return dx
+
+    def explain(self, eff, values):
+        return self.physics.format(target=eff.target, d2=_g(2.0 * float(values["d"])))
 
 
 class QuadraticDrag(Candidate):
@@ -946,6 +975,7 @@ _ALL: tuple[Candidate, ...] = (
     StribeckFriction(),
     BiasForce(),
     ViscousFriction(),
+    AsymmetricFriction(),
     QuadraticDrag(),
     CubicStiffness(),
     Hysteresis(),

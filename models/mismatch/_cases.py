@@ -88,6 +88,7 @@ _PLACES: dict[str, list[tuple[str, str, str, str | None]]] = {
     "bias_force": [("mass_spring_damper", "velocity", "v", None)],
     "viscous_friction": [("mass_spring_damper", "velocity", "v", None)],
     "quadratic_drag": [("mass_spring_damper", "velocity", "v", None)],
+    "asymmetric_friction": [("mass_spring_damper", "velocity", "v", None)],
     "cubic_stiffness": [("mass_spring_damper", "velocity_position", "v", "x")],
     "hysteresis": [("mass_spring_damper", "velocity_position", "v", "x")],
     "backlash": [
@@ -204,6 +205,8 @@ def _true_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict[
         return {"b": 5 * m * sc.f_scale(t) / sc.x_scale(t)}
     if i == "quadratic_drag":
         return {"d": 5 * m * sc.f_scale(t) / sc.x_scale(t) ** 2}
+    if i == "asymmetric_friction":
+        return {"d": sign * 3 * m * sc.f_scale(t) / sc.x_scale(t)}
     if i == "cubic_stiffness":
         return {"k3": 5 * m * sc.f_scale(t) / sc.x_scale(eff.partner) ** 3}
     if i == "backlash" and c.attach == "velocity_position":

@@ -953,7 +953,7 @@ def _discover(
             if isinstance(validation, Recording)
             else make_recording(model, validation, validation_name)
         )
-        if abs(rec_val.ts - rec.ts) > 1e-6 * rec.ts:
+        if abs(rec_val.ts - rec.ts) > 1e-3 * rec.ts:  # as uniform_step's tolerance
             raise ModelError(
                 f"discover_mismatch: {validation_name} is sampled every {rec_val.ts:g} s, "
                 f"{data_name} every {rec.ts:g} s; resample them to the same step."

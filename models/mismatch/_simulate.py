@@ -141,15 +141,17 @@ def _run(
             U[e.target] = where(
                 i, c.input_sequence(xp, e, theta[i], U[e.target], ts), U[e.target]
             )
-    Useq = xp.stack([U[n] for n in inputs], 2) if inputs else None  # (B, N, nu)
+    Useq = None  # (B, N, nu), or (B * K, L, nu) for pieces
+    if inputs and segments is None:
+        Useq = xp.stack([U[n] for n in inputs], 2)
     origin = float(t[0]) if t_origin is None else float(t_origin)
     t_out = xp.asarray(t - origin)[None, :]  # output hooks: time since the origin
     if segments is not None:  # pieces become rows: row b * K + k is piece k of row b
         starts, L = np.asarray(segments[0], dtype=int), int(segments[1])
         K = starts.size
         idx = starts[:, None] + np.arange(L)[None, :]  # (K, L)
-        if inputs:
-            Useq = Useq[:, idx, :].reshape(B * K, L, len(inputs))
+        if inputs:  # the pieces' samples only (a held record is never stacked whole)
+            Useq = np.stack([U[n][:, idx].reshape(B * K, L) for n in inputs], 2)
         t_out = np.tile(t[idx] - origin, (B, 1))
         theta = [{p: np.repeat(np.asarray(v), K) for p, v in th.items()} for th in theta]
         M = [None if m is None else np.repeat(m, K) for m in M]
