@@ -942,7 +942,7 @@ PIECES_FROM = 3000
 #: at most this many samples in the fitted pieces of a long record
 PIECES_BUDGET = 16000
 #: a piece lasts this many of the model's slowest time constants ...
-PIECE_TIME_CONSTANTS = 10
+PIECE_TIME_CONSTANTS = 5
 #: ... and at least this many samples
 PIECE_MIN = 400
 

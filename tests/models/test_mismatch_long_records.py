@@ -161,3 +161,23 @@ def test_emps_at_1khz_names_coulomb_friction_with_the_published_force(
     fc = found["coulomb_friction"]["a"] * mass  # per unit mass -> N
     assert abs(fc / 20.4 - 1) < 0.25, fc
     assert res.fit["rmse_augmented"] < 0.15 * res.fit["rmse_nominal"]
+
+
+def test_pieces_see_a_dead_time_that_reaches_before_their_start():
+    from pdmkit.models.mismatch import attach_candidates
+    from pdmkit.models.mismatch._candidates import _dummy_scales
+
+    msd, t, F, _ = _msd_record(n=3000)
+    dead = next(e for e in attach_candidates(msd, _dummy_scales(msd), ["dead_time"]))
+    theta = [{"tau": np.array([0.37, 0.0])}]  # row 0 delayed 37 samples, row 1 not
+    masks = [np.array([True, False])]
+    P = dict(msd.params)
+    x0 = np.zeros((2, 2))
+    whole, X = _run(msd, [dead], theta, masks, t, {"F": F}, P, x0, 1, _np(), True)
+    starts, length = np.array([0, 1000, 2300]), 500
+    x0p = np.stack([X[:, starts, :][b] for b in range(2)])  # (2, K, nx) true states
+    y, _ = _run(
+        msd, [dead], theta, masks, t, {"F": F}, P, x0p, 1, _np(), segments=(starts, length)
+    )
+    idx = (starts[:, None] + np.arange(length)).ravel()
+    np.testing.assert_allclose(y[:, :, 0], whole[:, idx, 0], rtol=1e-9, atol=1e-12)
