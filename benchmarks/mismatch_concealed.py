@@ -40,8 +40,12 @@ def _case(effect, seed, n, effects=None, right=None):
         )
     else:
         ok = right(v, case)
+    # an alternative the verdict names as equally close (a bias force on a spring and a
+    # sensor offset are the same model once the initial state is free)
+    alt = [a for a in v.get("alternatives", []) if a["effect"] == case.effect]
     return {
         "effect": effect,
+        "named_as_alternative": bool(not ok and alt and alt[0]["target"] == case.target),
         "target": case.target,
         "strength": round(case.strength, 3),
         "seed": seed,
@@ -98,7 +102,11 @@ def main(argv=None):
     for kind in ("named", "control", "outside"):
         t = tab[tab["kind"] == kind]
         if len(t):
-            print(f"{kind:8s}: {t['right'].mean():.0%} right ({t['right'].sum()}/{len(t)})")
+            alt = int(t["named_as_alternative"].sum())
+            print(
+                f"{kind:8s}: {t['right'].mean():.0%} right ({t['right'].sum()}/{len(t)})"
+                + (f"; {alt} more named as an equally close alternative" if alt else "")
+            )
     print(
         f"CPU s per case: median {tab['cpu_s'].median():.1f}, max {tab['cpu_s'].max():.1f}"
         f" ({tab.loc[tab['cpu_s'].idxmax(), 'effect']}); wall median "

@@ -1296,6 +1296,34 @@ def _discover(
                 + ", ".join(f"{n['physics']} ({n['term']})" for n in named)
                 + "."
             )
+    if final is not None and accepted is not None:
+        # other single effects these data cannot tell from the verdict (a constant force
+        # on a spring and a sensor offset look alike once the transients have died)
+        held = {(e.id, e.target) for e in final.effects}
+        close = [
+            s
+            for s in singles
+            if s.refit
+            and s.e_val is not None
+            and (s.effects[0].id, s.effects[0].target) not in held
+            and s.rmse_val <= final.rmse_val * (1.0 + tie_tolerance)
+        ]
+        if close:
+            verdict["alternatives"] = [
+                {
+                    "effect": s.effects[0].id,
+                    "target": s.effects[0].target,
+                    "rmse_validation": s.rmse_val,
+                }
+                for s in sorted(close, key=lambda s: s.rmse_val)
+            ]
+            said = ", ".join(
+                f"{a['effect']} on {a['target']}" for a in verdict["alternatives"]
+            )
+            verdict["physics"] += (
+                f" As close on these data: {said} (they may be equivalent here, or a "
+                "richer excitation would tell them apart)."
+            )
     verdict["warnings"] = _at_bounds((final or base).job)
     budget = stages.report()
     if budget is not None:
