@@ -460,42 +460,27 @@ def _add_scale_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _fraction(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected a number in (0, 1), got {text!r}"
-        ) from None
-    if not 0 < value < 1:
-        raise argparse.ArgumentTypeError(f"expected a number in (0, 1), got {value:g}")
-    return value
+def _number(convert, ok, what: str):
+    """An argparse ``type`` that reads a number with ``convert`` and checks ``ok``."""
+
+    def parse(text: str):
+        try:
+            value = convert(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if not ok(value):
+            raise argparse.ArgumentTypeError(f"expected {what}, got {value:g}")
+        return value
+
+    parse.__name__ = what
+    return parse
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected a positive integer, got {text!r}"
-        ) from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
-    return value
-
-
-def _positive_seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected a positive number of seconds, got {text!r}"
-        ) from None
-    if not (value > 0 and math.isfinite(value)):
-        raise argparse.ArgumentTypeError(
-            f"expected a positive number of seconds, got {value:g}"
-        )
-    return value
+_fraction = _number(float, lambda v: 0 < v < 1, "a number in (0, 1)")
+_positive_int = _number(int, lambda v: v >= 1, "a positive integer")
+_positive_seconds = _number(
+    float, lambda v: v > 0 and math.isfinite(v), "a positive number of seconds"
+)
 
 
 def _ranking(table: pd.DataFrame, label: str, method: str, features: list[str]):

@@ -128,6 +128,27 @@ def _validation_figure(result: MismatchResult, output: str):
     return fig
 
 
+def _how_fitted(fit: dict) -> str:
+    """What pdmkit did to the recording before fitting, in a sentence."""
+    said = [
+        f"Inputs between samples: {'held' if fit.get('input_hold') == 'zoh' else 'linear'}"
+        f" ({fit.get('input_hold')}); {fit.get('n_sub')} RK4 steps per sample."
+    ]
+    if (fit.get("decimated") or 1) > 1:
+        said.append(
+            f"The recordings were decimated by {fit['decimated']} (sampled far faster "
+            "than the model and its inputs need; held inputs averaged over the merged "
+            "samples)."
+        )
+    if fit.get("pieces"):
+        said.append(
+            f"The training record was fitted in {fit['pieces']['n']} pieces of "
+            f"{fit['pieces']['samples']} samples, each from its own fitted initial state "
+            "(multiple shooting); samples between pieces were not simulated."
+        )
+    return " ".join(said)
+
+
 def build_mismatch_report(result: MismatchResult, summary: dict, title: str) -> Report:
     """The HTML report of a mismatch discovery (not yet written).
 
@@ -154,6 +175,7 @@ def build_mismatch_report(result: MismatchResult, summary: dict, title: str) -> 
         f"(nominal) -> {fit['rmse_train_augmented']:.4g} (augmented). Free parameters "
         f"re-estimated: nominal {fit['free_nominal']}, augmented {fit['free_augmented']}."
     )
+    rep.add_text(_how_fitted(fit))
     rep.add_heading("Measured, nominal and augmented")
     for o in result.outputs:
         rep.add_figure(

@@ -1032,7 +1032,7 @@ def candidate_library():
     >>> from pdmkit.models.mismatch._candidates import candidate_library
     >>> lib = candidate_library()
     >>> len(lib), sorted(lib.loc[lib["id"] == "saturation", "attach"])
-    (22, ['input', 'level'])
+    (23, ['input', 'level'])
     >>> lib["id"].iloc[-1]
     'sparse'
     """
