@@ -34,6 +34,8 @@ from pdmkit.models.mismatch._candidates import (
     CANDIDATE_IDS,
     Candidate,
     Effect,
+    ParamSpec,
+    Scales,
     attach_candidates,
     candidate_library,
 )
@@ -94,7 +96,9 @@ __all__ = [
     "FitResult",
     "MismatchResult",
     "OdeModel",
+    "ParamSpec",
     "Recording",
+    "Scales",
     "SparseTerms",
     "Term",
     "attach_candidates",

@@ -1099,6 +1099,7 @@ def attach_candidates(
     model,
     scales: Scales,
     ids: Sequence[str] | None = None,
+    extra: Sequence[Candidate] = (),
 ) -> list[Effect]:
     """Every effect of the library that ``model`` admits, attached to its targets.
 
@@ -1114,7 +1115,11 @@ def attach_candidates(
     scales : Scales
         Magnitudes of the nominal trajectory (widths of the smooth approximations).
     ids : sequence of str, optional
-        Restrict to these effect ids.
+        Restrict the library to these effect ids.
+    extra : sequence of Candidate, optional
+        The user's own candidates (instances of :class:`Candidate` subclasses with an
+        ``id`` of their own and one of the ``attach`` kinds above), attached the same
+        way and always tried.
 
     Returns
     -------
@@ -1136,8 +1141,17 @@ def attach_candidates(
                 f"{', '.join(CANDIDATE_IDS)}."
             )
     keep = set(CANDIDATE_IDS if ids is None else ids)
+    kinds = ("velocity", "velocity_position", "input", "level", "output")
+    for c in extra:
+        if not isinstance(c, Candidate) or c.id in CANDIDATE_IDS or c.attach not in kinds:
+            raise ModelError(
+                f"attach_candidates: {c!r} is not a usable candidate: pass an instance of "
+                "a Candidate subclass with an id not in the library and attach one of "
+                f"{', '.join(kinds)}."
+            )
+        keep.add(c.id)
     out: list[Effect] = []
-    for c in _ALL:
+    for c in (*_ALL, *extra):
         if c.id not in keep:
             continue
         if c.attach == "velocity":

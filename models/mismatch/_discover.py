@@ -757,6 +757,7 @@ def discover_mismatch(
     input_hold: str = "auto",
     max_seconds: float | None = None,
     progress: bool | None = None,
+    candidates: Sequence = (),
 ) -> MismatchResult:
     """Find the physics a model leaves out, from a recording.
 
@@ -804,6 +805,9 @@ def discover_mismatch(
         best so far, marked so (``verdict["budget"]``).
     progress : bool, optional
         Show a progress bar with the stage names (default: when stderr is a terminal).
+    candidates : sequence of Candidate, optional
+        Your own candidate effects (instances of
+        :class:`~pdmkit.models.mismatch.Candidate` subclasses), tried with the library.
 
     Returns
     -------
@@ -849,6 +853,7 @@ def discover_mismatch(
             data_name=data_name,
             validation_name=validation_name,
             input_hold=input_hold,
+            candidates=tuple(candidates),
         )
     finally:
         DEADLINE.reset(token)
@@ -933,6 +938,7 @@ def _discover(
     data_name,
     validation_name,
     input_hold,
+    candidates,
 ) -> MismatchResult:
     """:func:`discover_mismatch`'s steps (arguments checked there, budget set)."""
     import time as _time
@@ -1019,7 +1025,7 @@ def _discover(
 
     # ------------------------------------------------------------ 2. candidates
     stages.enter("screening")
-    cands = attach_candidates(model, sc, effects)
+    cands = attach_candidates(model, sc, effects, extra=candidates)
     jobs: list[_Job] = []
     for e in cands:
         jobs += _make_jobs(

@@ -181,3 +181,37 @@ def test_pieces_see_a_dead_time_that_reaches_before_their_start():
     )
     idx = (starts[:, None] + np.arange(length)).ravel()
     np.testing.assert_allclose(y[:, :, 0], whole[:, idx, 0], rtol=1e-9, atol=1e-12)
+
+
+def test_a_users_own_candidate_is_tried_and_can_be_the_verdict():
+    from types import MappingProxyType
+
+    from pdmkit.models.mismatch import Candidate, ParamSpec
+
+    class Duffing(Candidate):  # the user's name for a cubic spring
+        id = "my_duffing"
+        attach = "velocity_position"
+        param_names = ("k3",)
+        neutral = MappingProxyType({"k3": 0.0})
+        start_neutral = True
+        physics = "My cubic spring on {partner} (k3 = {k3})."
+
+        def specs(self, eff, sc):
+            k = sc.f_scale(eff.target) / sc.x_scale(eff.partner) ** 3
+            return {"k3": ParamSpec("k3", -1e3 * k, 1e3 * k, False, k)}
+
+        def guesses(self, eff, sc):
+            return [{"k3": 0.0}]
+
+        def derivs(self, xp, eff, th, t, x, u, dx):
+            dx[eff.target] = dx[eff.target] - th["k3"] * x[eff.partner] ** 3
+            return dx
+
+    case = generate_concealed_case("cubic_stiffness", 0.3, seed=0, n_samples=1200)
+    res = discover_mismatch(
+        case.model, case.data, effects=["viscous_friction"], candidates=[Duffing()]
+    )
+    assert (res.verdict["effect"], res.verdict["target"]) == ("my_duffing", "v")
+    assert res.verdict["params"]["k3"] == pytest.approx(case.params["k3"], rel=0.05)
+    with pytest.raises(ValueError, match="not a usable candidate"):
+        discover_mismatch(case.model, case.data, candidates=["cubic"])
