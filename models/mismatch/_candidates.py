@@ -36,7 +36,17 @@ _LEVEL = ("level", "pressure")
 
 @dataclasses.dataclass(frozen=True)
 class ParamSpec:
-    """One parameter of a candidate: bounds, log-space flag, a typical magnitude."""
+    """One parameter of a candidate: bounds, log-space flag, a typical magnitude.
+
+    ``log`` fits the parameter in log space (it must then stay positive); ``scale`` is
+    its typical size (finite-difference steps, and the step of a linear search space).
+
+    Examples
+    --------
+    >>> from pdmkit.models.mismatch import ParamSpec
+    >>> ParamSpec("k3", lower=-1e6, upper=1e6, log=False, scale=1e3).scale
+    1000.0
+    """
 
     name: str
     lower: float
@@ -52,6 +62,17 @@ class Scales:
 
     Built by :func:`pdmkit.models.mismatch.nominal_scales` from the fitted
     nominal model; every dict is keyed by state / input / output name.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models.mismatch import fit_model, nominal_scales, showcase_model
+    >>> msd = showcase_model("mass_spring_damper")
+    >>> t = np.arange(200) * 0.02
+    >>> data = {"time": t, "F": 40 * np.sin(3 * t), "x": 0.1 * np.sin(3 * t)}
+    >>> sc = nominal_scales(msd, data, fit_model(msd, data), 1)
+    >>> round(sc.ts, 6), sorted(sc.x_std)
+    (0.02, ['v', 'x'])
     """
 
     ts: float
