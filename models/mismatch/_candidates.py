@@ -190,6 +190,11 @@ class Candidate(abc.ABC):
     def override(self, xp, eff, th, z):
         return z[0]
 
+    def resolved(self, eff: Effect, values: Mapping[str, float], h: float) -> bool:
+        """Whether the fitted values (qualified names) describe something the
+        simulation with step ``h`` can tell from the simpler effect this one nests."""
+        return True
+
     def output(self, xp, eff, th, t, y, z):
         return y
 
@@ -380,6 +385,13 @@ class StribeckFriction(Candidate):
 
     def prepare(self, xp, eff, th, h):
         return {**th, "_eps": _eps(eff, th["a_c"] + th["a_s"], h, xp)}
+
+    def resolved(self, eff, values, h):
+        # a Stribeck speed within a few widths of the smoothed Coulomb transition is
+        # that transition made sharper, not a breakaway the data show
+        k = eff.key
+        a = float(values[f"{k}.a_c"]) + float(values[f"{k}.a_s"])
+        return float(values[f"{k}.v_s"]) > 3.0 * float(_eps(eff, a, h, np))
 
     def derivs(self, xp, eff, th, t, x, u, dx):
         v = x[eff.target]

@@ -454,11 +454,13 @@ _NESTED = {
 }
 
 
-def _choose(scored: list[_Scored], tol: float, min_gain: float) -> _Scored:
+def _choose(scored: list[_Scored], tol: float, min_gain: float, ts: float) -> _Scored:
     """Lowest validation RMSE; within ``tol`` of it, the lowest BIC.
 
     A hypothesis that nests a simpler one on the same target (Stribeck friction
-    contains Coulomb friction, drift contains offset) must beat it by ``min_gain``.
+    contains Coulomb friction, drift contains offset) must beat it by ``min_gain``,
+    with values the simulation resolves (``Candidate.resolved``; ``ts`` the sample
+    interval).
     """
     best = min(scored, key=lambda s: s.rmse_val)
     close = [s for s in scored if s.rmse_val <= best.rmse_val * (1.0 + tol)]
@@ -469,7 +471,9 @@ def _choose(scored: list[_Scored], tol: float, min_gain: float) -> _Scored:
         for s in scored:
             f = s.effects[0]
             if f.id == simpler and f.target == e.target:
-                if chosen.rmse_val > s.rmse_val * (1.0 - min_gain):
+                h = ts / max(chosen.n_sub, 1)
+                unresolved = not e.candidate.resolved(e, chosen.job.values(), h)
+                if unresolved or chosen.rmse_val > s.rmse_val * (1.0 - min_gain):
                     return s
     return chosen
 
@@ -1090,7 +1094,7 @@ def _discover(
         return gain >= min_improvement and p < alpha and s.bic < ref.bic
 
     chosen = (
-        _choose([s for s in singles if s.refit], tie_tolerance, min_improvement)
+        _choose([s for s in singles if s.refit], tie_tolerance, min_improvement, rec.ts)
         if singles
         else None
     )
