@@ -301,6 +301,12 @@ def _param_layout(
 
 
 # ---------------------------------------------------------------------------- batch sim
+class _NoEffects:
+    """A row of :meth:`_Problem.simulate` for the model alone."""
+
+    effects: tuple = ()
+
+
 @dataclasses.dataclass
 class _Problem:
     """What every job of one batch shares: model, recording, fitted span, weights.
@@ -351,34 +357,15 @@ class _Problem:
 
     def states(self, values: Mapping[str, float], x0: np.ndarray) -> np.ndarray:
         """States along the fitted samples, ``(K * L, nx)``, pieces from ``x0``."""
-        P = {k: values.get(f"p:{k}", v) for k, v in self.model.params.items()}
-        whole = self.n_pieces == 1 and self.starts[0] == 0
-        n = self.n_fit if whole else int(self.starts[-1] + self.length)
-        X0 = np.asarray(x0, dtype=float)[None, :1] if whole else np.asarray(x0)[None]
-        with np.errstate(all="ignore"):
-            _, Xt = _run(
-                self.model,
-                [],
-                [],
-                [],
-                self.rec.time[:n],
-                {k: v[:n] for k, v in self.rec.inputs.items()},
-                P,
-                X0[:, 0] if whole else X0,
-                self.n_sub,
-                _NP,
-                True,
-                hold=self.rec.hold,
-                segments=None if whole else (self.starts, self.length),
-            )
-        return Xt[0]
+        row = (_NoEffects(), values, np.asarray(x0, dtype=float))
+        return self.simulate([row], states=True)[0]
 
     def with_step(self, n_sub: int) -> _Problem:
         """The same problem with another number of RK4 steps per sample."""
         return dataclasses.replace(self, n_sub=n_sub)
 
-    def simulate(self, rows: Sequence[tuple], n: int | None = None):
-        """Outputs for rows of ``(job, values, x0)``.
+    def simulate(self, rows: Sequence[tuple], n: int | None = None, states: bool = False):
+        """Outputs for rows of ``(job, values, x0)`` (the states with ``states``).
 
         Without ``n``: the fitted pieces, ``(B, K * L, n_out)``, ``x0`` of each row
         ``(K, nx)``. With ``n``: the first ``n`` samples simulated whole from the first
@@ -411,7 +398,7 @@ class _Problem:
         # parameters identical in every row stay scalars (cheaper arithmetic)
         P = {k: (float(v[0]) if np.all(v == v[0]) else v) for k, v in P.items()}
         masks = [None if m.all() else m for m in masks]
-        whole = n is not None or (self.n_pieces == 1 and self.starts[0] == 0)
+        whole = n is not None or self.n_pieces == 1
         if whole:
             n = self.n_fit if n is None else n
             X0 = np.stack(
@@ -428,7 +415,7 @@ class _Problem:
         t = self.rec.time[:n]
         useq = {k: v[:n] for k, v in self.rec.inputs.items()}
         with np.errstate(all="ignore"):
-            Y, _ = _run(
+            Y, X = _run(
                 model,
                 union,
                 theta,
@@ -439,11 +426,12 @@ class _Problem:
                 X0,
                 self.n_sub,
                 _NP,
+                want_states=states,
                 hold=self.rec.hold,
                 segments=segments,
                 t_origin=self.rec.t_origin,
             )
-        return Y
+        return X if states else Y
 
     def residuals(self, Y: np.ndarray) -> np.ndarray:
         """Weighted residuals ``(B, K * L * n_out)`` (simulated minus measured)."""
