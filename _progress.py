@@ -8,7 +8,24 @@ from typing import TypeVar
 
 T = TypeVar("T")
 
-__all__ = ["progress"]
+__all__ = ["progress", "progress_bar"]
+
+
+def progress_bar(total: int, *, desc: str = "", enable: bool | None = None):
+    """A tqdm bar of ``total`` steps when stderr is a terminal (``enable``), else None.
+
+    Examples
+    --------
+    >>> progress_bar(3, desc="stages", enable=False) is None
+    True
+    """
+    if enable is None:
+        enable = sys.stderr.isatty()
+    if not enable:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc=desc, leave=False)
 
 
 def progress(

@@ -878,18 +878,15 @@ class _Stages:
     )
 
     def __init__(self, max_seconds: float | None, enable: bool | None):
-        import sys
         import time
+
+        from pdmkit._progress import progress_bar
 
         self.start = time.perf_counter()
         self.max_seconds = max_seconds
         self.deadline = self.start + max_seconds if max_seconds else math.inf
         self.skipped: list[str] = []
-        self._bar = None
-        if enable if enable is not None else sys.stderr.isatty():
-            from tqdm.auto import tqdm
-
-            self._bar = tqdm(total=len(self.NAMES), desc="mismatch", leave=False)
+        self._bar = progress_bar(len(self.NAMES), desc="mismatch", enable=enable)
 
     def enter(self, name: str) -> None:
         if self._bar is not None:
