@@ -157,6 +157,9 @@ class Candidate(abc.ABC):
     #: bias force; an overflowing tank and a saturating level sensor): tried as a pair
     #: even when one of them alone does not help (each hides the other)
     companions: tuple[str, ...] = ()
+    #: the simpler effect this one contains (a parameter at zero, or a limit): the
+    #: simpler one is preferred unless this one does clearly better
+    nests: str | None = None
 
     # hooks -------------------------------------------------------------------
     @abc.abstractmethod
@@ -354,6 +357,7 @@ class CoulombFriction(Candidate):
 
 
 class StribeckFriction(Candidate):
+    nests = "coulomb_friction"
     per_unit_mass = ("a_c", "a_s")
     id = "stribeck_friction"
     attach = "velocity"
@@ -530,6 +534,7 @@ class CubicStiffness(Candidate):
 
 
 class Hysteresis(Candidate):
+    nests = "coulomb_friction"  # Bouc-Wen, small yield: Dahl friction -> Coulomb
     id = "hysteresis"
     attach = "velocity_position"
     param_names = ("k_h", "beta", "gamma")
@@ -930,6 +935,7 @@ class SensorSaturation(Candidate):
 
 
 class SensorDrift(Candidate):
+    nests = "sensor_offset"
     id = "sensor_drift"
     attach = "output"
     param_names = ("offset", "rate")

@@ -444,16 +444,6 @@ def _friction_step(job: _Job, ts: float, n_sub: int) -> int:
     return need
 
 
-#: a hypothesis that contains another one (with a parameter at zero) -> the simpler one
-#: (Bouc-Wen hysteresis with a small yield displacement is Dahl's friction model, whose
-#: limit is Coulomb friction)
-_NESTED = {
-    "stribeck_friction": "coulomb_friction",
-    "sensor_drift": "sensor_offset",
-    "hysteresis": "coulomb_friction",
-}
-
-
 def _choose(scored: list[_Scored], tol: float, min_gain: float, ts: float) -> _Scored:
     """Lowest validation RMSE; within ``tol`` of it, the lowest BIC.
 
@@ -466,7 +456,7 @@ def _choose(scored: list[_Scored], tol: float, min_gain: float, ts: float) -> _S
     close = [s for s in scored if s.rmse_val <= best.rmse_val * (1.0 + tol)]
     chosen = min(close, key=lambda s: (s.bic, s.rmse_val))
     e = chosen.effects[0]
-    simpler = _NESTED.get(e.id)
+    simpler = e.candidate.nests
     if simpler is not None:
         for s in scored:
             f = s.effects[0]
@@ -515,12 +505,14 @@ def _grow(current: _Scored, singles: list[_Scored], top: int) -> dict:
     validation RMSE first) and the companions of ``current``'s effects: effects it
     does not hold already, nor nests (Stribeck and Coulomb on one velocity)."""
     held = {(e.id, e.target) for e in current.effects}
-    for e in current.effects:
-        for big, small in _NESTED.items():
-            if e.id == big:
-                held.add((small, e.target))
-            if e.id == small:
-                held.add((big, e.target))
+    for e in current.effects:  # nor one that nests it or that it nests
+        if e.candidate.nests:
+            held.add((e.candidate.nests, e.target))
+        held |= {
+            (s.effects[0].id, e.target)
+            for s in singles
+            if s.effects[0].candidate.nests == e.id
+        }
     keys = {e.key for e in current.effects}
     out: dict = {}
     for s in sorted(singles, key=lambda s: s.rmse_val):
@@ -536,10 +528,10 @@ def _grow(current: _Scored, singles: list[_Scored], top: int) -> dict:
 
 def _simpler_rival(chosen: _Scored, considered: list[_Scored], min_gain: float):
     """A considered structure that holds, instead of each effect of ``chosen`` that
-    nests a simpler one (:data:`_NESTED`), that simpler effect on the same target, with
+    nests a simpler one (``Candidate.nests``), that simpler effect on the same target, with
     no more fitted values and a validation RMSE within ``min_gain`` of ``chosen``'s
     (the best such, or None)."""
-    nesting = [(e, _NESTED[e.id]) for e in chosen.effects if e.id in _NESTED]
+    nesting = [(e, e.candidate.nests) for e in chosen.effects if e.candidate.nests]
     if not nesting:
         return None
     best = None
