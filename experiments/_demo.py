@@ -485,6 +485,7 @@ def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
         simulate_sensor_fault_ensemble,
     )
     from pdmkit.experiments._classify import classify
+    from pdmkit.experiments._demo_mismatch import add_mismatch_section, demo_mismatch_cases
     from pdmkit.experiments._report import Report
     from pdmkit.experiments._sensors import SensorComparison, compare_sensors
     from pdmkit.features import extract_ensemble, rank_features
@@ -684,6 +685,13 @@ def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
         "90 % interval dotted; shaded: within 10 % of the unit's life over its last half",
     )
 
+    # 8. mismatch discovery --------------------------------------------------------------
+    elapsed = _step("discovering what a model file left out (mismatch)")
+    # quick checks (small ensembles) leave the real-data case out
+    mismatch_cases = demo_mismatch_cases(seed, real_data=None if trees > 50 else False)
+    timing["mismatch"] = elapsed()
+    add_mismatch_section(report, mismatch_cases, 7)
+
     sensor_rows = comparison.summary()["sensors"]
     best = max(
         (r for r in sensor_rows if r["heldout_accuracy"] is not None),
@@ -707,6 +715,7 @@ def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
         "residuals": residual_summary,
         "sensor_faults": sf_result.summary(),
         "rul": rul_summary,
+        "mismatch": [c.summary() for c in mismatch_cases],
         "timing_s": {k: round(v, 2) for k, v in timing.items()},
         "environment": {"python": platform.python_version(), "seed": seed},
     }

@@ -66,8 +66,14 @@ def test_demo_writes_summary_and_report(tmp_path):
     # over the last half of life the RUL is found to within a quarter of the shortest
     # typical life (16 cycles) on average
     assert rul["mae"] < 4.0
+    # the concealed chamber leak is named, and the named leak fits the recordings better
+    (piston, *real) = summary["mismatch"]
+    assert (piston["effect"], piston["target"], piston["right"]) == ("leak", "pa", True)
+    assert piston["fit"]["rmse_augmented"] < 0.5 * piston["fit"]["rmse_nominal"]
+    assert real == []  # quick checks leave the real recordings out
     assert (out / "rul" / "report.html").exists()
     html = (out / "report.html").read_text()
     assert html.count("data:image/png;base64,") >= 8
     assert "Remaining useful life" in html
+    assert "Mismatch discovery" in html
     assert (out / "features.parquet").stat().st_size > 0
