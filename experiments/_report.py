@@ -13,7 +13,8 @@ import io
 import json
 import math
 import os
-from collections.abc import Callable, Iterator
+import re
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +45,9 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; }
 tbody tr:nth-child(even) { background: #f7f7fb; }
 pre { background: #f5f5f5; border: 1px solid #ddd; padding: .8em; overflow-x: auto;
       font-size: .85em; }
+.summary { border: 2px solid #446; background: #f4f4fb; padding: .2em 1.2em;
+           margin: 1.2em 0; }
+.summary h2 { margin-top: .6em; }
 footer { margin-top: 3em; color: #888; font-size: .8em; }
 """
 
@@ -133,6 +137,7 @@ class Report:
     def __init__(self, title: str):
         self.title = str(title)
         self._blocks: list[str] = []
+        self._anchors: set[str] = set()
         #: Id of the run that writes the report (set by :mod:`pdmkit._outputs`); shown
         #: in the footer and in ``<meta name="pdmkit-run">`` so a report can be matched
         #: with the run's JSON summary.
@@ -159,12 +164,73 @@ class Report:
         --------
         >>> rep = Report("r")
         >>> rep.add_heading("Sensors")
-        >>> "<h2>Sensors</h2>" in rep.to_html()
+        >>> '<h2 id="sensors">Sensors</h2>' in rep.to_html()
         True
         """
         if level not in (2, 3, 4):
             raise ValueError(f"heading level must be 2, 3 or 4; got {level!r}")
-        self._blocks.append(f"<h{level}>{html.escape(str(text))}</h{level}>")
+        anchor = self.anchor(text)
+        self._anchors.add(anchor)
+        self._blocks.append(f'<h{level} id="{anchor}">{html.escape(str(text))}</h{level}>')
+
+    def anchor(self, heading: str) -> str:
+        """The link target a heading gets (``#`` + this), unique within the report.
+
+        Lower-case words of the heading joined by ``-``; a repeated heading gets a
+        ``-2``, ``-3``, ... suffix, so call this before :meth:`add_heading` to know the
+        anchor of the heading about to be added.
+
+        Examples
+        --------
+        >>> rep = Report("r")
+        >>> rep.anchor("3. Sensors by accuracy & cost")
+        '3-sensors-by-accuracy-cost'
+        """
+        words = re.findall(r"[a-z0-9]+", str(heading).lower())
+        base = "-".join(words) or "section"
+        anchor, n = base, 1
+        while anchor in self._anchors:
+            n += 1
+            anchor = f"{base}-{n}"
+        return anchor
+
+    def add_summary_box(
+        self, rows: Sequence[tuple[str, str, str | None]], title: str = "Summary"
+    ) -> None:
+        """Put a summary box at the top of the report (before every other block).
+
+        Parameters
+        ----------
+        rows : sequence of (label, text, anchor)
+            One line each: a bold label, a sentence, and the anchor of the section
+            that tells more (from :meth:`anchor`; None for no link).
+        title : str
+            The box's heading.
+
+        Examples
+        --------
+        >>> rep = Report("r")
+        >>> rep.add_heading("Sensors")
+        >>> rep.add_summary_box([("Best sensor", "encoder, 0.97", "sensors")])
+        >>> html = rep.to_html()
+        >>> html.index('class="summary"') < html.index('<h2 id="sensors">')
+        True
+        >>> '<a href="#sensors">' in html
+        True
+        """
+        items = []
+        for label, text, anchor in rows:
+            more = f' <a href="#{html.escape(anchor)}">more</a>' if anchor else ""
+            items.append(
+                f"<li><strong>{html.escape(str(label))}</strong>: "
+                f"{html.escape(str(text))}{more}</li>"
+            )
+        self._blocks.insert(
+            0,
+            f'<div class="summary"><h2>{html.escape(str(title))}</h2>\n<ul>\n'
+            + "\n".join(items)
+            + "\n</ul></div>",
+        )
 
     def add_text(self, paragraph: str) -> None:
         """Add a paragraph of plain text (escaped; blank lines start new paragraphs).

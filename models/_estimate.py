@@ -1227,7 +1227,7 @@ def estimate_parameters(
 
     >>> from pdmkit.models import PneumaticParams, estimate_parameters, simulate
     >>> truth = PneumaticParams(c_a_in=6.5e-6)
-    >>> rec = simulate(truth, t_end=0.5, seed=1, sensors=["LeverPosition",
+    >>> rec = simulate(truth, t_end=0.5, seed=2, sensors=["LeverPosition",
     ...                "FlowExtrusion"])
     >>> res = estimate_parameters(rec, free=["c_a_in"], signals=["FlowExtrusion"],
     ...                           n_starts=2, max_windows=1)

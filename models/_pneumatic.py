@@ -21,7 +21,17 @@ Equations (seed numbering)
 * orifice mass flow ``m = C p_up sqrt(2/(R T)) psi(p_down/p_up)`` (4.13, 4.31), signed;
 * 5/2 solenoid valve: spool ``T ds/dt = u(t - tau) - s`` (4.28), optional dead zone
   (4.29), four valve coefficients C_A,in/out and C_B,in/out (4.32, 4.33, 4.39), each in
-  series with the throttle valve of its line (table 3.2);
+  series with the throttle valve of its line (table 3.2). The throttle valves are
+  one-way flow control valves in meter-out orientation: a line exhausts through its
+  throttle alone and fills through the throttle and an open check valve in parallel.
+  Reasons: the seed re-estimates C_in and C_out of a line separately for each fault
+  (4.39, table 4.2), which a throttle acting alike in both directions would not need;
+  its flow meters on line A rank FlowContraction (the exhaust of chamber A, through
+  throttle valve 1) first for telling throttle valve 1 from normal (table 7.1, figure
+  7.4); and meter-out one-way valves are how a double-acting cylinder's speed is set.
+  With them the piston speed follows the exhaust throttle of the stroke (choked:
+  ``v = C psi_max sqrt(2 R T) / S``), chamber A fills at about supply pressure on the up
+  stroke, and the flow meter of line A reads the swept volume, i.e. the motion;
 * adiabatic chamber pressures (4.25, 4.26) with an air leak to ambient (8.1, 8.2);
 * a finite supply reservoir fed from a regulated source through an orifice;
 * equation of motion with gravity (4.35, 4.36), Coulomb and viscous friction (4.37, sign
@@ -140,11 +150,19 @@ class PneumaticParams:
         chambers A and B (seed 4.30, 4.39; assumed 5e-6, about a 2.5 mm orifice).
     throttle_a, throttle_b : float, -
         Settings 1..10 of throttle valve 1 (line to chamber A) and throttle valve 2
-        (line to chamber B), table 3.2 (10 = fully open). The throttle, of effective area
-        ``c_throttle_max * setting / 10``, is in series with the valve path; the series
-        coefficient is ``C_v C_t / sqrt(C_v^2 + C_t^2)``. Default 5.
+        (line to chamber B), table 3.2 (10 = fully open). Each is a one-way flow
+        control valve (meter-out): exhausting the chamber, the throttle of effective
+        area ``C_t = c_throttle_max * setting / 10`` is in series with the valve path
+        (series coefficient ``C_v C_t / sqrt(C_v^2 + C_t^2)``); filling it, the check
+        valve opens beside the throttle, ``C_t + c_check_valve`` in series with the valve
+        path. Default 5.
     c_throttle_max : float, m^2
         Effective area of a throttle valve fully open (assumed 5e-6).
+    c_check_valve : float, m^2
+        Effective area of the open check valve of a one-way flow control valve, in
+        parallel with the throttle in the filling direction (assumed 5e-6, as the
+        throttle fully open). 0 makes the throttle act alike in both directions (the
+        twin before the one-way valves).
     valve_time_constant : float, s
         Time constant T of the spool dynamics, seed 4.28 (assumed 0.005).
     valve_delay : float, s
@@ -298,6 +316,9 @@ class PneumaticParams:
     )
     c_throttle_max: Any = field(
         default=5e-6, metadata=_m("m^2", "throttle area fully open", lo=0.0, lo_open=True)
+    )
+    c_check_valve: Any = field(
+        default=5e-6, metadata=_m("m^2", "check valve area (free direction)", lo=0.0)
     )
     valve_time_constant: Any = field(
         default=0.005, metadata=_m("s", "spool time constant", lo=0.0, lo_open=True)
@@ -717,12 +738,14 @@ def _resolve(p: PneumaticParams, xp) -> _Resolved:
     r.krt = p.kappa * p.r_gas * p.t_ambient
     r.krt_vr = r.krt / p.v_reservoir
     r.psi = _psi_constants(p.kappa, p.laminar_ratio, xp)
-    # valve paths in series with the throttles (settings 1..10 -> area)
+    # valve paths in series with the one-way flow control valves of lines A and B
+    # (settings 1..10 -> throttle area): exhaust through the throttle alone, filling
+    # through the throttle and the open check valve in parallel (meter-out)
     ct_a = p.c_throttle_max * p.throttle_a / 10.0
     ct_b = p.c_throttle_max * p.throttle_b / 10.0
-    r.c_a_in = _series(p.c_a_in, ct_a, xp)
+    r.c_a_in = _series(p.c_a_in, ct_a + p.c_check_valve, xp)
     r.c_a_out = _series(p.c_a_out, ct_a, xp)
-    r.c_b_in = _series(p.c_b_in, ct_b, xp)
+    r.c_b_in = _series(p.c_b_in, ct_b + p.c_check_valve, xp)
     r.c_b_out = _series(p.c_b_out, ct_b, xp)
     r.c_leak_a = p.c_leak_a
     r.c_leak_b = p.c_leak_b

@@ -153,6 +153,8 @@ def test_table_options():
 def test_heading_levels():
     rep = Report("r")
     rep.add_heading("A", level=3)
-    assert "<h3>A</h3>" in rep.to_html()
+    rep.add_heading("A", level=4)  # a repeated heading gets its own anchor
+    html = rep.to_html()
+    assert '<h3 id="a">A</h3>' in html and '<h4 id="a-2">A</h4>' in html
     with pytest.raises(ValueError, match="level"):
         rep.add_heading("B", level=1)

@@ -94,7 +94,7 @@ def test_chamber_inflow_is_choked_in_a_simulation() -> None:
     r = simulate(p, t_end=0.14, fs=1e4, dt=1e-4, sensors=False)
     pa, pr = r.states["pressure_a"][0], r.states["pressure_supply"][0]
     m_a = r.signals["mass_flow_a"][0]
-    c_eff = series(p.c_a_in, p.c_throttle_max * p.throttle_a / 10)
+    c_eff = series(p.c_a_in, p.c_throttle_max * p.throttle_a / 10 + p.c_check_valve)
     choked_flow = c_eff * pr * math.sqrt(2 / (R_GAS * T0)) * textbook_psi(0.1)
     # samples k: the mean over (t_k-1, t_k]; compare with pressures at t_k-1
     open_ = (r.time[1:] > 0.1105) & (pa[:-1] / pr[:-1] < 0.5)
@@ -169,7 +169,7 @@ def _leak_balance(p: PneumaticParams, c_leak: float):
     def q(c, p1, p2):
         return c * p1 * kt * textbook_psi(p2 / p1)
 
-    c_in = series(p.c_b_in, p.c_throttle_max * p.throttle_b / 10)
+    c_in = series(p.c_b_in, p.c_throttle_max * p.throttle_b / 10 + p.c_check_valve)
 
     def reservoir(pb):  # reservoir pressure at which refill equals the flow into B
         return optimize.brentq(
@@ -197,9 +197,10 @@ def test_leak_lowers_chamber_b_pressure() -> None:
     )
     pb = r.states["pressure_b"]
     # seed fig. 8.8: the leak lowers chamber-B pressure, on average and at the stroke end
+    # (at the end by > 0.1 bar: B refills through the throttle and the open check valve)
     assert pb[1].mean() < pb[0].mean() - 0.2e5
     end = (r.time > 2.0) & (r.time < 2.1)  # down stroke finished, B pressurised
-    assert pb[1, end].mean() < pb[0, end].mean() - 0.2e5
+    assert pb[1, end].mean() < pb[0, end].mean() - 0.1e5
     # and the steady pressure is the orifice balance supply -> B -> ambient (8.1, 8.2)
     pr_ss, pb_ss = _leak_balance(base, 1e-6)
     assert pb[1, end][-1] == pytest.approx(pb_ss, rel=5e-3)
