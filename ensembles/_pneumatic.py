@@ -8,6 +8,9 @@ recordings of the fifteen sensors of seed table 3.1:
   fault codes, over random operating points (load mass, supply pressure) and random
   variation of the parameters nobody labels (friction, valve coefficients, delay), so
   that classes overlap as measured ones do;
+* :func:`simulate_seed_ensemble`: the seed's data set as the seed built it, fault
+  codes (one setting each, recorded about 20 times) grouped into the seed's 20 labels
+  (:func:`seed_labels`);
 * :func:`simulate_sensor_fault_ensemble`: one sensor with noise, offset, drift or
   signal loss (seed 8.1.1);
 * :func:`simulate_leak_runs`: run-to-failure units whose chamber air-leak coefficient
@@ -31,10 +34,14 @@ from pdmkit.errors import DataError
 __all__ = [
     "PNEUMATIC_FAULTS",
     "PNEUMATIC_SENSORS",
+    "SEED_LABELS",
+    "SEED_SUPPLY_BAR",
     "fault_labels",
     "pneumatic_residuals",
+    "seed_labels",
     "simulate_fault_ensemble",
     "simulate_leak_runs",
+    "simulate_seed_ensemble",
     "simulate_sensor_fault_ensemble",
 ]
 
@@ -69,9 +76,10 @@ class _Setting:
 #: division a person repeats such a setting to, and the static large dampers within
 #: +-15 % of their nominal damping (part-to-part and temperature spread of an
 #: elastomer). A fault is a knob left at least two divisions off its mark: a throttle
-#: closed to 1.5..3 (33..64 % of the nominal flow area in series with the valve), a
-#: small damper turned to 1..2.5 (40 % of the nominal damping and less) or 8.5..10
-#: (3.7 times and more); worn large dampers have lost 70..95 % of their damping.
+#: closed to 1.5..3 (33..64 % of the nominal exhaust flow area: the throttles are
+#: meter-out one-way valves, see PneumaticParams), a small damper turned to 1..2.5
+#: (40 % of the nominal damping and less) or 8.5..10 (3.7 times and more); worn large
+#: dampers have lost 70..95 % of their damping.
 PNEUMATIC_FAULTS: dict[str, _Setting] = {
     "throttle_1": _Setting(
         "throttle_a",
@@ -357,6 +365,271 @@ def simulate_fault_ensemble(
     return Ensemble(data, fs=fs, conditions=conditions, member_ids=ids)
 
 
+#: The seed's 20 labels (section 3.3 and 7.2.1), as pdmkit fault codes -> the seed's
+#: own label strings. The text names the places ("Healthy, Throttle valve 1, Throttle
+#: valve 2, Small damper bottom, Small damper upper, Large dampers, and combinations of
+#: these faults") but not the combinations; the seed author's code does
+#: (``utils/faultCode2Label.m`` and ``utils/faultCode2Label_combinedFaults.m`` of
+#: github.com/xvoron/thesis, and the 20 ``ClassNames`` of its classifiers,
+#: ``sb/sensor_flow/train_flow_KNN.m``): the four adjustable places alone, and the 15
+#: pairs of six places, the supply pressure counted as a place ("pressure+valve1", ...).
+#: The large dampers occur only in pairs; the supply pressure only in pairs.
+SEED_LABELS: dict[str, str] = {
+    "healthy": "health",
+    "throttle_1": "valve1",
+    "throttle_2": "valve2",
+    "damper_bottom": "damp_small_bot",
+    "damper_upper": "damp_small_up",
+    "supply_pressure+throttle_1": "pressure+valve1",
+    "supply_pressure+throttle_2": "pressure+valve2",
+    "damper_bottom+supply_pressure": "pressure+damp_small_bot",
+    "large_dampers+supply_pressure": "pressure+damps_large",
+    "damper_upper+supply_pressure": "pressure+damp_small_up",
+    "throttle_1+throttle_2": "valve1+valve2",
+    "damper_bottom+throttle_1": "valve1+damp_small_bot",
+    "large_dampers+throttle_1": "valve1+damps_large",
+    "damper_upper+throttle_1": "valve1+damp_small_up",
+    "damper_bottom+throttle_2": "valve2+damp_small_bot",
+    "large_dampers+throttle_2": "valve2+damps_large",
+    "damper_upper+throttle_2": "valve2+damp_small_up",
+    "damper_bottom+large_dampers": "damp_small_bot+damps_large",
+    "damper_bottom+damper_upper": "damp_small_bot+damp_small_up",
+    "damper_upper+large_dampers": "damps_large+damp_small_up",
+}
+
+#: Supply pressure (bar gauge) of the seed ensemble: nominal, and the "pressure" fault
+#: place of the seed's combined labels (the other value of table 3.2).
+SEED_SUPPLY_BAR = {"nominal": 6.0, "fault": 5.0}
+_SEED_PLACES = (*sorted(PNEUMATIC_FAULTS), "supply_pressure")
+_SEED_SINGLE = ("healthy", "throttle_1", "throttle_2", "damper_bottom", "damper_upper")
+
+
+def seed_labels() -> list[str]:
+    """The seed's 20 labels as pdmkit fault codes (seed sections 3.3 and 7.2.1).
+
+    The seed grouped its almost 250 fault codes "according to where the fault occurs"
+    into 20 labels: healthy, the four adjustable places alone (throttle valves 1 and 2,
+    small bottom and upper dampers) and the 15 pairs of six places (those four, the
+    large dampers and the supply pressure). The text lists the places; the pairs are
+    the author's own label table (see :data:`SEED_LABELS`, which also maps each code
+    to the seed's label string, e.g. ``"supply_pressure+throttle_1"`` ->
+    ``"pressure+valve1"``).
+
+    Returns
+    -------
+    list of str
+        Healthy and the four single faults first, then the 15 pairs (parts sorted).
+
+    Examples
+    --------
+    >>> from pdmkit.ensembles import seed_labels
+    >>> labels = seed_labels()
+    >>> len(labels), labels[:3]
+    (20, ['healthy', 'throttle_1', 'throttle_2'])
+    >>> sum("+" in code for code in labels)
+    15
+    """
+    return list(SEED_LABELS)
+
+
+def _seed_design(n_members: int, repeats: int, variation: str, seed: int) -> pd.DataFrame:
+    """Fault codes, their settings and the members that repeat them (no simulation)."""
+    rng = np.random.default_rng(seed)
+    labels = seed_labels()
+    n_codes = max(len(labels), round(n_members / repeats))
+    # the 15 combined labels were each one fault code in the seed's combined-fault
+    # data set; the remaining codes are shared evenly by healthy and the single faults
+    per_single = np.full(len(_SEED_SINGLE), (n_codes - 15) // len(_SEED_SINGLE))
+    per_single[: (n_codes - 15) % len(_SEED_SINGLE)] += 1
+    code_labels = [
+        lab for lab, k in zip(_SEED_SINGLE, per_single, strict=True) for _ in range(k)
+    ] + [lab for lab in labels if "+" in lab]
+    code_labels = np.asarray(code_labels)
+    n_codes = len(code_labels)
+    # operating point per code: loads cycle within each label, the supply is the
+    # nominal one unless the supply pressure is a fault place of the label
+    load_index = np.zeros(n_codes, dtype=int)
+    for lab in np.unique(code_labels):
+        where = np.flatnonzero(code_labels == lab)
+        load_index[where] = (rng.permutation(len(where)) + rng.integers(4)) % 4
+    loads = np.asarray(_LOADS_KG)[load_index]
+    pressure_fault = np.array(["supply_pressure" in lab.split("+") for lab in code_labels])
+    supply = np.where(pressure_fault, SEED_SUPPLY_BAR["fault"], SEED_SUPPLY_BAR["nominal"])
+    knobs = _fault_settings(code_labels, rng)
+    # members: codes repeated round-robin, so every label appears once n >= 20
+    member_code = np.arange(n_members) % n_codes
+    rng.shuffle(member_code)
+    cols: dict[str, np.ndarray] = {k: v[member_code] for k, v in knobs.items()}
+    cols["mass_load"] = loads[member_code]
+    cols["p_supply"] = _P_AMBIENT + supply[member_code] * 1e5
+    unlabelled = ("mass_load", "p_supply")
+    if variation == "code":
+        drawn = _operating_conditions(n_codes, rng)
+        cols.update({k: v[member_code] for k, v in drawn.items() if k not in unlabelled})
+    else:
+        drawn = _operating_conditions(n_members, rng)
+        cols.update({k: v for k, v in drawn.items() if k not in unlabelled})
+    frame = pd.DataFrame(cols)
+    frame.insert(0, "fault", code_labels[member_code])
+    frame.insert(1, "seed_label", [SEED_LABELS[c] for c in frame["fault"]])
+    frame.insert(2, "fault_code", [f"SC{c:04d}" for c in member_code])
+    return frame
+
+
+def simulate_seed_ensemble(
+    n_members: int = 400,
+    *,
+    repeats: int = 20,
+    variation: str = "code",
+    signals: Sequence[str] | None = None,
+    t_end: float = 10.0,
+    fs: float = 1000.0,
+    seed: int = 0,
+    batch_size: int = 250,
+    members=None,
+) -> Ensemble:
+    """Simulate the seed's data set: fault codes grouped into the seed's 20 labels.
+
+    Built as the seed built its measured data set (sections 3.3 and 7.2.1): a fault
+    code is one setting of the rig (table 3.2: throttle valves and small dampers on
+    their 1..10 scale, large dampers, load 0/1.25/5/6.25 kg, supply 5/6 bar) recorded
+    ``repeats`` times for 10 s at 1 kHz with the fifteen sensors of table 3.1 and their
+    noise; the codes are grouped "according to where the fault occurs" into the 20
+    labels of :func:`seed_labels`. The seed's 4840 recordings of "almost 250" codes
+    are about 20 per code, hence ``repeats=20`` and ``n_members=4840`` for the full
+    size (242 codes).
+
+    * each of the 15 combined labels is one code (the seed's combined-fault data set
+      has one code per pair); the other codes are shared evenly by healthy and the
+      four single faults (45 or 46 each at full size);
+    * a code's faulty knobs are drawn from the faulty ranges of
+      :data:`PNEUMATIC_FAULTS`, its other knobs from their healthy ranges; its load
+      cycles through the four loads of table 3.2 within its label; its supply is
+      6 bar, or 5 bar when the supply pressure is a fault place of its label
+      (:data:`SEED_SUPPLY_BAR`);
+    * the parameters nobody labels (friction, valve coefficients, valve delay; the
+      ranges of :func:`simulate_fault_ensemble`) are drawn per code when
+      ``variation="code"`` (a code's repeats are recorded back to back on one rig, so
+      they differ only by sensor noise) or per recording when ``variation="member"``
+      (every recording on a slightly different rig: harder).
+
+    Parameters
+    ----------
+    n_members : int, default 400
+        Number of recordings; at least 20 (one code per label). 4840 is the seed's.
+    repeats : int, default 20
+        Recordings per fault code; the number of codes is
+        ``max(20, round(n_members / repeats))``.
+    variation : {"code", "member"}, default "code"
+        Whether the unlabelled parameters vary per fault code or per recording.
+    signals : sequence of str, optional
+        Sensor signals to record (default all fifteen of seed table 3.1).
+    t_end, fs : float
+        Recording length (s) and sampling rate (Hz): 10 s at 1 kHz as the seed's.
+    seed : int
+        Seed of the design (codes, settings) and of the sensor noise.
+    batch_size : int
+        Members simulated at once.
+    members : slice or sequence of int, optional
+        Simulate only these members of the design (same codes, settings and member
+        ids as in the whole ensemble): to simulate the full size in parts. The noise
+        is drawn per block of ``batch_size`` member numbers, so a part made of whole
+        blocks (a slice whose start and stop are multiples of ``batch_size``) records
+        exactly what the whole ensemble records.
+
+    Returns
+    -------
+    Ensemble
+        Conditions ``fault`` (pdmkit code), ``seed_label`` (the seed's string),
+        ``fault_code``, ``load_kg``, ``supply_bar`` and the true settings
+        ``throttle_1``, ``throttle_2``, ``damper_upper``, ``damper_bottom``,
+        ``large_damper_damping``.
+
+    Raises
+    ------
+    pdmkit.errors.DataError
+        ``n_members`` below 20, ``repeats`` below 1, an unknown ``variation``.
+
+    Examples
+    --------
+    >>> from pdmkit.ensembles import simulate_seed_ensemble
+    >>> ens = simulate_seed_ensemble(40, repeats=2, t_end=0.2, signals=["FlowContraction"])
+    >>> ens.conditions["seed_label"].nunique(), ens.conditions["fault_code"].nunique()
+    (20, 20)
+    >>> sorted(set(ens.conditions["supply_bar"]))
+    [5.0, 6.0]
+    """
+    if isinstance(n_members, bool) or not isinstance(n_members, int | np.integer):
+        raise DataError(f"n_members must be an integer >= 20; got {n_members!r}")
+    if n_members < len(SEED_LABELS):
+        raise DataError(
+            f"n_members must be >= {len(SEED_LABELS)} (one fault code per seed label); "
+            f"got {n_members}"
+        )
+    if (
+        isinstance(repeats, bool)
+        or not isinstance(repeats, int | np.integer)
+        or repeats < 1
+    ):
+        raise DataError(f"repeats must be a positive integer; got {repeats!r}")
+    if variation not in ("code", "member"):
+        raise DataError(f"variation must be 'code' or 'member'; got {variation!r}")
+    signals = _signal_list(signals)
+    design = _seed_design(int(n_members), int(repeats), variation, seed)
+    ids = np.array([f"seed{i:05d}" for i in range(int(n_members))])
+    if members is not None:
+        pick = np.arange(int(n_members))[members]
+        design = design.iloc[pick].reset_index(drop=True)
+        ids = ids[pick]
+    # the noise seed of a block of batch_size member numbers depends on the block only
+    params = [c for c in design.columns if c not in ("fault", "seed_label", "fault_code")]
+    cols = {c: design[c].to_numpy(float) for c in params}
+    data = _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size)
+    conditions = pd.DataFrame(
+        {
+            "fault": design["fault"].to_numpy(),
+            "seed_label": design["seed_label"].to_numpy(),
+            "fault_code": design["fault_code"].to_numpy(),
+            "load_kg": cols["mass_load"],
+            "supply_bar": (cols["p_supply"] - _P_AMBIENT) / 1e5,
+            "throttle_1": cols["throttle_a"],
+            "throttle_2": cols["throttle_b"],
+            "damper_upper": cols["damper_upper"],
+            "damper_bottom": cols["damper_bottom"],
+            "large_damper_damping": cols["damper_large_damping"],
+        }
+    )
+    return Ensemble(data, fs=fs, conditions=conditions, member_ids=list(ids))
+
+
+def _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size):
+    """Simulate members in blocks of ``batch_size`` member numbers, one noise seed each.
+
+    A part of the design made of whole blocks records what the whole design records.
+    """
+    numbers = np.array([int(i[-5:]) for i in ids])
+    block = numbers // batch_size
+    out: dict[str, list[np.ndarray]] = {}
+    order = []
+    for b in _progress(np.unique(block), desc="simulating seed ensemble"):
+        rows = np.flatnonzero(block == b)
+        order.append(rows)
+        part = _simulate_batches(
+            {k: v[rows] for k, v in cols.items()},
+            len(rows),
+            t_end=t_end,
+            fs=fs,
+            signals=signals,
+            seed=[seed, int(b)],
+            batch_size=len(rows),
+            desc="",
+        )
+        for name in signals:
+            out.setdefault(name, []).append(part[name])
+    inverse = np.argsort(np.concatenate(order))
+    return {name: np.concatenate(parts, axis=0)[inverse] for name, parts in out.items()}
+
+
 #: Sensor faults of seed 8.1.1, as SensorSpec fields relative to the signal's spread.
 _SENSOR_FAULTS = ("healthy", "noise", "offset", "drift", "loss")
 
@@ -369,6 +642,7 @@ def simulate_sensor_fault_ensemble(
     fs: float = 1000.0,
     seed: int = 0,
     batch_size: int = 500,
+    faults: Sequence[str] | None = None,
 ) -> Ensemble:
     """Simulate one sensor healthy and with the sensor faults of seed section 8.1.1.
 
@@ -385,6 +659,9 @@ def simulate_sensor_fault_ensemble(
         The sensor signal to corrupt (seed figure 8.1 uses the flow sensor).
     t_end, fs, seed, batch_size
         As :func:`simulate_fault_ensemble`.
+    faults : sequence of str, optional
+        The classes to simulate, among ``healthy, noise, offset, drift, loss`` (default
+        all five; the seed's section 8.1.1 has ``healthy, noise, offset``).
 
     Returns
     -------
@@ -401,9 +678,16 @@ def simulate_sensor_fault_ensemble(
     from pdmkit.models import SensorSpec
 
     signals = _signal_list([sensor])
+    classes = _SENSOR_FAULTS if faults is None else tuple(faults)
+    unknown = [f for f in classes if f not in _SENSOR_FAULTS]
+    if unknown or not classes:
+        raise DataError(
+            f"faults must be a non-empty subset of {list(_SENSOR_FAULTS)}; got "
+            f"{list(classes)}"
+        )
     rng = np.random.default_rng(seed)
     n = int(n_members)
-    faults = np.array([_SENSOR_FAULTS[i % len(_SENSOR_FAULTS)] for i in range(n)])
+    faults = np.array([classes[i % len(classes)] for i in range(n)])
     rng.shuffle(faults)
     cols = _operating_conditions(n, rng)
     cols.update(_fault_settings(np.array(["healthy"] * n), rng))
@@ -465,6 +749,14 @@ def _leak_path(rng, max_cycles, leak_start, leak_failure, shape) -> np.ndarray:
     return np.exp(path[: end + 1])
 
 
+def _seed_leak_path(rng, max_cycles: int) -> np.ndarray:
+    """One unit's ``C_al`` per cycle on the seed author's schedule (``mb/rul.mlx``)."""
+    n = int(max_cycles / 2 + rng.uniform() * max_cycles / 2)
+    base = np.linspace(1e-5, (1.0 + rng.uniform()) * 1e-3, max(n, 3))
+    c_leak = base**2 + rng.uniform() * base**3
+    return c_leak * (1.0 + (1.0 + 7.0 * rng.uniform(size=len(c_leak))) * 0.01)
+
+
 def simulate_leak_runs(
     n_units: int = 10,
     *,
@@ -478,6 +770,8 @@ def simulate_leak_runs(
     seed: int = 0,
     batch_size: int = 500,
     walk_shape: float = 16.0,
+    schedule: str = "walk",
+    operating_point: tuple[float, float] | None = None,
 ) -> Ensemble:
     """Simulate air-leak run-to-failure units (seed sections 8.1-8.2 and 8.4).
 
@@ -519,6 +813,18 @@ def simulate_leak_runs(
     walk_shape : float, default 16.0
         Shape of the gamma-distributed steps of ``log C_al``; larger is smoother
         (``inf`` is not allowed; 1e6 is practically a straight line; 4 is rough).
+    schedule : {"walk", "seed"}, default "walk"
+        ``"walk"``: the random walk above. ``"seed"``: the seed author's own schedule
+        (``mb/rul.mlx`` of github.com/xvoron/thesis): ``L = linspace(1e-5, b 1e-3, n)``
+        with ``b ~ U(1, 2)`` and ``n ~ U(max_cycles / 2, max_cycles)`` cycles (100..200
+        in the seed: pass ``max_cycles=200``), ``C_al = L**2 + r L**3`` with
+        ``r ~ U(0, 1)``, and each cycle's ``C_al`` raised by a random 1..8 %; it runs
+        from 1e-10 to 1..4e-6 m^2 and the unit's last cycle is its last simulated one
+        (the seed defines failure by an indicator threshold, not by ``C_al``);
+        ``leak_start``, ``leak_failure`` and ``walk_shape`` are not used.
+    operating_point : (load_kg, supply_bar), optional
+        Every unit at this load and supply (bar gauge) instead of random ones (the
+        seed simulated its runs at one operating point).
 
     Returns
     -------
@@ -551,17 +857,26 @@ def simulate_leak_runs(
             f"walk_shape must be a positive finite number (16 by default); got "
             f"{walk_shape!r}"
         )
+    if schedule not in ("walk", "seed"):
+        raise DataError(f"schedule must be 'walk' or 'seed'; got {schedule!r}")
     signals = _signal_list(signals)
     rng = np.random.default_rng(seed)
     units, cycles, leaks = [], [], []
     for u in range(int(n_units)):
-        path = _leak_path(rng, max_cycles, leak_start, leak_failure, float(walk_shape))
+        if schedule == "seed":
+            path = _seed_leak_path(rng, int(max_cycles))
+        else:
+            path = _leak_path(rng, max_cycles, leak_start, leak_failure, float(walk_shape))
         units += [u] * len(path)
         cycles += list(range(len(path)))
         leaks += list(path)
     n = len(units)
     units_arr = np.asarray(units)
     per_unit = _operating_conditions(int(n_units), rng)
+    if operating_point is not None:
+        load_kg, supply_bar = (float(v) for v in operating_point)
+        per_unit["mass_load"] = np.full(int(n_units), load_kg)
+        per_unit["p_supply"] = np.full(int(n_units), _P_AMBIENT + supply_bar * 1e5)
     cols = {k: v[units_arr] for k, v in per_unit.items()}
     cols.update(_fault_settings(np.array(["healthy"] * int(n_units)), rng))
     for k in (

@@ -68,6 +68,7 @@ GROUP_OPTIONS: dict[str, dict[str, object]] = {
         "bands": None,
         "n_peaks": 5,
         "detrend": "constant",
+        "frange": None,
     },
     "envelope": {
         "bearing": None,
@@ -384,7 +385,8 @@ def extract(
         - ``"harmonic"``: ``n_harmonics=6`` (harmonics including the fundamental).
         - ``"spectral"``: ``nperseg=None`` (``min(1024, n_samples)``),
           ``noverlap=None`` (``nperseg // 2``), ``bands=None`` (list of ``(lo, hi)`` Hz),
-          ``n_peaks=5``, ``detrend="constant"``.
+          ``n_peaks=5``, ``detrend="constant"``, ``frange=None`` (``(lo, hi)`` Hz:
+          every spectral indicator of that band only).
         - ``"envelope"``: ``bearing`` (:class:`BearingGeometry`), ``shaft_hz`` (Hz, one
           value or one per member), ``envelope_band=None`` (band-pass before the
           envelope, Hz), ``tolerance=0.02``, ``envelope_harmonics=3``.

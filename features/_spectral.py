@@ -75,6 +75,7 @@ def resolve_spectral_options(
     bands=None,
     n_peaks: int = 5,
     detrend="constant",
+    frange=None,
     name: str = "x",
 ) -> dict:
     """Validate the spectral options against a signal length; return them resolved."""
@@ -96,6 +97,22 @@ def resolve_spectral_options(
     if detrend not in _DETRENDS:
         raise DataError(f"detrend must be one of {_DETRENDS}, got {detrend!r}")
     freqs = np.fft.rfftfreq(nperseg, 1.0 / fs)
+    if frange is not None:
+        try:
+            f_lo, f_hi = (float(v) for v in frange)
+        except (TypeError, ValueError):
+            raise DataError(
+                f"frange must be a (lo, hi) pair in Hz, got {frange!r}"
+            ) from None
+        if not (np.isfinite(f_lo) and np.isfinite(f_hi) and 0 <= f_lo < f_hi):
+            raise DataError(f"frange {frange!r}: expected 0 <= lo < hi (Hz)")
+        freqs = freqs[(freqs >= f_lo) & (freqs <= f_hi)]
+        if len(freqs) < 3:
+            raise DataError(
+                f"frange ({f_lo:g}, {f_hi:g}) Hz covers {len(freqs)} PSD bin(s) at "
+                f"fs={fs:g} Hz and nperseg={nperseg}; widen it or raise nperseg"
+            )
+        frange = (f_lo, f_hi)
     parsed = []
     for band in () if bands is None else bands:
         try:
@@ -123,6 +140,7 @@ def resolve_spectral_options(
         "bands": tuple(parsed),
         "n_peaks": n_peaks,
         "detrend": detrend,
+        "frange": frange,
     }
 
 
@@ -308,6 +326,10 @@ def _spectral_rows(x: np.ndarray, fs: float, options: dict) -> dict[str, np.ndar
     freqs, psd = welch_rows(
         x, fs, options["nperseg"], options["noverlap"], options["detrend"]
     )
+    if options.get("frange") is not None:
+        lo, hi = options["frange"]
+        keep = (freqs >= lo) & (freqs <= hi)
+        freqs, psd = freqs[keep], psd[:, keep]
     return _spectral_from_psd(freqs, psd, options["n_peaks"], options["bands"])
 
 
@@ -320,6 +342,7 @@ def spectral(
     bands: Sequence[tuple[float, float]] | None = None,
     n_peaks: int = 5,
     detrend="constant",
+    frange: tuple[float, float] | None = None,
     axis: int = -1,
 ) -> dict[str, np.ndarray | float]:
     """Spectral condition indicators from a Welch power spectral density.
@@ -341,6 +364,12 @@ def spectral(
         How many spectral peaks to report (``PeakAmp1..``, ``PeakFreq1..``).
     detrend : {"constant", "linear", False}, default "constant"
         What to remove from each Welch segment before its FFT.
+    frange : (lo, hi), optional
+        Compute every indicator on the PSD bins with ``lo <= f <= hi`` Hz only (MATLAB
+        Diagnostic Feature Designer's frequency band of its spectral features): the
+        peaks are searched there, ``TotalPower`` is the power of that band (the
+        Designer's ``BandPower``) and the shape indicators describe it. Default: the
+        whole ``[0, fs/2]``.
     axis : int, default -1
         Axis holding the samples.
 
@@ -369,6 +398,8 @@ def spectral(
     (125.0, 250.0)
     >>> round(s["BandPower_100_150Hz"] / s["TotalPower"], 2)  # 0.5 of 0.625
     0.8
+    >>> spectral(x, fs, nperseg=256, frange=(0, 200))["PeakFreq1"]  # 250 Hz left out
+    125.0
     """
     fs = check_fs(fs)
     rows, batch_shape = to_rows(x, axis, "x")
@@ -380,6 +411,7 @@ def spectral(
         bands=bands,
         n_peaks=n_peaks,
         detrend=detrend,
+        frange=frange,
     )
     check_finite(rows, "x")
     out = _spectral_rows(rows, fs, options)

@@ -1,0 +1,196 @@
+"""The seed's data set and recipes (issue 14): labels, indicators, ranking, recipes."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+import scipy.stats
+
+from pdmkit.ensembles import (
+    SEED_LABELS,
+    seed_labels,
+    simulate_leak_runs,
+    simulate_seed_ensemble,
+)
+from pdmkit.errors import DataError
+from pdmkit.experiments import (
+    SEED_NUMBERS,
+    SeedResult,
+    seed_air_leak_rul,
+    seed_comparison,
+    seed_feature_table,
+    seed_flow_knn,
+    seed_indicators,
+    seed_rank,
+    seed_sensor_table,
+)
+
+# the seed author's 20 class names (sb/sensor_flow/train_flow_KNN.m, ClassNames)
+_AUTHOR_CLASSES = {
+    "damp_small_bot", "damp_small_bot+damp_small_up", "damp_small_bot+damps_large",
+    "damp_small_up", "damps_large+damp_small_up", "health", "pressure+damp_small_bot",
+    "pressure+damp_small_up", "pressure+damps_large", "pressure+valve1",
+    "pressure+valve2", "valve1", "valve1+damp_small_bot", "valve1+damp_small_up",
+    "valve1+damps_large", "valve1+valve2", "valve2", "valve2+damp_small_bot",
+    "valve2+damp_small_up", "valve2+damps_large",
+}  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def flow_ensemble():
+    return simulate_seed_ensemble(
+        80,
+        repeats=2,
+        t_end=2.0,
+        signals=["FlowContraction", "LeverPosition", "LeverVelocity"],
+        seed=3,
+    )
+
+
+@pytest.fixture(scope="module")
+def flow_table(flow_ensemble):
+    return seed_feature_table(flow_ensemble)
+
+
+def test_the_twenty_labels_are_the_seed_authors_groups():
+    labels = seed_labels()
+    assert len(labels) == len(set(labels)) == 20
+    assert set(SEED_LABELS.values()) == _AUTHOR_CLASSES
+    singles = [c for c in labels if "+" not in c]
+    assert singles == [
+        "healthy",
+        "throttle_1",
+        "throttle_2",
+        "damper_bottom",
+        "damper_upper",
+    ]
+    pairs = [set(c.split("+")) for c in labels if "+" in c]
+    places = {"throttle_1", "throttle_2", "damper_bottom", "damper_upper"}
+    places |= {"large_dampers", "supply_pressure"}
+    # exactly the 15 pairs of the six places
+    assert len(pairs) == 15 and all(len(p) == 2 and p <= places for p in pairs)
+    assert len({frozenset(p) for p in pairs}) == 15
+
+
+def test_seed_ensemble_every_label_codes_repeats_and_operating_points(flow_ensemble):
+    cond = flow_ensemble.conditions
+    assert set(cond["fault"]) == set(seed_labels())
+    assert set(cond["seed_label"]) == _AUTHOR_CLASSES
+    # a fault code is one label, one load and one supply: its repeats share them
+    per_code = cond.groupby("fault_code")[["fault", "load_kg", "supply_bar"]].nunique()
+    assert (per_code == 1).all().all()
+    assert cond.groupby("fault_code").size().eq(2).all()  # 40 codes x 2 repeats
+    # supply 5 bar exactly where the supply pressure is a fault place
+    pressure = cond["fault"].str.contains("supply_pressure")
+    assert set(cond.loc[pressure, "supply_bar"]) == {5.0}
+    assert set(cond.loc[~pressure, "supply_bar"]) == {6.0}
+    assert set(cond["load_kg"]) <= {0.0, 1.25, 5.0, 6.25}
+    # the throttle knob of throttle_1 codes is in its faulty range, else healthy
+    t1 = cond["fault"].str.split("+").map(lambda parts: "throttle_1" in parts)
+    assert cond.loc[t1, "throttle_1"].between(1.5, 3.0).all()
+    assert cond.loc[~t1, "throttle_1"].between(4.5, 5.5).all()
+
+
+def test_seed_ensemble_full_size_design_and_bad_input():
+    from pdmkit.ensembles._pneumatic import _seed_design
+
+    design = _seed_design(4840, 20, "code", 0)
+    counts = design.groupby("fault")["fault_code"].nunique()
+    assert design["fault_code"].nunique() == 242
+    assert (counts[[c for c in counts.index if "+" in c]] == 1).all()
+    assert counts[["healthy", "throttle_1"]].tolist() == [46, 46]
+    with pytest.raises(DataError, match="n_members"):
+        simulate_seed_ensemble(10)
+    with pytest.raises(DataError, match="variation"):
+        simulate_seed_ensemble(20, variation="day")
+
+
+def test_seed_indicators_are_the_designers_24_and_match_pdmkit_features(flow_ensemble):
+    from pdmkit.features import harmonic, spectral, stats
+
+    table = seed_indicators(flow_ensemble, ["FlowContraction"], frange=(0, 55))
+    assert table.shape == (80, 24)
+    x, _ = flow_ensemble.stack("FlowContraction")
+    np.testing.assert_allclose(table["FlowContraction_stats/Mean"], stats(x)["Mean"])
+    np.testing.assert_allclose(
+        table["FlowContraction_stats/THD"], harmonic(x, 1000.0)["THD"]
+    )
+    band = spectral(x, 1000.0, frange=(0, 55))
+    np.testing.assert_allclose(
+        table["FlowContraction_ps_spec/BandPower"], band["TotalPower"]
+    )
+    freqs = table.filter(like="PeakFreq").to_numpy()
+    assert np.nanmax(freqs) <= 55.0
+
+
+def test_seed_rank_is_kruskal_wallis_then_correlation_weighted(flow_table):
+    cols = [c for c in flow_table.columns if c.startswith("FlowContraction_stats/")]
+    labels = flow_table["seed_label"]
+    plain = seed_rank(flow_table, cols, labels, correlation_weight=0.0)
+    for col in cols[:5]:
+        groups = [g[col].to_numpy() for _, g in flow_table.groupby("seed_label")]
+        assert plain[col] == pytest.approx(scipy.stats.kruskal(*groups).statistic)
+    weighted = seed_rank(flow_table, cols, labels)
+    assert weighted.index[0] == plain.index[0]  # the best H comes first either way
+    assert (weighted.to_numpy()[1:] <= plain.reindex(weighted.index).to_numpy()[1:]).all()
+
+
+def test_flow_knn_equals_a_hand_sklearn_pipeline(flow_table):
+    from sklearn.model_selection import train_test_split
+    from sklearn.neighbors import KNeighborsClassifier
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    started = time.perf_counter()
+    result = seed_flow_knn(flow_table, seed=5)
+    assert time.perf_counter() - started < 5.0
+    chosen = result.details["features"]
+    assert len(chosen) == 5 and result.seed == SEED_NUMBERS["flow_knn"][2] == 97.52
+    x = flow_table[chosen].fillna(0.0).to_numpy()
+    y = flow_table["seed_label"].to_numpy()
+    rows = np.arange(len(y))
+    train, test = train_test_split(rows, test_size=0.3, stratify=y, random_state=5)
+    pipe = make_pipeline(StandardScaler(), KNeighborsClassifier(n_neighbors=1))
+    pipe.fit(x[train], y[train])
+    expected = 100 * np.mean(pipe.predict(x[test]) == y[test])
+    assert result.pdmkit == pytest.approx(expected, abs=0.01)
+
+
+def test_residual_and_sensor_table_on_a_small_ensemble(flow_table):
+    from pdmkit.experiments import seed_residual_classification
+
+    res = seed_residual_classification(flow_table)
+    assert res.details["n_classes"] == 5
+    assert all(f.startswith("LeverPosition_res_stats/") for f in res.details["features"])
+    sensors = seed_sensor_table(flow_table, sensors=["Flow", "Encoder"])
+    assert sensors["n_indicators"].tolist() == [24, 26]  # no residual columns in Encoder
+    assert sensors["seed"].tolist() == [97.2, 96.1]
+
+
+def test_seed_leak_schedule_and_rul_recipe():
+    runs = simulate_leak_runs(
+        3, max_cycles=20, schedule="seed", t_end=0.2, signals=["FlowContraction"], seed=2
+    )
+    per_unit = runs.conditions.groupby("unit")
+    assert per_unit.size().between(10, 20).all()
+    assert (per_unit["c_leak"].min() < 2e-10).all()
+    assert (per_unit["c_leak"].max() > 1e-6).all()
+    result = seed_air_leak_rul(3, max_cycles=16, cycles_done=4, t_end=0.5)
+    assert result.details["indicator"] == "FlowContraction_stats/ShapeFactor"
+    assert result.recipe == "air_leak_rul" and result.seed == 10.0
+
+
+def test_seed_comparison_table_and_errors():
+    r = SeedResult("flow_knn", "7.3.4", "accuracy %", 97.52, 90.0, "twin", {})
+    table = seed_comparison({"flow_knn": r})
+    assert list(table.columns) == [
+        "recipe", "section", "metric", "seed", "pdmkit", "difference", "why"
+    ]  # fmt: skip
+    assert table.loc[0, "difference"] == pytest.approx(-7.52)
+    with pytest.raises(DataError, match="SeedResult"):
+        seed_comparison([{"recipe": "x"}])
+    with pytest.raises(DataError, match="label"):
+        seed_flow_knn(pd.DataFrame({"FlowContraction_stats/Mean": [1.0]}), label="nope")
