@@ -109,7 +109,7 @@ def _command(command: str, inputs: Path, out: Path) -> list[str]:
         if command == "classify":
             args += ["--top-k", "2"]
     elif command == "demo":
-        args = ["demo", "--members", "64", "--recording-s", "2.2"]
+        args = ["demo", "--members", "80", "--recording-s", "2.2"]
     else:  # pragma: no cover
         raise AssertionError(command)
     return [str(a) for a in [*args, "--out", out]]
