@@ -35,6 +35,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--members", type=int, default=4840)
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--variation", choices=("code", "member"), default="code")
+    parser.add_argument(
+        "--jitter", type=float, default=None, help="run-to-run spread (default 0.02)"
+    )
     parser.add_argument("--split", choices=("seed", "code"), default="seed")
     parser.add_argument("--part-size", type=int, default=242)
     parser.add_argument("--leak-runs", type=int, default=25, help="0 skips the RUL")
@@ -53,6 +56,7 @@ def main(argv: list[str] | None = None) -> int:
         args.members,
         repeats=args.repeats,
         variation=args.variation,
+        jitter=args.jitter,
         part_size=args.part_size,
         leak_runs=args.leak_runs,
         leak_max_cycles=args.leak_max_cycles,

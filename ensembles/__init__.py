@@ -45,6 +45,7 @@ from pdmkit.ensembles._parquet import iter_parquet, write_parquet_batches
 from pdmkit.ensembles._pneumatic import (
     PNEUMATIC_FAULTS,
     PNEUMATIC_SENSORS,
+    SEED_JITTER,
     SEED_LABELS,
     SEED_SUPPLY_BAR,
     fault_labels,
@@ -62,6 +63,7 @@ __all__ = [
     "DATASETS",
     "PNEUMATIC_FAULTS",
     "PNEUMATIC_SENSORS",
+    "SEED_JITTER",
     "SEED_LABELS",
     "SEED_SUPPLY_BAR",
     "Ensemble",

@@ -986,7 +986,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("demo", help="the whole workbench on the simulated pneumatic piston")
     p.add_argument("--out", type=Path, default=Path("results/demo"))
     p.add_argument("--json", type=Path)
-    p.add_argument("--members", type=int, default=None, help="recordings of the seed data set (480)")
+    p.add_argument(
+        "--members", type=int, default=None, help="recordings of the seed data set (480)"
+    )
     p.add_argument(
         "--recording-s", type=float, default=10.0, help="seconds per recording (10)"
     )

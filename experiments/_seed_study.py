@@ -346,9 +346,9 @@ def seed_feature_table(
         Sensors of :data:`SEED_SENSOR_RECIPES` to describe (default: those whose signals
         the ensemble holds).
     residuals : bool, default True
-        Add the 13 statistics of ``LeverPosition`` minus the healthy twin at each
-        member's operating point (``LeverPosition_res_stats/...``, section 8.3) for the
-        members of the five single-fault classes.
+        Add the 13 statistics of ``LeverPosition`` minus one nominal healthy twin
+        response, as the seed did (``LeverPosition_res_stats/...``, section 8.3), for
+        the members of the five single-fault classes.
 
     Returns
     -------
@@ -388,7 +388,7 @@ def seed_feature_table(
         single = conditions["fault"].isin(_SINGLE_CLASSES).to_numpy()
         if single.any():
             sub = ensemble.select(np.flatnonzero(single))
-            res = pneumatic_residuals(sub, ["LeverPosition"])
+            res = pneumatic_residuals(sub, ["LeverPosition"], reference="nominal")
             table = table.join(seed_indicators(res, ["LeverPosition_res"]))
     return table
 
@@ -770,9 +770,9 @@ def seed_residual_classification(
     """Seed 8.3: residual of the position against the healthy twin (99.49 %).
 
     ``e(t) = LeverPosition(t) - LeverPosition_healthy twin(t)``, the healthy twin
-    simulated at each member's operating point
-    (:func:`pdmkit.ensembles.pneumatic_residuals`; the seed simulated one nominal
-    response for all), its 13 statistics (``LeverPosition_res_stats/...``), the
+    simulated once for all members as the seed did
+    (:func:`pdmkit.ensembles.pneumatic_residuals` with ``reference="nominal"``), its
+    13 statistics (``LeverPosition_res_stats/...``), the
     Kruskal-Wallis top ``top_k`` (the seed's table 8.1: RMS, PeakValue, Std, THD,
     Kurtosis) and the author's ``train_model.m``: a quadratic SVM (one-vs-one,
     standardised), 5-fold cross-validation, on the five classes of its smaller data
@@ -820,8 +820,9 @@ def seed_residual_classification(
         "seconds": round(time.perf_counter() - started, 2),
     }
     why = (
-        "same residual, indicators, ranking and SVM; the 'measured' position is the "
-        "twin's own, so the residual holds the faults and noise but no model error"
+        "same residual (one nominal simulation for all), indicators, ranking and SVM; "
+        "the 'measured' position is the twin's own, so the residual holds the faults "
+        "and noise but no model error"
     )
     return _result("residual_classification", accuracy, why, details)
 
@@ -1149,6 +1150,7 @@ def run_seed_study(
     *,
     repeats: int = 20,
     variation: str = "code",
+    jitter: float | None = None,
     part_size: int = 242,
     leak_runs: int = 25,
     leak_max_cycles: int = 200,
@@ -1168,8 +1170,9 @@ def run_seed_study(
     ----------
     n_members : int, default 4840
         The seed's data set size.
-    repeats, variation
-        As :func:`pdmkit.ensembles.simulate_seed_ensemble`.
+    repeats, variation, jitter
+        As :func:`pdmkit.ensembles.simulate_seed_ensemble` (``jitter=None``: its
+        default).
     part_size : int, default 242
         Members simulated at once.
     leak_runs, leak_max_cycles
@@ -1209,6 +1212,7 @@ def run_seed_study(
             int(n_members),
             repeats=repeats,
             variation=variation,
+            **({} if jitter is None else {"jitter": jitter}),
             t_end=t_end,
             seed=seed,
             batch_size=int(part_size),
@@ -1253,6 +1257,7 @@ def run_seed_study(
             "n_members": int(n_members),
             "repeats": int(repeats),
             "variation": variation,
+            "jitter": jitter,
             "split": split,
             "seed": int(seed),
             "t_end": float(t_end),

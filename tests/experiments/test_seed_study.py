@@ -108,6 +108,40 @@ def test_seed_ensemble_full_size_design_and_bad_input():
         simulate_seed_ensemble(20, variation="day")
 
 
+def test_run_to_run_jitter_spreads_repeats_but_keeps_the_set_point():
+    from pdmkit.ensembles._pneumatic import _seed_design
+
+    still = _seed_design(400, 20, "code", 0, jitter=0.0)
+    moving = _seed_design(400, 20, "code", 0, jitter=0.02)
+    # without jitter a code's repeats share every parameter; with it they spread by
+    # about the asked relative standard deviation around the same code values
+    for name in ("friction_coulomb", "valve_delay"):
+        assert still.groupby("fault_code")[name].nunique().max() == 1
+        ratio = moving[name] / still[name]
+        assert 0.015 < ratio.std() < 0.025 and abs(ratio.mean() - 1) < 0.005
+    # the supply an operator reads (the set point) stays 5 or 6 bar
+    assert set(moving["supply_bar"]) == {5.0, 6.0}
+    gauge = (moving["p_supply"] - 101325.0) / 1e5 / moving["supply_bar"]
+    assert 0.015 < gauge.std() < 0.025
+    with pytest.raises(DataError, match="jitter"):
+        simulate_seed_ensemble(20, jitter=0.9)
+
+
+def test_nominal_residual_is_one_reference_for_every_member():
+    from pdmkit.ensembles import pneumatic_residuals
+
+    ens = simulate_seed_ensemble(20, repeats=1, t_end=0.5, signals=["LeverPosition"])
+    res = pneumatic_residuals(ens, reference="nominal")
+    # recording minus residual is the reference: the same curve for all members
+    reference = ens.stack("LeverPosition")[0] - res.stack("LeverPosition_res")[0]
+    assert np.ptp(reference, axis=0).max() < 1e-12
+    per_point = pneumatic_residuals(ens)
+    ref2 = ens.stack("LeverPosition")[0] - per_point.stack("LeverPosition_res")[0]
+    assert np.ptp(ref2, axis=0).max() > 1e-3  # loads differ: references differ
+    with pytest.raises(DataError, match="reference"):
+        pneumatic_residuals(ens, reference="mean")
+
+
 def test_seed_indicators_are_the_designers_24_and_match_pdmkit_features(flow_ensemble):
     from pdmkit.features import harmonic, spectral, stats
 
