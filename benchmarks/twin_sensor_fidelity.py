@@ -28,16 +28,7 @@ import time
 
 import numpy as np
 
-#: seed table 9.1 (measured rig, 20 labels), accuracy in %
-SEED_TABLE_9_1 = {
-    "Flow": 97.2,
-    "Encoder": 96.1,
-    "Mics": 95.8,
-    "Strain": 95.0,
-    "Acc": 91.6,
-    "Proximity": 80.5,
-    "Pressure": 76.6,
-}
+from pdmkit.experiments import SEED_SENSOR_ACCURACY as SEED_TABLE_9_1
 
 
 def seed_recipe_pipeline(top_k: int = 5):
