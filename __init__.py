@@ -25,9 +25,33 @@ Examples
 0.7071
 """
 
+import importlib
+
 from pdmkit import errors
 from pdmkit._config import data_dir
 from pdmkit._persist import load_model, save_model
 
 __version__ = "0.1.0"
 __all__ = ["__version__", "data_dir", "errors", "load_model", "save_model"]
+
+#: The layers, importable as attributes (``pdmkit.features``) on first use: importing
+#: ``pdmkit`` alone stays light (no torch, scikit-learn or matplotlib).
+_SUBPACKAGES = ("models", "ensembles", "features", "rul", "experiments")
+
+
+def __getattr__(name: str):
+    """``pdmkit.<layer>`` imports that layer on first access.
+
+    Examples
+    --------
+    >>> import pdmkit
+    >>> pdmkit.features.extract.__name__
+    'extract'
+    """
+    if name in _SUBPACKAGES:
+        return importlib.import_module(f"pdmkit.{name}")
+    raise AttributeError(f"module 'pdmkit' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_SUBPACKAGES])

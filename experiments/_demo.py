@@ -718,7 +718,11 @@ def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
             (
                 "Mismatch found",
                 "; ".join(
-                    f"{m['name']}: {m['effect']} on {m['target']}, RMSE "
+                    f"{m['name']}: "
+                    + " + ".join(
+                        f"{e} on {t}" for e, t in [(m["effect"], m["target"]), *m["also"]]
+                    )
+                    + ", RMSE "
                     f"{m['fit']['rmse_nominal']:.3g} -> {m['fit']['rmse_augmented']:.3g}"
                     for m in mismatch
                 ),

@@ -21,13 +21,14 @@ ranked last and carry a note saying why.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
 import scipy.stats
 from sklearn.base import BaseEstimator
-from sklearn.feature_selection import SelectorMixin
+from sklearn.feature_selection import SelectorMixin, f_classif
 from sklearn.utils.validation import check_is_fitted
 
 from pdmkit.errors import DataError
@@ -218,7 +219,13 @@ def _group_codes(labels: np.ndarray) -> tuple[np.ndarray, int]:
 
 
 def _one_way_block(X: np.ndarray, codes: np.ndarray, method: str):
-    """Scores of fully-finite columns ``X`` (N x p) for group codes 0..k-1 (vectorised)."""
+    """Scores of fully-finite columns ``X`` (N x p) for group codes (vectorised).
+
+    Kruskal-Wallis H is :func:`scipy.stats.kruskal`, ANOVA F is
+    :func:`sklearn.feature_selection.f_classif`; this adds what a ranking needs around
+    them: constant columns score NaN with a note, an F with no spread within groups is
+    infinite with p = 0.
+    """
     n, p = X.shape
     present = np.unique(codes)
     codes = np.searchsorted(present, codes)
@@ -231,38 +238,22 @@ def _one_way_block(X: np.ndarray, codes: np.ndarray, method: str):
         return scores, pvals, notes
     constant = np.ptp(X, axis=0) == 0 if n else np.ones(p, dtype=bool)
     notes[constant] = "constant feature"
-    counts = np.bincount(codes, minlength=k).astype(float)
-    onehot = np.zeros((k, n))
-    onehot[codes, np.arange(n)] = 1.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        if method == "kruskal":
-            ranks = scipy.stats.rankdata(X, axis=0)
-            rank_sums = onehot @ ranks
-            h = 12.0 / (n * (n + 1)) * ((rank_sums**2) / counts[:, None]).sum(0) - 3.0 * (
-                n + 1
-            )
-            # with average ranks, sum(r^2) falls short of the tie-free value by
-            # sum(t^3 - t) / 12 over the tie groups: the tie correction without a sort
-            ties = 12.0 * (
-                n * (n + 1) * (2 * n + 1) / 6.0 - np.einsum("ij,ij->j", ranks, ranks)
-            )
-            correction = 1.0 - ties / (float(n) ** 3 - n)
-            scores = h / correction
-            pvals = scipy.stats.chi2.sf(scores, k - 1)
+    if method == "anova" and n - k < 1:
+        notes[~constant] = "every group has a single value: no within-group spread"
+        return scores, pvals, notes
+    with np.errstate(divide="ignore", invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # constant columns: NaN and a note below
+        if method == "kruskal":  # H with the tie correction
+            groups = [X[codes == g] for g in range(k)]
+            scores, pvals = scipy.stats.kruskal(*groups, axis=0)
         else:
-            if n - k < 1:
-                notes[~constant] = "every group has a single value: no within-group spread"
-                return scores, pvals, notes
-            means = (onehot @ X) / counts[:, None]
-            grand = X.mean(axis=0)
-            ssb = (counts[:, None] * (means - grand) ** 2).sum(0)
-            ssw = ((X - means[codes]) ** 2).sum(0)
-            scores = (ssb / (k - 1)) / (ssw / (n - k))
-            pvals = scipy.stats.f.sf(scores, k - 1, n - k)
-            perfect = (ssw == 0) & ~constant
-            scores[perfect] = np.inf
-            pvals[perfect] = 0.0
-            notes[perfect] = "no spread within groups (F is infinite)"
+            scores, pvals = f_classif(X, codes)
+    scores = np.asarray(scores, dtype=float)
+    pvals = np.asarray(pvals, dtype=float)
+    if method == "anova":
+        perfect = np.isinf(scores) & ~constant
+        pvals[perfect] = 0.0
+        notes[perfect] = "no spread within groups (F is infinite)"
     scores[constant] = np.nan
     pvals[constant] = np.nan
     return scores, pvals, notes
