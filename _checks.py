@@ -20,6 +20,7 @@ from pdmkit.errors import DataError
 __all__ = [
     "LARGEST_VALUE",
     "check_fs",
+    "check_int",
     "check_magnitude",
     "file_sha256",
     "npy_declared",
@@ -65,6 +66,48 @@ def check_fs(fs: object, name: str = "fs") -> float:
             f"{name} must be a positive, finite sampling rate in Hz; got {fs!r}."
         )
     return value
+
+
+def check_int(
+    value: object, name: str, *, minimum: int = 1, error: type[Exception] = DataError
+) -> int:
+    """Return ``value`` as an int after checking it is an integer >= ``minimum``.
+
+    Booleans are refused (``True`` is not a count).
+
+    Parameters
+    ----------
+    value : object
+        What the user gave.
+    name : str
+        The argument's name, for the message.
+    minimum : int, default 1
+        Smallest value allowed.
+    error : exception class, default DataError
+        What to raise (estimators' parameters raise ``ValueError``, as scikit-learn's).
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> from pdmkit._checks import check_int
+    >>> check_int(3, "batch_size")
+    3
+    >>> check_int(0, "batch_size")
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.DataError: batch_size must be a positive integer; got 0
+    """
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | np.integer)
+        or value < minimum
+    ):
+        what = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
+        raise error(f"{name} must be {what}; got {value!r}")
+    return int(value)
 
 
 def uniform_step(time: object, source: str) -> float:

@@ -16,12 +16,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from pdmkit._checks import check_fs, check_int
 from pdmkit._config import data_dir
 from pdmkit.ensembles._ensemble import (
     Ensemble,
     _names_list,
-    _positive_int,
-    _positive_rate,
     resample_poly_1d,
     resample_ratio,
 )
@@ -154,8 +153,8 @@ def load_cwru(
     ...         "B_007", "IR_007", "IR_021", "OR_007", "normal"]
     ...     assert ens.fs == {"DE": 12000.0, "FE": 12000.0, "BA": 12000.0}
     """
-    frame_length = _positive_int(frame_length, "frame_length")
-    fs = _positive_rate(fs, "fs")
+    frame_length = check_int(frame_length, "frame_length")
+    fs = check_fs(fs, "fs")
     signals = [signals] if isinstance(signals, str) else list(signals)
     unknown = [s for s in signals if s not in _CWRU_SIGNALS]
     if unknown or not signals or len(set(signals)) != len(signals):

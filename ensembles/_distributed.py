@@ -483,7 +483,7 @@ def parquet_partitions(
     >>> len(parquet_partitions(path)), len(parquet_partitions(path.as_uri(), 2))
     (1, 2)
     """
-    from pdmkit.ensembles._ensemble import _positive_int
+    from pdmkit._checks import check_int
     from pdmkit.ensembles._parquet import read_manifest
 
     if _is_url(path):
@@ -502,7 +502,7 @@ def parquet_partitions(
     if batch_size is None:
         bounds = [(a, a + n) for _, a, n in files if n]
     else:
-        size = _positive_int(batch_size, "batch_size")
+        size = check_int(batch_size, "batch_size")
         bounds = [(a, min(a + size, total)) for a in range(0, total, size)]
     return [Partition(root, i, a, b, tuple(files), meta) for i, (a, b) in enumerate(bounds)]
 

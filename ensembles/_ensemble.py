@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from fractions import Fraction
@@ -12,6 +11,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from pdmkit._checks import check_fs, check_int
 from pdmkit.errors import DataError
 
 __all__ = ["Ensemble"]
@@ -41,24 +41,6 @@ def _readonly(a: np.ndarray) -> np.ndarray:
         a = a.view()
         a.flags.writeable = False
     return a
-
-
-def _positive_int(value: Any, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-        raise DataError(f"{name} must be a positive integer; got {value!r}")
-    return int(value)
-
-
-def _positive_rate(value: Any, what: str) -> float:
-    try:
-        rate = float(value)
-    except (TypeError, ValueError):
-        rate = math.nan
-    if not (math.isfinite(rate) and rate > 0):
-        raise DataError(
-            f"{what} must be a positive, finite sampling rate in Hz; got {value!r}"
-        )
-    return rate
 
 
 def resample_ratio(fs_from: float, fs_to: float, what: str = "signal") -> tuple[int, int]:
@@ -354,8 +336,8 @@ class Ensemble:
                     f"fs gives no sampling rate for signal(s) {_names_list(missing)}; give "
                     "one rate per signal or a single float for all"
                 )
-            return {k: _positive_rate(fs[k], f"fs of signal {k!r}") for k in names}
-        rate = _positive_rate(fs, "fs")
+            return {k: check_fs(fs[k], f"fs of signal {k!r}") for k in names}
+        rate = check_fs(fs, "fs")
         return dict.fromkeys(names, rate)
 
     @staticmethod
@@ -616,7 +598,7 @@ class Ensemble:
         >>> [len(b) for b in ens.batches(2)]
         [2, 2, 1]
         """
-        size = _positive_int(size, "size")
+        size = check_int(size, "size")
         for start in range(0, len(self), size):
             yield self._take(np.arange(start, min(start + size, len(self))))
 
@@ -677,8 +659,8 @@ class Ensemble:
         names = self._select_names(signals)
         if not names:
             raise DataError("frames needs at least one signal; the ensemble has none")
-        length = _positive_int(length, "length")
-        hop = length if hop is None else _positive_int(hop, "hop")
+        length = check_int(length, "length")
+        hop = length if hop is None else check_int(hop, "hop")
         ref = names[0]
         fs_ref = self._fs[ref]
         win = {s: self._scaled(length, s, ref, "length") for s in names}
@@ -785,10 +767,10 @@ class Ensemble:
                     f"fs gives no target rate for signal(s) {_names_list(missing)}; add "
                     "them to the mapping or leave them out of signals"
                 )
-            target = {s: _positive_rate(fs[s], f"fs of signal {s!r}") for s in names}
+            target = {s: check_fs(fs[s], f"fs of signal {s!r}") for s in names}
         else:
             names = self._select_names(signals)
-            target = dict.fromkeys(names, _positive_rate(fs, "fs"))
+            target = dict.fromkeys(names, check_fs(fs, "fs"))
         new_signals = dict(self._signals)
         new_fs = dict(self._fs)
         for s in names:

@@ -25,13 +25,13 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._atomic import atomic_dir
+from pdmkit._checks import check_int
 from pdmkit._config import max_bytes
 from pdmkit.ensembles._ensemble import (
     MEMBER,
     Ensemble,
     SignalList,
     _names_list,
-    _positive_int,
 )
 from pdmkit.ensembles._readers import _one_line, _too_big
 from pdmkit.errors import DataError, DataNotFoundError
@@ -156,7 +156,7 @@ def write_parquet(
     """
     if not hasattr(ens, "_signals"):  # duck-typed: doctests may load a module twice
         raise DataError(f"write_parquet takes an Ensemble; got {type(ens).__name__}")
-    per_file = _positive_int(members_per_file, "members_per_file")
+    per_file = check_int(members_per_file, "members_per_file")
     path = Path(path)
     _check_target(path)
     conditions = _conditions_table(ens)
@@ -681,7 +681,7 @@ def iter_parquet(
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    size = _positive_int(batch_size, "batch_size")
+    size = check_int(batch_size, "batch_size")
     path = Path(path)
     manifest = read_manifest(path)
     sigs = _pick(signals, manifest["signals"], "signal(s)", path)

@@ -8,7 +8,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pdmkit.ensembles._ensemble import Ensemble, _names_list, _positive_int
+from pdmkit._checks import check_int
+from pdmkit.ensembles._ensemble import Ensemble, _names_list
 from pdmkit.errors import DataError
 
 __all__ = ["from_frame"]
@@ -108,7 +109,7 @@ def from_frame(
                 f"member_column {member_column!r} is also a signal or label column"
             )
     if frame_length is not None:
-        frame_length = _positive_int(frame_length, "frame_length")
+        frame_length = check_int(frame_length, "frame_length")
     if len(table) == 0:
         raise DataError("the table has no rows")
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from pdmkit._checks import check_int
 from pdmkit.errors import DataError, NotFittedError
 from pdmkit.rul._result import RULPrediction
 
@@ -200,13 +201,8 @@ def check_level(level) -> float:
 
 
 def check_positive_int(value, name: str, minimum: int = 1) -> int:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, int | np.integer)
-        or value < minimum
-    ):
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
+    """:func:`pdmkit._checks.check_int` raising ``ValueError`` (estimator parameters)."""
+    return check_int(value, name, minimum=minimum, error=ValueError)
 
 
 def check_max_rul(value) -> float | None:
