@@ -808,6 +808,8 @@ def simulate_leak_runs(
     walk_shape: float = 16.0,
     schedule: str = "walk",
     operating_point: tuple[float, float] | None = None,
+    unit_variation: bool = True,
+    leak_scale: float = 1.0,
 ) -> Ensemble:
     """Simulate air-leak run-to-failure units (seed sections 8.1-8.2 and 8.4).
 
@@ -861,13 +863,26 @@ def simulate_leak_runs(
     operating_point : (load_kg, supply_bar), optional
         Every unit at this load and supply (bar gauge) instead of random ones (the
         seed simulated its runs at one operating point).
+    unit_variation : bool, default True
+        Draw each unit's unlabelled parameters (friction, valve coefficients, valve
+        delay) and healthy knob settings at random, as :func:`simulate_fault_ensemble`
+        does. False: every unit is the nominal healthy twin (the
+        :class:`~pdmkit.models.PneumaticParams` defaults, knobs at the middle of their
+        healthy range) and only its leak differs, as in the seed author's 26 runs, all
+        simulated from one parameter file (``mb/rul.mlx``; its figure 8.9 shows every
+        run starting at the same indicator value).
+    leak_scale : float, default 1.0
+        Factor applied to the leak coefficient path before simulating: a schedule
+        written for another model's valve sizes (the seed's ``C_al`` is relative to its
+        identified valve coefficients) is carried over to the twin's.
 
     Returns
     -------
     Ensemble
         Members ``"u03/c0012"``; conditions ``unit``, ``cycle`` (0, 1, ...), ``c_leak``
-        (m^2), ``rul`` (cycles left until failure; 0 at the failing cycle) and
-        ``failed`` (True at the last cycle of each unit).
+        (m^2, the coefficient simulated), ``c_leak_schedule`` (the schedule's value,
+        ``c_leak / leak_scale``), ``rul`` (cycles left until failure; 0 at the failing
+        cycle) and ``failed`` (True at the last cycle of each unit).
 
     Examples
     --------
@@ -895,6 +910,12 @@ def simulate_leak_runs(
         )
     if schedule not in ("walk", "seed"):
         raise DataError(f"schedule must be 'walk' or 'seed'; got {schedule!r}")
+    if (
+        isinstance(leak_scale, bool)
+        or not isinstance(leak_scale, int | float | np.integer | np.floating)
+        or not 0 < leak_scale < np.inf
+    ):
+        raise DataError(f"leak_scale must be a positive finite number; got {leak_scale!r}")
     signals = _signal_list(signals)
     rng = np.random.default_rng(seed)
     units, cycles, leaks = [], [], []
@@ -913,8 +934,20 @@ def simulate_leak_runs(
         load_kg, supply_bar = (float(v) for v in operating_point)
         per_unit["mass_load"] = np.full(int(n_units), load_kg)
         per_unit["p_supply"] = np.full(int(n_units), _P_AMBIENT + supply_bar * 1e5)
+    knobs = _fault_settings(np.array(["healthy"] * int(n_units)), rng)
+    if not unit_variation:  # the nominal healthy twin, only the leak differs
+        from pdmkit.models import PneumaticParams
+
+        nominal = PneumaticParams()
+        for k in per_unit:
+            if k not in ("mass_load", "p_supply"):
+                per_unit[k] = np.full(int(n_units), float(getattr(nominal, k)))
+        healthy = {
+            s.parameter: float(np.mean(s.healthy)) for s in PNEUMATIC_FAULTS.values()
+        }
+        knobs = {k: np.full(int(n_units), healthy[k]) for k in knobs}
     cols = {k: v[units_arr] for k, v in per_unit.items()}
-    cols.update(_fault_settings(np.array(["healthy"] * int(n_units)), rng))
+    cols.update(knobs)
     for k in (
         "throttle_a",
         "throttle_b",
@@ -923,7 +956,7 @@ def simulate_leak_runs(
         "damper_large_damping",
     ):
         cols[k] = cols[k][units_arr]
-    cols[f"c_leak_{chamber}"] = np.asarray(leaks)
+    cols[f"c_leak_{chamber}"] = np.asarray(leaks) * float(leak_scale)
     data = _simulate_batches(
         cols,
         n,
@@ -940,7 +973,8 @@ def simulate_leak_runs(
         {
             "unit": units_arr,
             "cycle": cycles_arr,
-            "c_leak": np.asarray(leaks),
+            "c_leak": cols[f"c_leak_{chamber}"],
+            "c_leak_schedule": np.asarray(leaks),
             "rul": last - cycles_arr,
             "failed": cycles_arr == last,
             "load_kg": cols["mass_load"],

@@ -228,3 +228,79 @@ def test_seed_comparison_table_and_errors():
         seed_comparison([{"recipe": "x"}])
     with pytest.raises(DataError, match="label"):
         seed_flow_knn(pd.DataFrame({"FlowContraction_stats/Mean": [1.0]}), label="nope")
+
+
+@pytest.fixture(scope="module")
+def residual_set():
+    from pdmkit.experiments._seed_study import _seed_residual_ensemble
+
+    return _seed_residual_ensemble(60, repeats=4, t_end=1.0, seed=5)
+
+
+def test_seed_residual_set_is_single_faults_at_the_references_point(residual_set):
+    cond = residual_set.conditions
+    assert set(cond["fault"]) == {
+        "healthy", "throttle_1", "throttle_2", "damper_bottom", "damper_upper"
+    }  # fmt: skip
+    assert set(cond["load_kg"]) == {6.25} and set(cond["supply_bar"]) == {6.0}
+    assert cond["fault_code"].nunique() == 15  # 60 recordings of 4 repeats
+    assert (cond.groupby("fault_code")["fault"].nunique() == 1).all()
+
+
+def test_residual_recipe_equals_a_hand_sklearn_pipeline(residual_set):
+    from sklearn.model_selection import train_test_split
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+    from sklearn.svm import SVC
+
+    from pdmkit.ensembles import pneumatic_residuals
+    from pdmkit.experiments import seed_residual_classification
+    from pdmkit.experiments._seed_study import _CONDITIONS
+
+    res = pneumatic_residuals(
+        residual_set, ["LeverPosition"], reference="nominal", nominal_point=(6.25, 6.0)
+    )
+    table = seed_indicators(res, ["LeverPosition_res"])
+    for c in _CONDITIONS:
+        table[c] = residual_set.conditions[c].to_numpy()
+    got = seed_residual_classification(table, seed=1)
+    cols = [c for c in table.columns if "_res_stats/" in c]
+    top = list(seed_rank(table, cols, table["fault"]).index[:5])
+    assert got.details["features"] == top
+    x, y = table[top].to_numpy(float), table["fault"].to_numpy()
+    train, test = train_test_split(
+        np.arange(len(y)), test_size=0.3, stratify=y, random_state=1
+    )
+    svm = make_pipeline(StandardScaler(), SVC(kernel="poly", degree=2, coef0=1.0))
+    svm.fit(x[train], y[train])
+    hand = 100 * np.mean(svm.predict(x[test]) == y[test])
+    assert got.pdmkit == pytest.approx(hand, abs=0.01)
+    confusion = np.array(got.details["confusion"])  # the held-out members
+    assert confusion.sum() == len(test)
+    assert 100 * np.trace(confusion) / confusion.sum() == pytest.approx(hand)
+    seeds = seed_residual_classification(table, features="seed", validation="kfold")
+    assert seeds.details["features"][0] == "LeverPosition_res_stats/RMS"
+    assert seeds.details["validation"] == "kfold"
+    with pytest.raises(DataError, match="features"):
+        seed_residual_classification(table, features="best")
+
+
+def test_identical_leak_runs_and_the_leak_scale():
+    from pdmkit.experiments._seed_study import _cycles_before, _seed_leak_scale
+
+    kw = dict(max_cycles=6, schedule="seed", t_end=3.0, signals=["LeverPosition"])
+    kw.update(seed=4, operating_point=(0.0, 6.0))
+    same = simulate_leak_runs(3, unit_variation=False, leak_scale=10.0, **kw)
+    varied = simulate_leak_runs(3, **kw)
+    cond = same.conditions
+    assert np.allclose(cond["c_leak"], 10.0 * cond["c_leak_schedule"])
+    assert np.allclose(varied.conditions["c_leak"], varied.conditions["c_leak_schedule"])
+    x, _ = same.stack("LeverPosition")
+    xv, _ = varied.stack("LeverPosition")
+    first = (cond["cycle"] == 0).to_numpy()  # leak ~1e-10: the units themselves
+    assert np.ptp(x[first].mean(axis=1)) < 0.2 * np.ptp(xv[first].mean(axis=1))
+    assert _seed_leak_scale() == pytest.approx(23.75, rel=0.01)
+    assert _cycles_before(np.array([3.8, 3.7, 3.59, 3.7]), 3.6, False) == 2
+    assert _cycles_before(np.array([3.8, 3.7]), 3.6, False) == 2
+    with pytest.raises(DataError, match="leak_scale"):
+        simulate_leak_runs(2, leak_scale=0.0, **kw)
