@@ -717,14 +717,14 @@ def simulate_sweep(
 # --------------------------------------------------------------------------- mismatch
 def _mismatch_task(job: Mapping[str, Any]) -> dict[str, Any]:
     from pdmkit.models import discover_mismatch, load_model_file
-    from pdmkit.models.mismatch._modelfile import _load_source
+    from pdmkit.models.mismatch import load_model_source
 
     job = dict(job)
     model = job.pop("model")
     if isinstance(model, Path) or (isinstance(model, str) and "def rhs" not in model):
         model = load_model_file(model)
     elif isinstance(model, str):
-        model = _load_source(model, "<model file>", "model")
+        model = load_model_source(model)
     data = job.pop("data")
     return discover_mismatch(model, data, **job).to_dict()
 

@@ -75,6 +75,7 @@ from pdmkit.models.mismatch._modelfile import (
     MODEL_TIMEOUT,
     OdeModel,
     load_model_file,
+    load_model_source,
 )
 from pdmkit.models.mismatch._simulate import simulate_ode
 from pdmkit.models.mismatch._sparse import (
@@ -114,6 +115,7 @@ __all__ = [
     "generate_concealed_case",
     "library_terms",
     "load_model_file",
+    "load_model_source",
     "make_recording",
     "nominal_scales",
     "region_statistics",

@@ -45,7 +45,7 @@ import numpy as np
 
 from pdmkit.errors import ModelError
 
-__all__ = ["KINDS", "OdeModel", "load_model_file"]
+__all__ = ["KINDS", "OdeModel", "load_model_file", "load_model_source"]
 
 #: The physical kinds a state or input may declare.
 KINDS = (
@@ -536,6 +536,43 @@ def _run_code(code: Any, origin: str, name: str, data: Any = None) -> OdeModel:
 def _load_source(source: str, origin: str, name: str, data: Any = None) -> OdeModel:
     """Load model-file text in this process (no child check, no time limit)."""
     return _run_code(_compile(source, origin), origin, name, data)
+
+
+def load_model_source(source: str, *, name: str = "model") -> OdeModel:
+    r"""Load a model from the text of a model file, in this process.
+
+    The text is Python code and runs here, with your rights, **without** the child
+    process and time limit of :func:`load_model_file`: use it for model text you wrote
+    (or generated) yourself, e.g. to ship a model to Dask workers as a string.
+
+    Parameters
+    ----------
+    source : str
+        The model file's text (``STATES``, ``OUTPUTS``, ``PARAMS``, ``rhs``, ...).
+    name : str, default "model"
+        The model's name in messages and reports.
+
+    Returns
+    -------
+    OdeModel
+
+    Raises
+    ------
+    pdmkit.errors.ModelError
+        The text does not compile or breaks the model-file contract.
+
+    Examples
+    --------
+    >>> from pdmkit.models.mismatch import load_model_source
+    >>> text = (
+    ...     'STATES = {"x": "level"}\nOUTPUTS = ["x"]\nPARAMS = {"k": 0.5}\n'
+    ...     'def rhs(t, x, u, p):\n    return {"x": -p["k"] * x["x"]}\n'
+    ... )
+    >>> model = load_model_source(text)
+    >>> model.states, model.params
+    ({'x': 'level'}, {'k': 0.5})
+    """
+    return _load_source(source, f"<{name}>", name)
 
 
 # --------------------------------------------------------------------------- exit guard
