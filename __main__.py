@@ -1,5 +1,5 @@
 """``python -m pdmkit`` runs the command-line interface."""
 
-from pdmkit.experiments._cli import main
+from pdmkit._entry import main
 
 raise SystemExit(main())
