@@ -30,6 +30,22 @@ __all__ = ["main"]
 
 
 # --------------------------------------------------------------------------- helpers
+def _seconds(table, path):
+    """The table with a timestamp time column in seconds (said once, with its origin)."""
+    from pdmkit.rul import timestamps_to_seconds
+
+    time = next((c for c in ("time", "cycle") if c in table.columns), None)
+    if time is None:
+        return table
+    try:
+        table, origin = timestamps_to_seconds(table, time)
+    except DataError as exc:
+        raise DataError(f"{path}: {exc}") from None
+    if origin is not None:
+        _say(f"{path}: time column {time!r} holds timestamps: seconds since {origin}")
+    return table
+
+
 def _say(message: str) -> None:
     print(f"pdmkit: {message}", file=sys.stderr, flush=True)
 
@@ -620,7 +636,7 @@ def _cmd_rul(args: argparse.Namespace) -> int:
         from pdmkit.ensembles._readers import read_table
         from pdmkit.experiments._rul import split_run_to_failure
 
-        train = read_table(args.train)
+        train = _seconds(read_table(args.train), args.train)
         if args.test is None:  # hold out a quarter of the units, cut at random
             dataset = split_run_to_failure(train, seed=args.seed)
             _say(
@@ -629,7 +645,7 @@ def _cmd_rul(args: argparse.Namespace) -> int:
                 "as test histories, each cut at 10-90 % of its life"
             )
         else:
-            dataset = (train, read_table(args.test))
+            dataset = (train, _seconds(read_table(args.test), args.test))
     summary = run_rul(
         dataset,
         args.model,

@@ -739,8 +739,16 @@ def _predict_rul(model_file, history, expect_sha256=None) -> dict[str, Any]:
             f"{model_file}: holds a {type(pipeline).__name__}, not a RUL model; train "
             "one with `pdmkit rul ... --out DIR` (it writes DIR/model.pdmkit)"
         )
+    from pdmkit.rul import timestamps_to_seconds
+
     table = history if isinstance(history, pd.DataFrame) else read_table(history)
     where = "history" if isinstance(history, pd.DataFrame) else str(history)
+    time = next((c for c in ("time", "cycle") if c in table.columns), None)
+    if time is not None:
+        try:
+            table, _ = timestamps_to_seconds(table, time)
+        except DataError as exc:
+            raise DataError(f"{where}: {exc}") from None
     for column in table.select_dtypes("number"):  # overflows: silent wrong answers
         check_magnitude(table[column], f"{where}: column {column!r}")
     unit = getattr(getattr(pipeline, "model", pipeline), "unit", "unit")

@@ -41,6 +41,7 @@ Examples
 0  new  29.0  40.0
 """
 
+from pdmkit.rul._base import timestamps_to_seconds
 from pdmkit.rul._conformal import ConformalRUL
 from pdmkit.rul._degradation import ExponentialDegradationModel, LinearDegradationModel
 from pdmkit.rul._indicators import (
@@ -98,4 +99,5 @@ __all__ = [
     "rmse",
     "rul_metrics",
     "smooth_indicators",
+    "timestamps_to_seconds",
 ]

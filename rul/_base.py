@@ -53,6 +53,71 @@ def check_table(table, what: str = "table") -> pd.DataFrame:
     return table
 
 
+def timestamps_to_seconds(
+    table: pd.DataFrame, time: str = "time"
+) -> tuple[pd.DataFrame, str | None]:
+    """Turn a time column of timestamps into seconds since the earliest one.
+
+    Recordings from loggers carry wall-clock stamps (``2004-03-04 09:27:46``); the RUL
+    models count time in numbers. A column of datetimes, or of text that reads as
+    timestamps throughout, becomes float seconds since its earliest stamp; a numeric
+    column is left as it is.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Long table (one row per unit and time).
+    time : str, default "time"
+        The time column.
+
+    Returns
+    -------
+    (pandas.DataFrame, str or None)
+        The table (a copy when converted) and the origin (the earliest stamp, ISO
+        text), or None when nothing was converted.
+
+    Raises
+    ------
+    pdmkit.errors.DataError
+        Text that is neither numbers nor timestamps throughout (names the first bad row).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from pdmkit.rul import timestamps_to_seconds
+    >>> t = pd.DataFrame({"time": ["2004-03-04 09:27:46", "2004-03-04 10:27:46"]})
+    >>> table, origin = timestamps_to_seconds(t)
+    >>> table["time"].tolist(), origin
+    ([0.0, 3600.0], '2004-03-04T09:27:46')
+    """
+    if time not in table.columns:
+        return table, None
+    column = table[time]
+    if pd.api.types.is_bool_dtype(column) or (
+        pd.api.types.is_numeric_dtype(column)
+        and not pd.api.types.is_datetime64_any_dtype(column)
+    ):
+        return table, None
+    if pd.api.types.is_datetime64_any_dtype(column):
+        stamps = column
+    else:
+        if pd.to_numeric(column, errors="coerce").notna().all():
+            return table.assign(**{time: pd.to_numeric(column)}), None
+        with warnings.catch_warnings():  # "could not infer format": parsed one by one
+            warnings.simplefilter("ignore", UserWarning)
+            stamps = pd.to_datetime(column, errors="coerce")
+        bad = column[stamps.isna() & column.notna()]
+        if len(bad) or stamps.isna().all():
+            row = bad.index[0] if len(bad) else column.index[0]
+            raise DataError(
+                f"time column {time!r} must hold numbers (cycles or seconds) or "
+                f"timestamps; row {row} holds {column.loc[row]!r}"
+            )
+    origin = stamps.min()
+    seconds = (stamps - origin).dt.total_seconds().astype(float)
+    return table.assign(**{time: seconds}), origin.isoformat()
+
+
 def resolve_keys(table: pd.DataFrame, unit: str, time: str | None) -> tuple[str, str]:
     """Return the unit and time column names, checking that they exist."""
     if unit not in table.columns:
