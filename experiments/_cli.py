@@ -25,6 +25,7 @@ import pandas as pd
 
 from pdmkit._outputs import OutputRun, check_output_folder, collect_warnings
 from pdmkit.errors import DataError, ModelError, did_you_mean
+from pdmkit.experiments._report import _readable_float
 
 __all__ = ["main"]
 
@@ -663,7 +664,8 @@ def _cmd_rul(args: argparse.Namespace) -> int:
     )
     _say(
         f"{summary['model']}: RMSE {summary['rmse']:.2f}, MAE {summary['mae']:.2f}, "
-        f"PHM08 score {summary['phm08_score']:.0f} on {summary['n_units']} units; "
+        f"PHM08 score {_readable_float(summary['phm08_score'])} on "
+        f"{summary['n_units']} units; "
         f"see {args.out}/report.html; trained model {summary['model_file']} "
         f"(sha256 {summary['model_sha256']}: keep it to check the file later with "
         "--expect-sha256)"
