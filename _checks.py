@@ -24,6 +24,7 @@ __all__ = [
     "check_magnitude",
     "file_sha256",
     "npy_declared",
+    "parse_timestamps",
     "uniform_step",
 ]
 
@@ -108,6 +109,27 @@ def check_int(
         what = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
         raise error(f"{name} must be {what}; got {value!r}")
     return int(value)
+
+
+def parse_timestamps(column):
+    """A column of timestamps (text or datetimes) as pandas datetimes; NaT where unread.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from pdmkit._checks import parse_timestamps
+    >>> parse_timestamps(pd.Series(["2004-03-04 09:27:46", "later"])).isna().tolist()
+    [False, True]
+    """
+    import warnings
+
+    import pandas as pd
+
+    if pd.api.types.is_datetime64_any_dtype(column):
+        return column
+    with warnings.catch_warnings():  # "could not infer format": parsed one by one
+        warnings.simplefilter("ignore", UserWarning)
+        return pd.to_datetime(column, errors="coerce")
 
 
 def uniform_step(time: object, source: str) -> float:

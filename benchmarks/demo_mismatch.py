@@ -33,9 +33,8 @@ def main(argv=None) -> int:
         cpu.append(time.process_time() - c0)
         s = case.summary()
         right += bool(s["right"])
-        named = " + ".join(f"{e}@{t}" for e, t in [(s["effect"], s["target"]), *s["also"]])
         print(
-            f"seed {seed}: {'ok ' if s['right'] else 'BAD'} {named}; RMSE "
+            f"seed {seed}: {'ok ' if s['right'] else 'BAD'} {s['named']}; RMSE "
             f"{s['fit']['rmse_nominal']:.4g} -> {s['fit']['rmse_augmented']:.4g}; "
             f"{s['seconds']:.1f} s wall, {cpu[-1]:.1f} s CPU",
             flush=True,

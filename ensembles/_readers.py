@@ -36,7 +36,7 @@ from typing import IO, Any
 import numpy as np
 import pandas as pd
 
-from pdmkit._checks import npy_declared
+from pdmkit._checks import npy_declared, parse_timestamps
 from pdmkit._config import _LIMIT_ENV, max_bytes
 from pdmkit.errors import DataError, DataNotFoundError, DataWarning
 
@@ -1032,9 +1032,7 @@ def _time_rate(path: Path, column: pd.Series, where: Callable[[int], str]) -> fl
     elif pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
         stamps = None
     else:
-        with warnings.catch_warnings():  # "could not infer format": parsed one by one
-            warnings.simplefilter("ignore", UserWarning)
-            stamps = pd.to_datetime(column, errors="coerce")
+        stamps = parse_timestamps(column)
         if stamps.isna().all():
             raise DataError(
                 f"{path}: time column {name!r} holds {str(column.iloc[0])!r} at "

@@ -33,17 +33,12 @@ __all__ = ["main"]
 # --------------------------------------------------------------------------- helpers
 def _seconds(table, path):
     """The table with a timestamp time column in seconds (said once, with its origin)."""
-    from pdmkit.rul import timestamps_to_seconds
+    from pdmkit.experiments._rul import units_in_seconds
 
-    time = next((c for c in ("time", "cycle") if c in table.columns), None)
-    if time is None:
-        return table
-    try:
-        table, origin = timestamps_to_seconds(table, time)
-    except DataError as exc:
-        raise DataError(f"{path}: {exc}") from None
-    if origin is not None:
-        _say(f"{path}: time column {time!r} holds timestamps: seconds since {origin}")
+    table, origin = units_in_seconds(table, path)
+    if origin is not None:  # converted: the table has "time", else "cycle"
+        name = "time" if "time" in table.columns else "cycle"
+        _say(f"{path}: time column {name!r} holds timestamps: seconds since {origin}")
     return table
 
 

@@ -478,12 +478,13 @@ def run_demo(
 
 def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
     """:func:`run_demo` with its files registered with ``run`` (not yet written)."""
-    from pdmkit.ensembles import PNEUMATIC_SENSORS, simulate_seed_ensemble
+    from pdmkit.ensembles import PNEUMATIC_SENSORS
     from pdmkit.experiments._classify import classify
     from pdmkit.experiments._demo_mismatch import add_mismatch_section, demo_mismatch_cases
     from pdmkit.experiments._report import Report
     from pdmkit.experiments._seed_study import (
         seed_comparison,
+        seed_ensemble_parts,
         seed_feature_table,
         seed_flow_bagged_trees,
         seed_flow_knn,
@@ -515,16 +516,10 @@ def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
         f"simulating {n_members} recordings of the twin ({recording_s:g} s, 15 sensors, "
         "the seed's 20 labels) and extracting indicators"
     )
-    part_size = 160
     seed_parts, own_parts, example = [], [], None
-    for start in range(0, n_members, part_size):
-        ensemble = simulate_seed_ensemble(
-            n_members,
-            seed=seed,
-            t_end=recording_s,
-            batch_size=part_size,
-            members=slice(start, min(start + part_size, n_members)),
-        )
+    for ensemble in seed_ensemble_parts(
+        n_members, part_size=160, seed=seed, t_end=recording_s
+    ):
         seed_parts.append(seed_feature_table(ensemble, residuals=False))
         own_parts.append(extract_ensemble(ensemble, groups=groups, **cycle))
         if example is None:
@@ -725,11 +720,7 @@ def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
             (
                 "Mismatch found",
                 "; ".join(
-                    f"{m['name']}: "
-                    + " + ".join(
-                        f"{e} on {t}" for e, t in [(m["effect"], m["target"]), *m["also"]]
-                    )
-                    + ", RMSE "
+                    f"{m['name']}: {m['named']}, RMSE "
                     f"{m['fit']['rmse_nominal']:.3g} -> {m['fit']['rmse_augmented']:.3g}"
                     for m in mismatch
                 ),

@@ -51,6 +51,8 @@ class DemoMismatch:
         The discovery result (``verdict``, ``located``, ``fit``, ``plot``).
     seconds : float
         Wall-clock time of the discovery.
+    output : str
+        The output its figure shows.
     """
 
     name: str
@@ -58,6 +60,17 @@ class DemoMismatch:
     right: bool | None
     result: Any
     seconds: float
+    output: str
+
+    @property
+    def named(self) -> str:
+        """Every effect of the verdict, ``"leak on pa + sensor_offset on pa"``."""
+        v = self.result.verdict
+        effects = [
+            (v["effect"], v.get("target")),
+            *[(a["effect"], a["target"]) for a in v.get("also", [])],
+        ]
+        return " + ".join(f"{e} on {t}" for e, t in effects)
 
     def summary(self) -> dict:
         """The case as JSON-ready numbers: verdict, windows, fit before / after.
@@ -65,7 +78,7 @@ class DemoMismatch:
         Examples
         --------
         >>> from pdmkit.models.mismatch._cases import example_result
-        >>> case = DemoMismatch("control", "nothing", True, example_result(), 1.0)
+        >>> case = DemoMismatch("control", "nothing", True, example_result(), 1.0, "x")
         >>> sorted(case.summary())[:4]
         ['also', 'effect', 'fit', 'located']
         """
@@ -78,6 +91,7 @@ class DemoMismatch:
             "target": v.get("target"),
             "physics": v.get("physics"),
             "also": [(a["effect"], a["target"]) for a in v.get("also", [])],
+            "named": self.named,
             "right": self.right,
             "fit": {
                 "rmse_nominal": float(fit["rmse_nominal"]),
@@ -127,6 +141,7 @@ def concealed_piston_case(seed: int = 0, max_seconds: float | None = None) -> De
         right=bool(v["effect"] == effect and v.get("target") == target),
         result=result,
         seconds=seconds,
+        output=target,
     )
 
 
@@ -169,6 +184,7 @@ def cascaded_tanks_case(max_seconds: float | None = None) -> DemoMismatch | None
         right=None,
         result=result,
         seconds=seconds,
+        output="h2",
     )
 
 
@@ -221,9 +237,7 @@ def add_mismatch_section(report, cases: list[DemoMismatch], number: int) -> None
             {
                 "case": s["name"],
                 "known to be missing": s["truth"],
-                "verdict": " + ".join(
-                    f"{e} on {t}" for e, t in [(s["effect"], s["target"]), *s["also"]]
-                ),
+                "verdict": s["named"],
                 "right": "" if s["right"] is None else ("yes" if s["right"] else "no"),
                 "RMSE nominal": s["fit"]["rmse_nominal"],
                 "RMSE augmented": s["fit"]["rmse_augmented"],
@@ -237,11 +251,10 @@ def add_mismatch_section(report, cases: list[DemoMismatch], number: int) -> None
     )
     for c in cases:
         report.add_text(f"{c.name}: {c.result.verdict.get('physics', '')}")
-        output = c.result.outputs[-1] if c.name.startswith("Cascaded") else "pa"
-        fig = c.result.plot(output=output)[0].figure
+        fig = c.result.plot(output=c.output)[0].figure
         report.add_figure(
             fig,
-            caption=f"{c.name}, {output}: measured (black), re-fitted nominal model "
+            caption=f"{c.name}, {c.output}: measured (black), re-fitted nominal model "
             "(blue), with the named effect (red); residuals below; shaded: the located "
             "windows.",
         )

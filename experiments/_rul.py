@@ -728,6 +728,24 @@ def predict_rul(
     return answer
 
 
+def units_in_seconds(table: pd.DataFrame, where) -> tuple[pd.DataFrame, str | None]:
+    """:func:`pdmkit.rul.timestamps_to_seconds` with errors naming ``where`` (a file).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from pdmkit.experiments._rul import units_in_seconds
+    >>> units_in_seconds(pd.DataFrame({"cycle": [1, 2]}), "units.csv")[1] is None
+    True
+    """
+    from pdmkit.rul import timestamps_to_seconds
+
+    try:
+        return timestamps_to_seconds(table)
+    except DataError as exc:
+        raise DataError(f"{where}: {exc}") from None
+
+
 def _predict_rul(model_file, history, expect_sha256=None) -> dict[str, Any]:
     from pdmkit._persist import load_model
     from pdmkit.ensembles._readers import read_table
@@ -739,16 +757,9 @@ def _predict_rul(model_file, history, expect_sha256=None) -> dict[str, Any]:
             f"{model_file}: holds a {type(pipeline).__name__}, not a RUL model; train "
             "one with `pdmkit rul ... --out DIR` (it writes DIR/model.pdmkit)"
         )
-    from pdmkit.rul import timestamps_to_seconds
-
     table = history if isinstance(history, pd.DataFrame) else read_table(history)
     where = "history" if isinstance(history, pd.DataFrame) else str(history)
-    time = next((c for c in ("time", "cycle") if c in table.columns), None)
-    if time is not None:
-        try:
-            table, _ = timestamps_to_seconds(table, time)
-        except DataError as exc:
-            raise DataError(f"{where}: {exc}") from None
+    table, _ = units_in_seconds(table, where)
     for column in table.select_dtypes("number"):  # overflows: silent wrong answers
         check_magnitude(table[column], f"{where}: column {column!r}")
     unit = getattr(getattr(pipeline, "model", pipeline), "unit", "unit")

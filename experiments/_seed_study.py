@@ -1394,6 +1394,47 @@ def seed_comparison(
     )
 
 
+def seed_ensemble_parts(n_members: int, *, part_size: int = 242, **options):
+    """The seed data set simulated part by part, so memory holds one part's recordings.
+
+    Each part is :func:`pdmkit.ensembles.simulate_seed_ensemble` of the whole design
+    (``n_members`` and ``options``) restricted to ``part_size`` consecutive members;
+    parts made of whole ``batch_size`` blocks record exactly what the whole ensemble
+    records, so ``batch_size`` is ``part_size``.
+
+    Parameters
+    ----------
+    n_members : int
+        Size of the whole data set.
+    part_size : int, default 242
+        Members per part.
+    **options
+        Passed to :func:`pdmkit.ensembles.simulate_seed_ensemble`.
+
+    Yields
+    ------
+    Ensemble
+
+    Examples
+    --------
+    >>> from pdmkit.experiments._seed_study import seed_ensemble_parts
+    >>> parts = seed_ensemble_parts(40, part_size=25, t_end=0.2,
+    ...                             signals=["FlowContraction"])
+    >>> [len(p) for p in parts]
+    [25, 15]
+    """
+    from pdmkit.ensembles import simulate_seed_ensemble
+
+    starts = range(0, n_members, part_size)
+    for start in progress(starts, desc="seed data set", total=len(starts)):
+        yield simulate_seed_ensemble(
+            n_members,
+            batch_size=part_size,
+            members=slice(start, min(start + part_size, n_members)),
+            **options,
+        )
+
+
 def run_seed_study(
     n_members: int = 4840,
     *,
@@ -1448,27 +1489,20 @@ def run_seed_study(
     >>> out["comparison"]["recipe"].tolist()
     ['flow_knn', 'flow_bagged_trees', 'flow_pca_bagged_trees', 'residual_classification']
     """
-    from pdmkit.ensembles import simulate_seed_ensemble
-
     seconds: dict[str, float] = {}
     started = time.perf_counter()
-    parts = []
-    starts = range(0, int(n_members), int(part_size))
-    for start in progress(
-        starts, desc="seed study: simulate + indicators", total=len(starts)
-    ):
-        ens = simulate_seed_ensemble(
+    parts = [
+        seed_feature_table(ens)
+        for ens in seed_ensemble_parts(
             int(n_members),
+            part_size=int(part_size),
             repeats=repeats,
             variation=variation,
             **({} if jitter is None else {"jitter": jitter}),
             t_end=t_end,
             seed=seed,
-            batch_size=int(part_size),
-            members=slice(start, min(start + int(part_size), int(n_members))),
         )
-        parts.append(seed_feature_table(ens))
-        del ens
+    ]
     table = pd.concat(parts)
     seconds["simulate_and_indicators"] = round(time.perf_counter() - started, 1)
     results: dict[str, SeedResult] = {}

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from pdmkit._checks import check_int
+from pdmkit._checks import check_int, parse_timestamps
 from pdmkit.errors import DataError, NotFittedError
 from pdmkit.rul._result import RULPrediction
 
@@ -54,7 +54,7 @@ def check_table(table, what: str = "table") -> pd.DataFrame:
 
 
 def timestamps_to_seconds(
-    table: pd.DataFrame, time: str = "time"
+    table: pd.DataFrame, time: str | None = None
 ) -> tuple[pd.DataFrame, str | None]:
     """Turn a time column of timestamps into seconds since the earliest one.
 
@@ -67,8 +67,8 @@ def timestamps_to_seconds(
     ----------
     table : pandas.DataFrame
         Long table (one row per unit and time).
-    time : str, default "time"
-        The time column.
+    time : str, optional
+        The time column (default ``"time"``, else ``"cycle"``; none: nothing to do).
 
     Returns
     -------
@@ -90,29 +90,25 @@ def timestamps_to_seconds(
     >>> table["time"].tolist(), origin
     ([0.0, 3600.0], '2004-03-04T09:27:46')
     """
-    if time not in table.columns:
+    if time is None:
+        time = next((c for c in ("time", "cycle") if c in table.columns), None)
+    if time is None or time not in table.columns:
         return table, None
     column = table[time]
-    if pd.api.types.is_bool_dtype(column) or (
-        pd.api.types.is_numeric_dtype(column)
-        and not pd.api.types.is_datetime64_any_dtype(column)
-    ):
+    if pd.api.types.is_numeric_dtype(column):  # seconds or cycles already
         return table, None
-    if pd.api.types.is_datetime64_any_dtype(column):
-        stamps = column
-    else:
-        if pd.to_numeric(column, errors="coerce").notna().all():
-            return table.assign(**{time: pd.to_numeric(column)}), None
-        with warnings.catch_warnings():  # "could not infer format": parsed one by one
-            warnings.simplefilter("ignore", UserWarning)
-            stamps = pd.to_datetime(column, errors="coerce")
-        bad = column[stamps.isna() & column.notna()]
-        if len(bad) or stamps.isna().all():
-            row = bad.index[0] if len(bad) else column.index[0]
-            raise DataError(
-                f"time column {time!r} must hold numbers (cycles or seconds) or "
-                f"timestamps; row {row} holds {column.loc[row]!r}"
-            )
+    if not pd.api.types.is_datetime64_any_dtype(column):
+        numbers = pd.to_numeric(column, errors="coerce")
+        if numbers.notna().all():  # numbers read as text
+            return table.assign(**{time: numbers}), None
+    stamps = parse_timestamps(column)
+    bad = column[stamps.isna() & column.notna()]
+    if len(bad) or stamps.isna().all():
+        row = bad.index[0] if len(bad) else column.index[0]
+        raise DataError(
+            f"time column {time!r} must hold numbers (cycles or seconds) or "
+            f"timestamps; row {row} holds {column.loc[row]!r}"
+        )
     origin = stamps.min()
     seconds = (stamps - origin).dt.total_seconds().astype(float)
     return table.assign(**{time: seconds}), origin.isoformat()
