@@ -705,14 +705,20 @@ def seed_flow_bagged_trees(
     >>> seed_flow_bagged_trees(ens).details["n_indicators"]
     24
     """
+    accuracy, details = _all_flow_indicators(data, label, "bagged_trees", split, seed)
+    return _result("flow_bagged_trees", accuracy, _WHY_FLOW, details)
+
+
+def _all_flow_indicators(data, label: str, model: str, split: str, seed: int):
+    """(accuracy, details) of ``model`` on all flow indicators, 5-fold (table 7.2)."""
     table = _table_for(data, ["Flow"])
     label = _label_of(table, label)
     started = time.perf_counter()
     cols = _flow_columns(table)
-    accuracy, notes = _evaluate(table, cols, label, "bagged_trees", "kfold", seed, split)
+    accuracy, notes = _evaluate(table, cols, label, model, "kfold", seed, split)
     details = {**notes, "n_indicators": len(cols)}
     details["seconds"] = round(time.perf_counter() - started, 2)
-    return _result("flow_bagged_trees", accuracy, _WHY_FLOW, details)
+    return accuracy, details
 
 
 def seed_flow_pca_bagged_trees(
@@ -744,15 +750,8 @@ def seed_flow_pca_bagged_trees(
     >>> seed_flow_pca_bagged_trees(ens).metric
     'accuracy %'
     """
-    table = _table_for(data, ["Flow"])
-    label = _label_of(table, label)
-    started = time.perf_counter()
-    cols = _flow_columns(table)
-    accuracy, notes = _evaluate(
-        table, cols, label, "pca_bagged_trees", "kfold", seed, split
-    )
-    details = {**notes, "n_indicators": len(cols), "variance_kept": 0.98}
-    details["seconds"] = round(time.perf_counter() - started, 2)
+    accuracy, details = _all_flow_indicators(data, label, "pca_bagged_trees", split, seed)
+    details["variance_kept"] = 0.98
     why = (
         _WHY_FLOW + "; PCA of unscaled indicators is led by the largest-scale ones "
         "(PeakAmp, BandPower), as in the seed"
