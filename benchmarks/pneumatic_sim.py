@@ -1,9 +1,10 @@
-"""Batched fixed-step piston simulator vs scipy solve_ivp (LSODA) on the same rhs.
+"""Batched fixed-step piston simulator vs scipy solve_ivp (LSODA) on the same piston_rhs.
 
-One run measures both: ``simulate`` steps ``--members`` members (varied fault settings
+One run measures both: ``simulate_piston`` steps ``--members`` members (varied fault
+settings
 of seed table 3.2) over ``--t-end`` seconds at once; ``solve_ivp`` (LSODA, rtol 1e-6,
 tight atol, restarted at each valve switch) integrates ``--reference`` of those members
-one at a time on ``pdmkit.models.rhs``. Reported: the per-member speed ratio
+one at a time on ``pdmkit.models.piston_rhs``. Reported: the per-member speed ratio
 (LSODA seconds per member / batched seconds per member) and the largest position error
 of the batched result against LSODA on the reference members.
 
@@ -21,7 +22,12 @@ import time
 
 import numpy as np
 
-from pdmkit.models import PneumaticParams, simulate, simulate_ivp, stack_params
+from pdmkit.models import (
+    PneumaticParams,
+    simulate_piston,
+    simulate_piston_ivp,
+    stack_params,
+)
 
 
 def fault_members(n: int, seed: int = 0) -> list[PneumaticParams]:
@@ -63,17 +69,19 @@ def main(argv: list[str] | None = None) -> dict:
     members = fault_members(args.members)
     params = stack_params(members)
     kw = {} if args.dt is None else {"dt": args.dt}
-    simulate(members[0], t_end=0.05, sensors=False, **kw)  # warm up imports and caches
+    simulate_piston(
+        members[0], t_end=0.05, sensors=False, **kw
+    )  # warm up imports and caches
 
     t0, c0 = time.perf_counter(), time.process_time()
-    batched = simulate(params, t_end=args.t_end, sensors=False, **kw)
+    batched = simulate_piston(params, t_end=args.t_end, sensors=False, **kw)
     t_batch, c_batch = time.perf_counter() - t0, time.process_time() - c0
 
     ref_ids = list(range(min(args.reference, args.members)))
     errors, t_ref, c_ref = [], 0.0, 0.0
     for i in ref_ids:
         t0, c0 = time.perf_counter(), time.process_time()
-        ref = simulate_ivp(members[i], t_end=args.t_end, method="LSODA", rtol=1e-6)
+        ref = simulate_piston_ivp(members[i], t_end=args.t_end, method="LSODA", rtol=1e-6)
         t_ref += time.perf_counter() - t0
         c_ref += time.process_time() - c0
         err = np.abs(batched.states["position"][i] - ref.states["position"][0]).max()
@@ -99,7 +107,8 @@ def main(argv: list[str] | None = None) -> dict:
         "python": platform.python_version(),
     }
     print(
-        f"batched simulate : {args.members} members x {args.t_end:g} s in {t_batch:.2f} s "
+        f"batched simulate_piston : {args.members} members x {args.t_end:g} s "
+        f"in {t_batch:.2f} s "
         f"({per_member_batched * 1e3:.1f} ms per member)"
     )
     print(

@@ -229,7 +229,7 @@ def _simulate_batches(
     params_cols, n, *, t_end, fs, signals, seed, batch_size, desc, specs=None
 ):
     """Simulate ``n`` members in batches; return {signal: (n, n_samples)}."""
-    from pdmkit.models import PneumaticParams, simulate
+    from pdmkit.models import PneumaticParams, simulate_piston
 
     seeds = np.random.SeedSequence(seed).spawn((n + batch_size - 1) // batch_size)
     out: dict[str, list[np.ndarray]] = {}
@@ -242,7 +242,7 @@ def _simulate_batches(
         batch_specs = None
         if specs is not None:
             batch_specs = {name: _slice_spec(spec, sl) for name, spec in specs.items()}
-        response = simulate(
+        response = simulate_piston(
             params,
             t_end=t_end,
             fs=fs,
@@ -1031,7 +1031,7 @@ def pneumatic_residuals(
     >>> res.signal_names
     ['LeverPosition_res']
     """
-    from pdmkit.models import PneumaticParams, SensorSpec, simulate
+    from pdmkit.models import PneumaticParams, SensorSpec, simulate_piston
 
     missing = [c for c in ("load_kg", "supply_bar") if c not in ensemble.conditions]
     if missing:
@@ -1075,7 +1075,7 @@ def pneumatic_residuals(
     n_samples = arrays[signals[0]].shape[1]
     duration = t_end if t_end is not None else n_samples / rate_hz
     ideal = {name: SensorSpec() for name in signals}
-    nominal = simulate(
+    nominal = simulate_piston(
         params,
         t_end=duration,
         fs=rate_hz,

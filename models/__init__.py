@@ -1,45 +1,41 @@
-"""pdmkit.models: dynamic models: the pneumatic-piston digital twin and user ODE models.
+"""pdmkit.models: dynamic models, one subpackage per concept.
 
-The double-acting pneumatic piston of the seed thesis (chapters 3-4, 8): valve mass flows
-with the outflow function, 5/2 solenoid valve, adiabatic chambers, a supply reservoir,
-gravity, friction, hard stops, end dampers and chamber air leaks, plus models of the
-fifteen sensors of the demonstration device. One right-hand side (:func:`rhs`) drives a
-batched fixed-step integrator (:func:`simulate`; numpy, or torch with autograd) and a
-``solve_ivp`` reference (:func:`simulate_ivp`).
-
-User models are plain Python files (the model-file contract of ``docs/mismatch.md``)
-loaded by :func:`load_model_file` and simulated batched by :func:`simulate_ode`.
-:func:`discover_mismatch` explains where such a model and a recording differ: it fits the
-nominal model, locates the residual in time, state space and frequency
-(:func:`residual_windows`, :func:`region_statistics`, :func:`residual_spectrum`,
-:func:`whiteness_test`), fits the candidate physics of :func:`candidate_library` and
-names the effect that was left out.
+========================  ==============================================================
+subpackage                what it holds
+========================  ==============================================================
+``models.pneumatic``      the pneumatic piston's digital twin (seed ``001``): parameters,
+                          right-hand side, batched integrator, sensor models, estimation
+``models.mismatch``       user ODE model files, their batched simulation, and mismatch
+                          discovery (locate, candidate physics, sparse terms, verdict)
+``models.diagnosis``      diagnostic masks and matrices (seed ``000``), symbolic dynamics
+                          (seed ``002``)
+``models.rigs``           simulated rigs of the source studies (the mass-beam rig)
+========================  ==============================================================
 
 System identification (``docs/identification.md``): :func:`identify` dispatches to
 :func:`ar`, :func:`arx`, :func:`armax`, :func:`oe`, :func:`bj` (prediction-error
 methods) and :func:`n4sid` (subspace), with :func:`select_order` by AIC/BIC/MDL; an
 :class:`IdentifiedModel` gives poles, natural frequencies, damping and simulation.
-:class:`RecursiveARX` and :func:`track_poles` follow poles over time;
-:class:`DiagnosticMask` and :class:`DiagnosticMatrix` turn tracks into alarms and faults.
+:class:`RecursiveARX` and :func:`track_poles` follow poles over time.
 
 Frequency domain and nonlinear structures (``docs/model_indicators.md``):
 :func:`frf_estimate` (H1 with coherence), :func:`fit_tf` (Sanathanan-Koerner rational
 fits in s or z), :func:`fit_frf_params` (coherence-weighted grey-box fits),
 :func:`balanced_truncation`; :func:`linearize` (Jacobians by autograd);
 :class:`HammersteinWiener`; fractional-order models (:func:`fit_fractional_tf`,
-:func:`gl_simulate`, :func:`oustaloup`); the symbolic-dynamics
-:class:`SymbolicAnomaly`; and the mass-beam rig of seed 002 (:class:`MassBeamRig`).
+:func:`gl_simulate`, :func:`oustaloup`).
+
+The public names of every subpackage are also importable from ``pdmkit.models``
+directly.
 
 Examples
 --------
->>> from pdmkit.models import PneumaticParams, simulate
->>> r = simulate(PneumaticParams(), t_end=0.5, seed=0)
+>>> from pdmkit.models import PneumaticParams, simulate_piston
+>>> r = simulate_piston(PneumaticParams(), t_end=0.5, seed=0)
 >>> round(float(r.states["position"][0, -1]), 3)
 0.16
 """
 
-from pdmkit.models._diagnosis import DiagnosticMask, DiagnosticMatrix, MaskResult
-from pdmkit.models._estimate import EstimationResult, estimate_parameters
 from pdmkit.models._fractional import (
     FractionalConditionClassifier,
     FractionalFit,
@@ -84,29 +80,14 @@ from pdmkit.models._ident import (
     select_order,
 )
 from pdmkit.models._ident_pem import armax, bj, oe
-from pdmkit.models._integrate import simulate, simulate_ivp
 from pdmkit.models._linearize import LinearModel, linearize
-from pdmkit.models._massbeam import MassBeamRig
-from pdmkit.models._pneumatic import (
-    STATE_NAMES,
-    PneumaticParams,
-    initial_state,
-    orifice_mass_flow,
-    outflow_function,
-    rhs,
-    stack_params,
-    valve_command,
-)
 from pdmkit.models._recursive import PoleTracks, RecursiveARX, smooth_tracks, track_poles
-from pdmkit.models._response import PneumaticResponse, ResponseData
-from pdmkit.models._sensors import (
-    SENSOR_NAMES,
-    SENSOR_UNITS,
-    SensorSpec,
-    default_sensor_specs,
-)
+from pdmkit.models._response import ResponseData
 from pdmkit.models._subspace import n4sid, ss_predict, ss_simulate
-from pdmkit.models._symbolic import (
+from pdmkit.models.diagnosis import (
+    DiagnosticMask,
+    DiagnosticMatrix,
+    MaskResult,
     SymbolicAnomaly,
     max_entropy_partition,
     state_probabilities,
@@ -147,6 +128,26 @@ from pdmkit.models.mismatch import (
     stlsq_path,
     whiteness_test,
 )
+from pdmkit.models.pneumatic import (
+    SENSOR_NAMES,
+    SENSOR_UNITS,
+    STATE_NAMES,
+    EstimationResult,
+    PneumaticParams,
+    PneumaticResponse,
+    SensorSpec,
+    default_sensor_specs,
+    estimate_parameters,
+    initial_state,
+    orifice_mass_flow,
+    outflow_function,
+    piston_rhs,
+    simulate_piston,
+    simulate_piston_ivp,
+    stack_params,
+    valve_command,
+)
+from pdmkit.models.rigs import MassBeamRig
 
 __all__ = [
     "CANDIDATE_IDS",
@@ -233,17 +234,17 @@ __all__ = [
     "orifice_mass_flow",
     "oustaloup",
     "outflow_function",
+    "piston_rhs",
     "region_statistics",
     "residual_spectrum",
     "residual_windows",
-    "rhs",
     "score_concealed_cases",
     "select_order",
     "showcase_model",
     "showcase_source",
-    "simulate",
-    "simulate_ivp",
     "simulate_ode",
+    "simulate_piston",
+    "simulate_piston_ivp",
     "smooth_tracks",
     "sparse_equation",
     "ss_predict",

@@ -7,7 +7,7 @@ the model's natural frequencies and damping there.
 
 :func:`linearize` takes a user :class:`~pdmkit.models.mismatch.OdeModel` (the model-file
 contract ``rhs(t, x, u, p)`` with dicts), or any function ``fun(t, x, *args)`` on a
-state vector, such as the pneumatic twin's :func:`pdmkit.models.rhs` (its input, the
+state vector, such as the pneumatic twin's :func:`pdmkit.models.piston_rhs` (its input, the
 valve command, is a function of time, so only ``A`` is returned there).
 """
 
@@ -131,7 +131,7 @@ def linearize(model, x0, u0=None, *, params=None, t: float = 0.0, args=()) -> Li
     model : OdeModel or callable
         An :class:`~pdmkit.models.mismatch.OdeModel` (``rhs(t, x, u, p)`` with dicts),
         or ``fun(t, x, *args) -> dx/dt`` on a 1-D state tensor (e.g.
-        :func:`pdmkit.models.rhs` with ``args=(PneumaticParams(),)``).
+        :func:`pdmkit.models.piston_rhs` with ``args=(PneumaticParams(),)``).
     x0 : dict or array_like
         Operating-point state (dict by state name for an OdeModel; missing states 0).
     u0 : dict or array_like, optional

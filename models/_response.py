@@ -10,7 +10,7 @@ import numpy as np
 from pdmkit.errors import ModelError
 from pdmkit.models._xp import is_torch
 
-__all__ = ["PneumaticResponse", "ResponseData"]
+__all__ = ["ResponseData"]
 
 _GROUPS = ("inputs", "states", "signals", "outputs")
 
@@ -246,33 +246,3 @@ class ResponseData:
         if len(set(map(id, axes))) == 1 and len(signals) > 1:
             axes[0].legend(loc="best", fontsize="small")
         return axes
-
-
-class PneumaticResponse(ResponseData):
-    """Response of :func:`~pdmkit.models.simulate`: a :class:`ResponseData` with params.
-
-    Attributes
-    ----------
-    params : PneumaticParams
-        The parameters simulated (batched when members differ).
-    sensor_specs : dict of str to SensorSpec or None
-        The sensor models used for :attr:`outputs`.
-
-    Examples
-    --------
-    >>> from pdmkit.models import simulate
-    >>> r = simulate(t_end=0.05, sensors=False)
-    >>> type(r).__name__, r.states["position"].shape
-    ('PneumaticResponse', (1, 50))
-    """
-
-    def __init__(self, *args, params=None, sensor_specs=None, **kwargs) -> None:
-        kwargs.setdefault("name", "pneumatic piston")
-        super().__init__(*args, **kwargs)
-        self.params = params
-        self.sensor_specs = sensor_specs
-
-    def _default_signals(self) -> list[str]:
-        if "LeverPosition" in self.outputs:
-            return ["LeverPosition", "FlowExtrusion", "AirPressure", "MIC_uBumper"]
-        return ["position", "pressure_a", "pressure_b", "pressure_supply"]

@@ -1,6 +1,6 @@
 """Double-acting pneumatic piston with a proportional valve and a load spring (showcase).
 
-A reduced form of pdmkit's pneumatic twin (:mod:`pdmkit.models._pneumatic`) in the
+A reduced form of pdmkit's pneumatic twin (:mod:`pdmkit.models.pneumatic._twin`) in the
 model-file contract: the piston (position x from mid-stroke, velocity v) pushes a spring
 load; chambers A (cap end) and B (rod end) are filled from the supply and vented to
 ambient through a 5/3 proportional valve with underlap, commanded by u in [-1, 1]

@@ -209,11 +209,11 @@ def test_speed_lost_in_the_twins_upper_damper_follows_the_damping_law():
     # a heavy piston (6.75 kg) barely slows in the small damper, so there dv/dx = -b/m
     # plus drive terms that do not depend on b: between two damper settings the speed
     # lost from 8 mm to 3.2 mm before the top differs by (b2 - b1) * 4.8 mm / m
-    from pdmkit.models import PneumaticParams, simulate
+    from pdmkit.models import PneumaticParams, simulate_piston
 
     settings = np.array([1.0, 3.0, 5.0, 7.0])
     p = PneumaticParams(mass_load=np.full(4, 6.25), damper_upper=settings)
-    r = simulate(p, t_end=2.5, sensors=["LeverPosition"], seed=0)
+    r = simulate_piston(p, t_end=2.5, sensors=["LeverPosition"], seed=0)
     f = cycle_features(
         np.asarray(r.outputs["LeverPosition"]), FS, p.cycle_period,
         start=p.cycle_start, levels=(0.95, 0.98), n_windows=0,

@@ -8,7 +8,7 @@ import pytest
 from scipy import stats
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
-from pdmkit.models._diagnosis import DiagnosticMask, DiagnosticMatrix
+from pdmkit.models.diagnosis._masks import DiagnosticMask, DiagnosticMatrix
 
 
 def test_no_alarm_on_a_stationary_record_of_1e5_samples():

@@ -10,15 +10,15 @@ import pytest
 from scipy import stats
 
 from pdmkit.errors import ConvergenceWarning, DataError, ModelError
-from pdmkit.models import PneumaticParams, SensorSpec, initial_state, simulate
-from pdmkit.models._estimate import (
+from pdmkit.models import PneumaticParams, SensorSpec, initial_state, simulate_piston
+from pdmkit.models._xp import get_namespace
+from pdmkit.models.pneumatic._estimate import (
     _command_table,
     _readings,
     _run_windows,
     _setup_problem,
     estimate_parameters,
 )
-from pdmkit.models._xp import get_namespace
 
 SIX = ("c_a_in", "c_a_out", "c_b_in", "c_b_out", "damper_upper", "damper_bottom")
 #: a member whose valves and dampers all differ from the defaults (5e-6 m^2, setting 5)
@@ -41,18 +41,20 @@ def damper_coefficient(setting: float, p: PneumaticParams) -> float:
 @pytest.fixture(scope="module")
 def hidden_recording():
     # one up and one down stroke with the default sensor noise and quantisation
-    return simulate(HIDDEN, t_end=1.6, seed=7)
+    return simulate_piston(HIDDEN, t_end=1.6, seed=7)
 
 
 @pytest.fixture(scope="module")
 def up_stroke():
     truth = PneumaticParams(c_a_in=6.5e-6)
-    return simulate(truth, t_end=0.5, seed=3, sensors=["LeverPosition", "FlowExtrusion"])
+    return simulate_piston(
+        truth, t_end=0.5, seed=3, sensors=["LeverPosition", "FlowExtrusion"]
+    )
 
 
 # ----------------------------------------------------------------------- the integrator
 def test_window_integrator_reproduces_simulate_and_its_sensors() -> None:
-    """The windowed stepper is the integrator of simulate(), bit for bit in effect."""
+    """The windowed stepper is simulate_piston()'s integrator, bit for bit in effect."""
     p = HIDDEN
     names = [
         "LeverPosition",
@@ -63,7 +65,7 @@ def test_window_integrator_reproduces_simulate_and_its_sensors() -> None:
         "AirPressure",
     ]
     ideal = {k: SensorSpec() for k in names}  # no noise, no quantisation
-    ref = simulate(p, t_end=0.4, sensors=names, sensor_specs=ideal, seed=0)
+    ref = simulate_piston(p, t_end=0.4, sensors=names, sensor_specs=ideal, seed=0)
     h, n_sub, n = 2e-4, 5, 400
     u = _command_table(p, np.zeros(1), (n - 1) * n_sub, h)
     y0 = np.asarray(initial_state(p, 1))
@@ -114,7 +116,7 @@ def test_standard_error_matches_the_scatter_over_noise_realisations() -> None:
     truth = PneumaticParams(c_a_in=6.5e-6)
     est, se, covered = [], [], 0
     for seed in range(5):
-        rec = simulate(truth, t_end=0.5, seed=seed, sensors=["FlowExtrusion"])
+        rec = simulate_piston(truth, t_end=0.5, seed=seed, sensors=["FlowExtrusion"])
         res = estimate_parameters(
             rec, free=["c_a_in"], signals=["FlowExtrusion"], n_starts=1, max_windows=1
         )

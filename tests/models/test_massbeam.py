@@ -5,7 +5,7 @@ import pytest
 from scipy.integrate import quad
 
 from pdmkit.errors import ModelError
-from pdmkit.models._massbeam import MassBeamRig
+from pdmkit.models.rigs._massbeam import MassBeamRig
 
 
 def test_resonances_of_seed_002_section_3():

@@ -18,8 +18,8 @@ from pdmkit.models import (
     initial_state,
     orifice_mass_flow,
     outflow_function,
-    rhs,
-    simulate,
+    piston_rhs,
+    simulate_piston,
     stack_params,
 )
 
@@ -43,7 +43,7 @@ def series(c1, c2):
 @pytest.fixture(scope="module")
 def healthy():
     """A 4 s recording (two full up/down cycles) of the default piston."""
-    return simulate(PneumaticParams(), t_end=4.0, sensors=False)
+    return simulate_piston(PneumaticParams(), t_end=4.0, sensors=False)
 
 
 # ------------------------------------------------------------------ outflow function
@@ -91,7 +91,7 @@ def test_chamber_inflow_is_choked_in_a_simulation() -> None:
     # a fast spool, 10 kHz output: while p_A / p_r < 0.528 the mean inflow over each
     # sample equals C_eff p_r sqrt(2/(R T)) psi_max, whatever p_A is
     p = PneumaticParams(valve_time_constant=1e-5)
-    r = simulate(p, t_end=0.14, fs=1e4, dt=1e-4, sensors=False)
+    r = simulate_piston(p, t_end=0.14, fs=1e4, dt=1e-4, sensors=False)
     pa, pr = r.states["pressure_a"][0], r.states["pressure_supply"][0]
     m_a = r.signals["mass_flow_a"][0]
     c_eff = series(p.c_a_in, p.c_throttle_max * p.throttle_a / 10 + p.c_check_valve)
@@ -121,7 +121,7 @@ def test_heavy_load_penetrates_the_stops_little() -> None:
     # 6.75 kg arriving at about 1.1 m/s: the stop (2e6 N/m) yields < 1.25 mm (the
     # LSODA solution peaks at 0.86 mm)
     p = PneumaticParams(mass_load=6.25)
-    x = simulate(p, t_end=2.2, sensors=False).states["position"][0]
+    x = simulate_piston(p, t_end=2.2, sensors=False).states["position"][0]
     assert x.max() >= p.stroke - 1e-3 and x.min() <= 1e-3
     assert x.max() - p.stroke < 1.25e-3 and x.min() > -1.25e-3
 
@@ -138,7 +138,7 @@ def test_rest_position_is_the_static_equilibrium() -> None:
         k = p.stop_stiffness + p.damper_large_stiffness + p.damper_small_stiffness
         y0 = np.asarray(initial_state(p))
         assert y0[0] == pytest.approx(-(f - pre) / k, rel=1e-9)
-        assert abs(rhs(0.0, y0, p)[1]) < 1e-6  # no acceleration
+        assert abs(piston_rhs(0.0, y0, p)[1]) < 1e-6  # no acceleration
 
 
 def test_pressures_reach_supply_and_ambient(healthy) -> None:
@@ -190,7 +190,7 @@ def _leak_balance(p: PneumaticParams, c_leak: float):
 
 def test_leak_lowers_chamber_b_pressure() -> None:
     base = PneumaticParams()
-    r = simulate(
+    r = simulate_piston(
         stack_params([base.replace(c_leak_b=1e-10), base.replace(c_leak_b=1e-6)]),
         t_end=2.1,
         sensors=False,
@@ -215,7 +215,7 @@ def test_fault_settings_change_the_stroke_time() -> None:
         {"mass_load": 6.25},
         {"damper_upper": 10.0},  # stiff upper damper: slow final approach
     ]
-    r = simulate(
+    r = simulate_piston(
         stack_params([base.replace(**s) for s in settings]), t_end=1.1, sensors=False
     )
     x = r.states["position"]

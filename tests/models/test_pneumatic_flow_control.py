@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from pdmkit.models import PneumaticParams, SensorSpec, simulate, stack_params
+from pdmkit.models import PneumaticParams, SensorSpec, simulate_piston, stack_params
 
 R_GAS = 287.1
 T0 = 293.15
@@ -48,7 +48,7 @@ def runs():
         ]
     )
     specs = {name: SensorSpec() for name in FLOWS}
-    return simulate(p, t_end=2.1, sensors=list(FLOWS), sensor_specs=specs, seed=0)
+    return simulate_piston(p, t_end=2.1, sensors=list(FLOWS), sensor_specs=specs, seed=0)
 
 
 def _mid_stroke(r, i, up: bool):
@@ -107,7 +107,7 @@ def test_a_two_way_throttle_slows_both_strokes() -> None:
     # separate C_in / C_out per line (table 4.2) would not need; with the check valve
     # the up stroke keeps its speed (test above)
     base = PneumaticParams(c_check_valve=0.0)
-    r = simulate(
+    r = simulate_piston(
         stack_params([base, base.replace(throttle_a=2.0)]), t_end=1.1, sensors=False
     )
     v = [r.states["velocity"][i][_mid_stroke(r, i, up=True)].mean() for i in (0, 1)]

@@ -1,4 +1,4 @@
-"""The batched fixed-step integrator against scipy's solve_ivp on the same rhs."""
+"""The batched fixed-step integrator against scipy's solve_ivp on the same piston_rhs."""
 
 from __future__ import annotations
 
@@ -13,14 +13,14 @@ from pdmkit.models import (
     STATE_NAMES,
     PneumaticParams,
     initial_state,
-    rhs,
-    simulate,
+    piston_rhs,
+    simulate_piston,
     stack_params,
 )
 
 
 def lsoda_reference(p: PneumaticParams, t_end: float, fs: float = 1000.0) -> np.ndarray:
-    """solve_ivp(LSODA) on ``rhs``, restarted at each jump of the delayed valve command."""
+    """solve_ivp(LSODA) on ``piston_rhs``, restarted at each jump of the valve command."""
     t_eval = np.arange(round(t_end * fs)) / fs
     first = p.cycle_start + p.valve_delay
     jumps = [
@@ -37,7 +37,14 @@ def lsoda_reference(p: PneumaticParams, t_end: float, fs: float = 1000.0) -> np.
         if te.size == 0 or te[-1] < b:
             te = np.append(te, b)
         sol = solve_ivp(
-            rhs, (a, b), y, method="LSODA", rtol=1e-6, atol=atol, t_eval=te, args=(p,)
+            piston_rhs,
+            (a, b),
+            y,
+            method="LSODA",
+            rtol=1e-6,
+            atol=atol,
+            t_eval=te,
+            args=(p,),
         )
         assert sol.success, sol.message
         out[:, sel] = sol.y[:, : sel.sum()]
@@ -49,7 +56,7 @@ def lsoda_reference(p: PneumaticParams, t_end: float, fs: float = 1000.0) -> np.
 def test_fixed_step_matches_lsoda_over_a_ten_second_recording() -> None:
     p = PneumaticParams()
     ref = lsoda_reference(p, 10.0)
-    r = simulate(p, t_end=10.0, sensors=False)
+    r = simulate_piston(p, t_end=10.0, sensors=False)
     err = np.abs(r.states["position"][0] - ref[0])
     assert err.max() < 0.5e-3  # metres
     assert np.abs(r.states["pressure_b"][0] - ref[3]).max() < 0.1e5  # Pa
@@ -67,7 +74,7 @@ def test_fixed_step_matches_lsoda_under_fault_settings() -> None:
         (PneumaticParams(c_leak_b=1e-6), 0.3e-3),
     ):
         ref = lsoda_reference(p, 1.0)
-        x = simulate(p, t_end=1.0, sensors=False).states["position"][0]
+        x = simulate_piston(p, t_end=1.0, sensors=False).states["position"][0]
         assert np.abs(x - ref[0]).max() < tol
 
 
@@ -76,7 +83,8 @@ def test_error_shrinks_with_the_step() -> None:
     ref = lsoda_reference(p, 0.5)
     errs = [
         np.abs(
-            simulate(p, t_end=0.5, dt=dt, sensors=False).states["position"][0] - ref[0]
+            simulate_piston(p, t_end=0.5, dt=dt, sensors=False).states["position"][0]
+            - ref[0]
         ).max()
         for dt in (5e-4, 2e-4, 1e-4)
     ]
@@ -90,9 +98,9 @@ def test_batched_members_equal_members_run_one_by_one() -> None:
         PneumaticParams(mass_load=6.25, throttle_a=2.0),
         PneumaticParams(c_leak_b=1e-6, damper_upper=9.0, p_supply=701325.0),
     ]
-    batch = simulate(stack_params(members), t_end=0.7, sensors=False)
+    batch = simulate_piston(stack_params(members), t_end=0.7, sensors=False)
     for i, p in enumerate(members):
-        single = simulate(p, t_end=0.7, sensors=False)
+        single = simulate_piston(p, t_end=0.7, sensors=False)
         for name in STATE_NAMES:
             np.testing.assert_allclose(
                 batch.states[name][i], single.states[name][0], rtol=1e-9, atol=1e-12
@@ -108,13 +116,13 @@ def test_rhs_batched_equals_rhs_per_member() -> None:
     y[:, 1] = rng.normal(0, 0.5, 2)
     y[:, 2:5] *= rng.uniform(0.8, 1.0, (2, 3))
     y[:, 5] = [0.3, -0.7]
-    dy = rhs(0.5, y, batch)
+    dy = piston_rhs(0.5, y, batch)
     for i, p in enumerate(members):
-        np.testing.assert_allclose(dy[i], rhs(0.5, y[i], p), rtol=1e-12)
+        np.testing.assert_allclose(dy[i], piston_rhs(0.5, y[i], p), rtol=1e-12)
 
 
 def test_scalar_params_with_batch_give_identical_physics() -> None:
-    r = simulate(PneumaticParams(), t_end=0.3, batch=3, seed=0)
+    r = simulate_piston(PneumaticParams(), t_end=0.3, batch=3, seed=0)
     x = r.states["position"]
     assert x.shape == (3, 300) and np.array_equal(x[0], x[2])
     # sensor noise differs between members
@@ -123,22 +131,22 @@ def test_scalar_params_with_batch_give_identical_physics() -> None:
 
 def test_timing_and_batch_are_validated() -> None:
     with pytest.raises(ModelError, match="whole number of steps"):
-        simulate(t_end=0.1, fs=1000.0, dt=3e-4)
+        simulate_piston(t_end=0.1, fs=1000.0, dt=3e-4)
     with pytest.raises(ModelError, match="batch=3"):
-        simulate(
+        simulate_piston(
             stack_params([PneumaticParams(), PneumaticParams(mass_load=1.25)]),
             t_end=0.1,
             batch=3,
         )
     with pytest.raises(ModelError, match="unknown sensors"):
-        simulate(t_end=0.1, sensors=["LeverPositon"])
+        simulate_piston(t_end=0.1, sensors=["LeverPositon"])
 
 
 def test_divergence_is_reported_not_returned() -> None:
     # a valve coefficient 2000x too large makes the explicit pressure step unstable
     p = PneumaticParams(c_a_in=1e-2, c_throttle_max=1e-2, throttle_a=10.0)
     with pytest.raises(ModelError, match="smaller dt"):
-        simulate(p, t_end=0.3, sensors=False)
+        simulate_piston(p, t_end=0.3, sensors=False)
 
 
 @pytest.mark.torch
@@ -146,8 +154,8 @@ def test_torch_path_matches_numpy_and_has_gradients() -> None:
     torch = pytest.importorskip("torch")
     c = torch.tensor([5e-6, 3e-6], dtype=torch.float64, requires_grad=True)
     p_t = PneumaticParams(c_b_out=c)
-    r_t = simulate(p_t, t_end=0.15, sensors=False)
-    r_n = simulate(
+    r_t = simulate_piston(p_t, t_end=0.15, sensors=False)
+    r_n = simulate_piston(
         PneumaticParams(c_b_out=np.array([5e-6, 3e-6])), t_end=0.15, sensors=False
     )
     for name in STATE_NAMES:
@@ -159,8 +167,8 @@ def test_torch_path_matches_numpy_and_has_gradients() -> None:
     assert torch.all(torch.isfinite(c.grad)) and torch.all(c.grad > 0)
     # central finite difference of the numpy simulation, member 0
     eps = 2e-9
-    plus = simulate(PneumaticParams(c_b_out=5e-6 + eps), t_end=0.15, sensors=False)
-    minus = simulate(PneumaticParams(c_b_out=5e-6 - eps), t_end=0.15, sensors=False)
+    plus = simulate_piston(PneumaticParams(c_b_out=5e-6 + eps), t_end=0.15, sensors=False)
+    minus = simulate_piston(PneumaticParams(c_b_out=5e-6 - eps), t_end=0.15, sensors=False)
     fd = (plus.states["position"].mean() - minus.states["position"].mean()) / (2 * eps)
     assert float(c.grad[0]) == pytest.approx(fd, rel=1e-3)
 
@@ -172,12 +180,12 @@ def test_rhs_jacobian_by_autograd_matches_finite_differences() -> None:
     y = np.asarray(initial_state(p), dtype=float)
     y[0], y[1], y[2], y[3], y[5] = 0.08, 0.4, 4.0e5, 2.0e5, 1.0  # mid-stroke, valve up
     jac = torch.autograd.functional.jacobian(
-        lambda z: rhs(0.5, z, p), torch.tensor(y, dtype=torch.float64)
+        lambda z: piston_rhs(0.5, z, p), torch.tensor(y, dtype=torch.float64)
     ).numpy()
     scale = np.array([1e-7, 1e-6, 1.0, 1.0, 1.0, 1e-6])
     fd = np.empty((6, 6))
     for j in range(6):
         e = np.zeros(6)
         e[j] = scale[j]
-        fd[:, j] = (rhs(0.5, y + e, p) - rhs(0.5, y - e, p)) / (2 * scale[j])
+        fd[:, j] = (piston_rhs(0.5, y + e, p) - piston_rhs(0.5, y - e, p)) / (2 * scale[j])
     np.testing.assert_allclose(jac, fd, rtol=1e-4, atol=1e-6 * np.abs(fd).max())

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from pdmkit.errors import ModelError
-from pdmkit.models import PneumaticParams, ResponseData, simulate, stack_params
+from pdmkit.models import PneumaticParams, ResponseData, simulate_piston, stack_params
 
 matplotlib.use("Agg")
 
@@ -15,7 +15,7 @@ matplotlib.use("Agg")
 @pytest.fixture(scope="module")
 def response():
     p = stack_params([PneumaticParams(), PneumaticParams(mass_load=1.25)])
-    return simulate(p, t_end=0.5, seed=0)
+    return simulate_piston(p, t_end=0.5, seed=0)
 
 
 def test_shapes_and_groups(response) -> None:
@@ -70,7 +70,7 @@ def test_generic_response_validates_shapes() -> None:
 def test_torch_states_export_without_grad() -> None:
     torch = pytest.importorskip("torch")
     c = torch.tensor(5e-6, dtype=torch.float64, requires_grad=True)
-    r = simulate(PneumaticParams(c_a_in=c), t_end=0.05, sensors=False)
+    r = simulate_piston(PneumaticParams(c_a_in=c), t_end=0.05, sensors=False)
     assert r.states["position"].requires_grad
     df = r.to_pandas()
     assert df["position [m]"].dtype == np.float64

@@ -17,7 +17,7 @@ from pdmkit.models import (
     PneumaticParams,
     SensorSpec,
     default_sensor_specs,
-    simulate,
+    simulate_piston,
 )
 
 FS = 1000.0
@@ -85,7 +85,7 @@ def clean():
     """Two cycles, every sensor noise-free (only the physics of the sensors)."""
     specs = {name: SensorSpec() for name in SENSOR_NAMES}
     p = PneumaticParams(mic_hiss_gain=0.0)
-    return simulate(p, t_end=4.0, sensor_specs=specs, seed=0)
+    return simulate_piston(p, t_end=4.0, sensor_specs=specs, seed=0)
 
 
 def test_all_fifteen_sensors_of_table_3_1(clean) -> None:
@@ -191,10 +191,10 @@ def test_sensor_faults_reach_the_outputs() -> None:
         "LeverVelocity": SensorSpec(noise_std=0.05),
     }
     names = [*faults, "LeverPosition"]
-    base = simulate(
+    base = simulate_piston(
         t_end=0.5, sensors=names, seed=4, sensor_specs={k: SensorSpec() for k in names}
     )
-    faulty = simulate(t_end=0.5, sensors=names, seed=4, sensor_specs=faults)
+    faulty = simulate_piston(t_end=0.5, sensors=names, seed=4, sensor_specs=faults)
     diff = faulty.outputs["FlowExtrusion"] - base.outputs["FlowExtrusion"]
     np.testing.assert_allclose(diff, 5.0)
     assert np.all(faulty.outputs["AirPressure"] == 0.0)
@@ -202,22 +202,22 @@ def test_sensor_faults_reach_the_outputs() -> None:
     assert noise.std() == pytest.approx(0.05, rel=0.1)
     assert set(faulty.outputs) == set(names)
     with pytest.raises(ModelError, match="unknown sensor 'Flow'"):
-        simulate(t_end=0.1, sensor_specs={"Flow": SensorSpec()})
+        simulate_piston(t_end=0.1, sensor_specs={"Flow": SensorSpec()})
 
 
 def test_default_noise_is_reproducible_by_seed() -> None:
-    a = simulate(t_end=0.2, seed=7).outputs["MIC_Ambient"]
-    b = simulate(t_end=0.2, seed=7).outputs["MIC_Ambient"]
-    c = simulate(t_end=0.2, seed=8).outputs["MIC_Ambient"]
+    a = simulate_piston(t_end=0.2, seed=7).outputs["MIC_Ambient"]
+    b = simulate_piston(t_end=0.2, seed=7).outputs["MIC_Ambient"]
+    c = simulate_piston(t_end=0.2, seed=8).outputs["MIC_Ambient"]
     assert np.array_equal(a, b) and not np.array_equal(a, c)
     assert default_sensor_specs()["LeverPosition"].quantization == 7e-6  # seed 4.6
 
 
 def test_seed_accepts_seed_sequences_and_generators() -> None:
     ss = np.random.SeedSequence(5)
-    a = simulate(t_end=0.05, sensors=["MIC_Ambient"], seed=ss).outputs["MIC_Ambient"]
-    b = simulate(t_end=0.05, sensors=["MIC_Ambient"], seed=np.random.SeedSequence(5))
+    a = simulate_piston(t_end=0.05, sensors=["MIC_Ambient"], seed=ss).outputs["MIC_Ambient"]
+    b = simulate_piston(t_end=0.05, sensors=["MIC_Ambient"], seed=np.random.SeedSequence(5))
     assert np.array_equal(a, b.outputs["MIC_Ambient"])
-    simulate(t_end=0.05, sensors=["MIC_Ambient"], seed=np.random.default_rng(1))
+    simulate_piston(t_end=0.05, sensors=["MIC_Ambient"], seed=np.random.default_rng(1))
     with pytest.raises(ModelError, match="seed must be"):
-        simulate(t_end=0.05, sensors=["MIC_Ambient"], seed="abc")
+        simulate_piston(t_end=0.05, sensors=["MIC_Ambient"], seed="abc")

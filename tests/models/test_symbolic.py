@@ -5,7 +5,7 @@ import pytest
 import scipy.signal as ss
 
 from pdmkit.errors import ModelError, NotFittedError
-from pdmkit.models._symbolic import (
+from pdmkit.models.diagnosis._symbolic import (
     SymbolicAnomaly,
     max_entropy_partition,
     state_probabilities,

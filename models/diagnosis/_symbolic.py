@@ -60,7 +60,7 @@ def max_entropy_partition(x, n_symbols: int) -> np.ndarray:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._symbolic import max_entropy_partition
+    >>> from pdmkit.models.diagnosis._symbolic import max_entropy_partition
     >>> max_entropy_partition(np.arange(100.0), 4)
     array([24.75, 49.5 , 74.25])
     """
@@ -76,7 +76,7 @@ def symbolize(x, boundaries) -> np.ndarray:
 
     Examples
     --------
-    >>> from pdmkit.models._symbolic import symbolize
+    >>> from pdmkit.models.diagnosis._symbolic import symbolize
     >>> symbolize([-1.0, 0.5, 3.0], [0.0, 1.0]).tolist()
     [0, 1, 2]
     """
@@ -101,7 +101,7 @@ def state_probabilities(symbols, n_symbols: int, depth: int = 1) -> np.ndarray:
 
     Examples
     --------
-    >>> from pdmkit.models._symbolic import state_probabilities
+    >>> from pdmkit.models.diagnosis._symbolic import state_probabilities
     >>> state_probabilities([0, 1, 0, 1, 1], 2, depth=2).tolist()   # 01, 10, 01, 11
     [0.0, 0.5, 0.25, 0.25]
     """
@@ -164,7 +164,7 @@ class SymbolicAnomaly:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._symbolic import SymbolicAnomaly
+    >>> from pdmkit.models.diagnosis._symbolic import SymbolicAnomaly
     >>> rng = np.random.default_rng(0)
     >>> t = np.arange(20000) / 100
     >>> nominal = np.sin(2 * np.pi * t) + 0.1 * rng.normal(size=t.size)

@@ -62,7 +62,7 @@ class MassBeamRig:
 
     Examples
     --------
-    >>> from pdmkit.models._massbeam import MassBeamRig
+    >>> from pdmkit.models.rigs._massbeam import MassBeamRig
     >>> rig = MassBeamRig()
     >>> [round(w, 1) for w in rig.resonances()]
     [73.2, 28.9, 87.8]
@@ -93,7 +93,7 @@ class MassBeamRig:
 
         Examples
         --------
-        >>> from pdmkit.models._massbeam import MassBeamRig
+        >>> from pdmkit.models.rigs._massbeam import MassBeamRig
         >>> soft = MassBeamRig().with_params(E4I4=0.81 * MassBeamRig().E4I4)
         >>> round(soft.resonances()[0] / MassBeamRig().resonances()[0], 3)
         0.9
@@ -176,7 +176,7 @@ class MassBeamRig:
         Examples
         --------
         >>> import numpy as np
-        >>> from pdmkit.models._massbeam import MassBeamRig
+        >>> from pdmkit.models.rigs._massbeam import MassBeamRig
         >>> rig = MassBeamRig()
         >>> H = rig.frequency_response(np.array([0.0]))
         >>> bool(np.isclose(H[0, 0].real, 1 / rig.stiffness1()))

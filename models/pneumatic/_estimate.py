@@ -52,11 +52,11 @@ import numpy as np
 
 from pdmkit._progress import progress
 from pdmkit.errors import ConvergenceWarning, DataError, ModelError, did_you_mean
-from pdmkit.models._integrate import _THETA, _switch_times, simulate
-from pdmkit.models._pneumatic import PneumaticParams, _command, _derivs, _resolve
 from pdmkit.models._response import ResponseData
-from pdmkit.models._sensors import P_STD, SENSOR_UNITS, T_STD
 from pdmkit.models._xp import get_namespace
+from pdmkit.models.pneumatic._integrate import _THETA, _switch_times, simulate_piston
+from pdmkit.models.pneumatic._sensors import P_STD, SENSOR_UNITS, T_STD
+from pdmkit.models.pneumatic._twin import PneumaticParams, _command, _derivs, _resolve
 
 __all__ = ["DEFAULT_FREE", "DEFAULT_SIGNALS", "EstimationResult", "estimate_parameters"]
 
@@ -131,9 +131,9 @@ def _command_table(known: PneumaticParams, t0: np.ndarray, n_steps: int, h: floa
 
 
 def _run_windows(params, y0, u_table, n_samples: int, n_sub: int, h: float, xp):
-    """Step members from ``y0`` (n, 6) with the integrator of :func:`simulate`.
+    """Step members from ``y0`` (n, 6) with the integrator of :func:`simulate_piston`.
 
-    The same IMEX step as :func:`pdmkit.models._integrate._integrate` (exact spool
+    The same IMEX step as :func:`pdmkit.models.pneumatic._integrate._integrate` (exact spool
     update, flows at the mid-step spool, explicit pressures, linearly implicit
     trapezoidal mechanics); ``u_table`` (n_steps, n) holds the delayed command. Returns
     position, velocity, supply pressure (at the samples) and the valve mass flow into A
@@ -179,7 +179,7 @@ def _run_windows(params, y0, u_table, n_samples: int, n_sub: int, h: float, xp):
 
 
 def _readings(raw, name: str, p_ambient, fs: float, xp):
-    """Noise-free reading of one sensor, as :mod:`pdmkit.models._sensors` models it."""
+    """Noise-free reading of one sensor, as the sensor models of the twin give it."""
     if name == "LeverPosition":
         return raw["position"]
     if name == "LeverVelocity":
@@ -349,13 +349,15 @@ class _Problem:
         h = 1.0 / (self.fs * self.n_sub_coarse)
         kwargs = {"t_end": (last + 1) / self.fs, "fs": self.fs, "sensors": False, "dt": h}
         try:
-            r = simulate(params, batch=None if E > 1 else 1, progress=False, **kwargs)
+            r = simulate_piston(
+                params, batch=None if E > 1 else 1, progress=False, **kwargs
+            )
         except ModelError:
             if E == 1:
                 raise
             # a start so extreme that it diverges: every start takes the rest states of
             # the known values (at rest they hardly depend on the free parameters)
-            r = simulate(self.known, batch=E, progress=False, **kwargs)
+            r = simulate_piston(self.known, batch=E, progress=False, **kwargs)
         st = np.stack([np.asarray(r.states[k]) for k in r.states], axis=-1)  # (E, n, 6)
         return st[:, self.k0, :]
 
@@ -766,7 +768,7 @@ def _windows(
         if "LeverPosition" in data:
             x = data["LeverPosition"]
         else:
-            r = simulate(known, t_end=n / fs, fs=fs, sensors=False, progress=False)
+            r = simulate_piston(known, t_end=n / fs, fs=fs, sensors=False, progress=False)
             x = np.asarray(r.states["position"][0])
         need = 0
         for a, b, first in zip(k_sw, ends, k0, strict=True):
@@ -1199,7 +1201,7 @@ def estimate_parameters(
     Notes
     -----
     The window states come from a simulation of ``known`` (at the current estimate)
-    from rest at t = 0, so the recording must start there too, as :func:`simulate`'s
+    from rest at t = 0, so the recording must start there too, as :func:`simulate_piston`'s
     do; the windows themselves start at rest, where those states hardly depend on the
     free parameters.
 
@@ -1225,9 +1227,9 @@ def estimate_parameters(
     Recover the inflow valve coefficient of chamber A from the flow sensor of one
     up-stroke of a simulated member whose C_A,in is 30 % high:
 
-    >>> from pdmkit.models import PneumaticParams, estimate_parameters, simulate
+    >>> from pdmkit.models import PneumaticParams, estimate_parameters, simulate_piston
     >>> truth = PneumaticParams(c_a_in=6.5e-6)
-    >>> rec = simulate(truth, t_end=0.5, seed=2, sensors=["LeverPosition",
+    >>> rec = simulate_piston(truth, t_end=0.5, seed=2, sensors=["LeverPosition",
     ...                "FlowExtrusion"])
     >>> res = estimate_parameters(rec, free=["c_a_in"], signals=["FlowExtrusion"],
     ...                           n_starts=2, max_windows=1)

@@ -64,7 +64,7 @@ __all__ = [
     "initial_state",
     "orifice_mass_flow",
     "outflow_function",
-    "rhs",
+    "piston_rhs",
     "stack_params",
     "valve_command",
 ]
@@ -1054,7 +1054,7 @@ def _derivs(t, x, v, pa, pb, pr, s, r: _Resolved, xp, aux: bool = False) -> _Der
     return d
 
 
-def rhs(t, state, params: PneumaticParams):
+def piston_rhs(t, state, params: PneumaticParams):
     """Right-hand side dy/dt of the piston model, usable by ``scipy.integrate.solve_ivp``.
 
     Parameters
@@ -1076,9 +1076,9 @@ def rhs(t, state, params: PneumaticParams):
     Examples
     --------
     >>> from scipy.integrate import solve_ivp
-    >>> from pdmkit.models import PneumaticParams, initial_state, rhs
+    >>> from pdmkit.models import PneumaticParams, initial_state, piston_rhs
     >>> p = PneumaticParams()
-    >>> sol = solve_ivp(rhs, (0.0, 0.3), initial_state(p), args=(p,), method="LSODA",
+    >>> sol = solve_ivp(piston_rhs, (0.0, 0.3), initial_state(p), args=(p,), method="LSODA",
     ...                 rtol=1e-6, atol=1e-8)
     >>> bool(sol.success), bool(sol.y[0, -1] > 0.05)   # the piston is on its way up
     (True, True)

@@ -16,7 +16,7 @@ Scheme (IMEX, fixed step ``dt``, 2e-4 s by default; output decimated to ``fs``):
   A-stable, so the stiff stops and the friction law stay stable at the fixed step, and
   without the artificial damping of a backward-Euler step (impacts rebound correctly).
 
-Measured against ``solve_ivp`` (LSODA, rtol 1e-6) on the same :func:`rhs`: maximum
+Measured against ``solve_ivp`` (LSODA, rtol 1e-6) on the same :func:`piston_rhs`: maximum
 position error over a 10 s recording about 0.1 mm at the default step (0.05 mm at
 1e-4 s) for the healthy piston and up to 0.64 mm (0.27 mm at 1e-4 s) for a few samples
 around the top impact of the 6.25 kg load, whose end impacts rebound. Members are
@@ -37,7 +37,15 @@ import numpy as np
 
 from pdmkit._progress import progress
 from pdmkit.errors import ModelError
-from pdmkit.models._pneumatic import (
+from pdmkit.models._response import ResponseData
+from pdmkit.models._xp import get_namespace, is_torch
+from pdmkit.models.pneumatic._sensors import (
+    SENSOR_NAMES,
+    SENSOR_UNITS,
+    resolve_specs,
+    sensor_outputs,
+)
+from pdmkit.models.pneumatic._twin import (
     STATE_NAMES,
     STATE_UNITS,
     PneumaticParams,
@@ -45,14 +53,11 @@ from pdmkit.models._pneumatic import (
     _derivs,
     _resolve,
     initial_state,
-    rhs,
+    piston_rhs,
     valve_command,
 )
-from pdmkit.models._response import PneumaticResponse
-from pdmkit.models._sensors import SENSOR_NAMES, SENSOR_UNITS, resolve_specs, sensor_outputs
-from pdmkit.models._xp import get_namespace, is_torch
 
-__all__ = ["simulate", "simulate_ivp"]
+__all__ = ["PneumaticResponse", "simulate_piston", "simulate_piston_ivp"]
 
 SIGNAL_UNITS = {
     "acceleration": "m/s^2",
@@ -70,23 +75,55 @@ SIGNAL_UNITS = {
 _THETA = 0.5
 
 
+class PneumaticResponse(ResponseData):
+    """Response of :func:`simulate_piston`: a :class:`ResponseData` with the params.
+
+    Attributes
+    ----------
+    params : PneumaticParams
+        The parameters simulated (batched when members differ).
+    sensor_specs : dict of str to SensorSpec or None
+        The sensor models used for :attr:`outputs`.
+
+    Examples
+    --------
+    >>> from pdmkit.models import simulate_piston
+    >>> r = simulate_piston(t_end=0.05, sensors=False)
+    >>> type(r).__name__, r.states["position"].shape
+    ('PneumaticResponse', (1, 50))
+    """
+
+    def __init__(self, *args, params=None, sensor_specs=None, **kwargs) -> None:
+        kwargs.setdefault("name", "pneumatic piston")
+        super().__init__(*args, **kwargs)
+        self.params = params
+        self.sensor_specs = sensor_specs
+
+    def _default_signals(self) -> list[str]:
+        if "LeverPosition" in self.outputs:
+            return ["LeverPosition", "FlowExtrusion", "AirPressure", "MIC_uBumper"]
+        return ["position", "pressure_a", "pressure_b", "pressure_supply"]
+
+
 def _check_timing(t_end, fs, dt):
     for name, v in (("t_end", t_end), ("fs", fs), ("dt", dt)):
         if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
-            raise ModelError(f"simulate: {name} must be a positive number; got {v!r}.")
+            raise ModelError(
+                f"simulate_piston: {name} must be a positive number; got {v!r}."
+            )
     n_samples = round(t_end * fs)
     if n_samples < 1:
         raise ModelError(
-            "simulate: t_end * fs must give at least one sample; got "
+            "simulate_piston: t_end * fs must give at least one sample; got "
             f"t_end={t_end}, fs={fs}."
         )
     sub = 1.0 / (fs * dt)
     n_sub = round(sub)
     if n_sub < 1 or abs(sub - n_sub) > 1e-6 * sub:
         raise ModelError(
-            f"simulate: the output interval 1/fs = {1 / fs:g} s must be a whole number of "
-            f"steps dt = {dt:g} s; got {sub:g} steps. Choose dt = 1/(fs * k), e.g. "
-            f"{1 / (fs * max(1, round(sub))):g}."
+            f"simulate_piston: the output interval 1/fs = {1 / fs:g} s must be a whole "
+            f"number of steps dt = {dt:g} s; got {sub:g} steps. Choose dt = 1/(fs * k), "
+            f"e.g. {1 / (fs * max(1, round(sub))):g}."
         )
     return n_samples, n_sub, 1.0 / (fs * n_sub)
 
@@ -94,11 +131,13 @@ def _check_timing(t_end, fs, dt):
 def _n_members(params: PneumaticParams, batch):
     if batch is not None:
         if not isinstance(batch, int | np.integer) or batch < 1:
-            raise ModelError(f"simulate: batch must be a positive integer; got {batch!r}.")
+            raise ModelError(
+                f"simulate_piston: batch must be a positive integer; got {batch!r}."
+            )
         if params.n_members is not None and params.n_members != batch:
             raise ModelError(
-                f"simulate: batch={batch} but the parameters hold {params.n_members} "
-                "members; leave batch=None for batched parameters."
+                f"simulate_piston: batch={batch} but the parameters hold "
+                f"{params.n_members} members; leave batch=None for batched parameters."
             )
         return int(batch)
     return params.n_members or 1
@@ -191,7 +230,7 @@ def _gas_temperatures(p_chamber, params: PneumaticParams, fs: float, xp):
     return xp.stack(out, axis=1)
 
 
-def simulate(
+def simulate_piston(
     params: PneumaticParams | None = None,
     t_end: float = 10.0,
     fs: float = 1000.0,
@@ -246,9 +285,9 @@ def simulate(
 
     Examples
     --------
-    >>> from pdmkit.models import PneumaticParams, simulate, stack_params
+    >>> from pdmkit.models import PneumaticParams, simulate_piston, stack_params
     >>> p = stack_params([PneumaticParams(), PneumaticParams(mass_load=6.25)])
-    >>> r = simulate(p, t_end=1.0, seed=0)
+    >>> r = simulate_piston(p, t_end=1.0, seed=0)
     >>> r.states["position"].shape, sorted(r.outputs)[:2]
     ((2, 1000), ['AccelerometerMoving_axisZ', 'AccelerometerStatic_axisZ'])
     >>> bool(r.states["position"][0].max() > 0.159)   # the light piston reached the top
@@ -258,7 +297,8 @@ def simulate(
         params = PneumaticParams()
     if not isinstance(params, PneumaticParams):
         raise ModelError(
-            f"simulate: params must be a PneumaticParams; got {type(params).__name__}."
+            "simulate_piston: params must be a PneumaticParams; got "
+            f"{type(params).__name__}."
         )
     n_samples, n_sub, h = _check_timing(t_end, fs, dt)
     n = _n_members(params, batch)
@@ -271,7 +311,7 @@ def simulate(
         unknown = [s for s in names if s not in SENSOR_UNITS]
         if unknown:
             raise ModelError(
-                f"simulate: unknown sensors {unknown}; choose from "
+                f"simulate_piston: unknown sensors {unknown}; choose from "
                 f"{', '.join(SENSOR_NAMES)}."
             )
     specs = resolve_specs(sensor_specs)
@@ -326,9 +366,10 @@ def _check_finite(states, dt):
         if np.any(bad):
             members = np.flatnonzero(bad)[:10].tolist()
             raise ModelError(
-                f"simulate: the integration diverged ({k} not finite/positive) for members "
-                f"{members}; dt = {dt:g} s is too large for these parameters (very large "
-                "valve coefficients, stiffer stops or tiny volumes). Use a smaller dt."
+                f"simulate_piston: the integration diverged ({k} not finite/positive) for "
+                f"members {members}; dt = {dt:g} s is too large for these parameters "
+                "(very large valve coefficients, stiffer stops or tiny volumes). Use a "
+                "smaller dt."
             )
 
 
@@ -347,7 +388,7 @@ def _switch_times(params: PneumaticParams, t_end: float) -> list[float]:
     return sorted(times)
 
 
-def simulate_ivp(
+def simulate_piston_ivp(
     params: PneumaticParams | None = None,
     t_end: float = 10.0,
     fs: float = 1000.0,
@@ -355,7 +396,7 @@ def simulate_ivp(
     rtol: float = 1e-6,
     atol=None,
 ) -> PneumaticResponse:
-    """Reference solution of the same :func:`rhs` with ``scipy.integrate.solve_ivp``.
+    """Reference solution of the same :func:`piston_rhs` with ``scipy.integrate.solve_ivp``.
 
     The recording is integrated piecewise between the jumps of the delayed valve
     command, so the adaptive solver never steps over a switch. One member at a time
@@ -366,7 +407,7 @@ def simulate_ivp(
     params : PneumaticParams, optional
         Parameters; default ``PneumaticParams()``.
     t_end, fs : float
-        Recording length (s) and output rate (Hz), as in :func:`simulate`.
+        Recording length (s) and output rate (Hz), as in :func:`simulate_piston`.
     method : str
         solve_ivp method ("LSODA", "Radau", "BDF", ...).
     rtol : float
@@ -381,8 +422,8 @@ def simulate_ivp(
 
     Examples
     --------
-    >>> from pdmkit.models import simulate_ivp
-    >>> ref = simulate_ivp(t_end=0.4)
+    >>> from pdmkit.models import simulate_piston_ivp
+    >>> ref = simulate_piston_ivp(t_end=0.4)
     >>> round(float(ref.states["position"][0, -1]), 2)   # at the top after 0.4 s
     0.16
     """
@@ -414,12 +455,19 @@ def simulate_ivp(
             if te.size == 0 or te[-1] != b:
                 te = np.append(te, b)
             sol = solve_ivp(
-                rhs, (a, b), y, method=method, rtol=rtol, atol=atol, t_eval=te, args=(p,)
+                piston_rhs,
+                (a, b),
+                y,
+                method=method,
+                rtol=rtol,
+                atol=atol,
+                t_eval=te,
+                args=(p,),
             )
             if not sol.success:
                 raise ModelError(
-                    f"simulate_ivp: {method} failed on member {m} in [{a:g}, {b:g}] s: "
-                    f"{sol.message}"
+                    f"simulate_piston_ivp: {method} failed on member {m} in [{a:g}, {b:g}] "
+                    f"s: {sol.message}"
                 )
             n_sel = int(sel.sum())
             out[m][:, sel] = sol.y[:, :n_sel]

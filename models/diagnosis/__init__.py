@@ -1,0 +1,34 @@
+"""pdmkit.models.diagnosis: from tracked quantities and signals to symptoms and faults.
+
+Diagnostic masks with alarm delay and hysteresis, and the binary diagnostic matrix
+that isolates the fault from the symptoms (seed ``000``, sections 2.8 and 3.4:
+:class:`DiagnosticMask`, :class:`DiagnosticMatrix`); and symbolic dynamics of
+time series, the anomaly measure of seed ``002`` (maximum-entropy partitioning,
+symbol-state probabilities, :class:`SymbolicAnomaly`; Ray 2004, Rajagopalan & Ray 2006).
+
+Examples
+--------
+>>> import numpy as np
+>>> from pdmkit.models.diagnosis import DiagnosticMask
+>>> mask = DiagnosticMask(lower=0.9, upper=1.1, delay=3)
+>>> mask.evaluate(np.r_[np.ones(10), 1.5 * np.ones(10)]).onsets.tolist()
+[13]
+"""
+
+from pdmkit.models.diagnosis._masks import DiagnosticMask, DiagnosticMatrix, MaskResult
+from pdmkit.models.diagnosis._symbolic import (
+    SymbolicAnomaly,
+    max_entropy_partition,
+    state_probabilities,
+    symbolize,
+)
+
+__all__ = [
+    "DiagnosticMask",
+    "DiagnosticMatrix",
+    "MaskResult",
+    "SymbolicAnomaly",
+    "max_entropy_partition",
+    "state_probabilities",
+    "symbolize",
+]
