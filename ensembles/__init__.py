@@ -47,6 +47,7 @@ from pdmkit.ensembles._pneumatic import (
     PNEUMATIC_SENSORS,
     SEED_JITTER,
     SEED_LABELS,
+    SEED_SINGLE_FAULTS,
     SEED_SUPPLY_BAR,
     fault_labels,
     pneumatic_residuals,
@@ -54,6 +55,7 @@ from pdmkit.ensembles._pneumatic import (
     simulate_fault_ensemble,
     simulate_leak_runs,
     simulate_seed_ensemble,
+    simulate_seed_single_fault_ensemble,
     simulate_sensor_fault_ensemble,
 )
 from pdmkit.ensembles._readers import read_mat, read_members, read_npz, read_table
@@ -65,6 +67,7 @@ __all__ = [
     "PNEUMATIC_SENSORS",
     "SEED_JITTER",
     "SEED_LABELS",
+    "SEED_SINGLE_FAULTS",
     "SEED_SUPPLY_BAR",
     "Ensemble",
     "Partition",
@@ -93,6 +96,7 @@ __all__ = [
     "simulate_fault_ensemble",
     "simulate_leak_runs",
     "simulate_seed_ensemble",
+    "simulate_seed_single_fault_ensemble",
     "simulate_sensor_fault_ensemble",
     "simulate_sweep",
     "write_parquet_batches",

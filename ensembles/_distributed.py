@@ -717,7 +717,7 @@ def simulate_sweep(
 # --------------------------------------------------------------------------- mismatch
 def _mismatch_task(job: Mapping[str, Any]) -> dict[str, Any]:
     from pdmkit.models import discover_mismatch, load_model_file
-    from pdmkit.models.mismatch import load_model_source
+    from pdmkit.models.ode import load_model_source
 
     job = dict(job)
     model = job.pop("model")

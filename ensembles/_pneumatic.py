@@ -36,6 +36,7 @@ __all__ = [
     "PNEUMATIC_SENSORS",
     "SEED_JITTER",
     "SEED_LABELS",
+    "SEED_SINGLE_FAULTS",
     "SEED_SUPPLY_BAR",
     "fault_labels",
     "pneumatic_residuals",
@@ -43,6 +44,7 @@ __all__ = [
     "simulate_fault_ensemble",
     "simulate_leak_runs",
     "simulate_seed_ensemble",
+    "simulate_seed_single_fault_ensemble",
     "simulate_sensor_fault_ensemble",
 ]
 
@@ -1100,3 +1102,83 @@ def pneumatic_residuals(
         conditions=conditions,
         member_ids=list(ensemble.member_ids),
     )
+
+
+#: the healthy class and the four single faults of the seed's residual set (8.2.1, the
+#: ``ClassNames`` of the author's ``train_model.m``)
+SEED_SINGLE_FAULTS = (
+    "healthy",
+    "throttle_1",
+    "throttle_2",
+    "damper_bottom",
+    "damper_upper",
+)
+
+
+def simulate_seed_single_fault_ensemble(
+    n_members: int = 660,
+    *,
+    repeats: int = 20,
+    operating_point: tuple[float, float] = (6.25, 6.0),
+    jitter: float | None = None,
+    t_end: float = 10.0,
+    seed: int = 0,
+):
+    """The seed's smaller data set (8.2.1) on the twin: single faults at one point.
+
+    The set of the seed's residual classification (8.3; the author's ``data11``: 660
+    recordings). Built like :func:`simulate_seed_ensemble` (fault codes of
+    ``repeats`` recordings, faulty knobs from :data:`~pdmkit.ensembles.PNEUMATIC_FAULTS`,
+    unlabelled parameters per code, run-to-run ``jitter``), but with only healthy and
+    the four single faults (the ``ClassNames`` of the author's ``train_model.m``) and
+    every recording at ``operating_point`` (load kg, supply bar gauge): only the
+    ``LeverPosition`` signal.
+
+    Examples
+    --------
+    >>> from pdmkit.ensembles import simulate_seed_single_fault_ensemble
+    >>> ens = simulate_seed_single_fault_ensemble(10, repeats=2, t_end=0.2)
+    >>> len(ens), sorted(set(ens.conditions["fault"]))[:2]
+    (10, ['damper_bottom', 'damper_upper'])
+    """
+
+    jitter = SEED_JITTER if jitter is None else float(jitter)
+    n = int(n_members)
+    if n < len(SEED_SINGLE_FAULTS):
+        raise DataError(
+            f"n_members must be >= {len(SEED_SINGLE_FAULTS)}; got {n_members!r}"
+        )
+    rng = np.random.default_rng([seed, 83])
+    n_codes = max(len(SEED_SINGLE_FAULTS), round(n / int(repeats)))
+    code_labels = np.array([SEED_SINGLE_FAULTS[i % 5] for i in range(n_codes)])
+    knobs = _fault_settings(code_labels, rng)
+    member_code = np.arange(n) % n_codes
+    rng.shuffle(member_code)
+    cols = {k: v[member_code] for k, v in knobs.items()}
+    drawn = _operating_conditions(n_codes, rng)
+    cols.update(
+        {k: v[member_code] for k, v in drawn.items() if k not in ("mass_load", "p_supply")}
+    )
+    load_kg, supply_bar = (float(v) for v in operating_point)
+    cols["mass_load"] = np.full(n, load_kg)
+    gauge = np.full(n, supply_bar * 1e5)
+    if jitter:
+        noise = np.random.default_rng([seed, 84]).standard_normal((4, n))
+        spread = (1.0 + jitter * noise).clip(0.5, 1.5)
+        for row, k in enumerate(("friction_coulomb", "friction_viscous", "valve_delay")):
+            cols[k] = cols[k] * spread[row]
+        gauge = gauge * spread[3]
+    cols["p_supply"] = _P_AMBIENT + gauge
+    ids = np.array([f"seed{i:05d}" for i in range(n)])
+    data = _simulate_members(cols, ids, seed, t_end, 1000.0, ["LeverPosition"], 250)
+    labels = code_labels[member_code]
+    conditions = pd.DataFrame(
+        {
+            "fault": labels,
+            "seed_label": [SEED_LABELS[c] for c in labels],
+            "fault_code": [f"RC{c:04d}" for c in member_code],
+            "load_kg": load_kg,
+            "supply_bar": supply_bar,  # the set point
+        }
+    )
+    return Ensemble(data, fs=1000.0, conditions=conditions, member_ids=list(ids))

@@ -160,7 +160,7 @@ def cascaded_tanks_case(max_seconds: float | None = None) -> DemoMismatch | None
     """
     from pdmkit.ensembles import load_dataset
     from pdmkit.errors import DataError
-    from pdmkit.models.mismatch import showcase_model
+    from pdmkit.models.ode import showcase_model
 
     try:
         tanks = load_dataset("cascaded-tanks")

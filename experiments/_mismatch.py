@@ -2,7 +2,7 @@
 
 ``pdmkit mismatch MODEL.py DATA.csv [--validation DATA2.csv] --json OUT.json --out DIR``
 calls :func:`run_mismatch`. The model file follows the contract of
-:func:`pdmkit.models.mismatch.load_model_file`; the data are CSV or Parquet tables with a
+:func:`pdmkit.models.ode.load_model_file`; the data are CSV or Parquet tables with a
 ``time`` column and one column per model input and output.
 """
 
@@ -19,12 +19,8 @@ from pdmkit._outputs import OutputRun, to_jsonable
 from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError
 from pdmkit.experiments._report import Report
-from pdmkit.models.mismatch import (
-    MODEL_TIMEOUT,
-    MismatchResult,
-    discover_mismatch,
-    load_model_file,
-)
+from pdmkit.models.mismatch import MismatchResult, discover_mismatch
+from pdmkit.models.ode import MODEL_TIMEOUT, load_model_file
 
 __all__ = ["build_mismatch_report", "mismatch_summary", "run_mismatch"]
 
@@ -266,12 +262,12 @@ def run_mismatch(
     The model file is Python code run with your rights; trust it like code you would
     run. It is first imported and ``rhs`` evaluated on the data's first samples in a
     child process limited to ``model_timeout`` seconds (see
-    :func:`pdmkit.models.mismatch.load_model_file`).
+    :func:`pdmkit.models.ode.load_model_file`).
 
     Parameters
     ----------
     model_path : path
-        The user's model file (see :func:`pdmkit.models.mismatch.load_model_file`).
+        The user's model file (see :func:`pdmkit.models.ode.load_model_file`).
     data_path : path
         CSV or Parquet: ``time`` (s, uniform), the model's inputs and outputs. Without
         ``validation_path`` its last third is the validation part.

@@ -389,7 +389,7 @@ class RunDirectory:
             for key, item in bar(todo, desc="partitions", total=len(todo), enable=progress):
                 self.commit(key, *to_frames(func(item, **kwargs)))
         elif todo:
-            from pdmkit.ensembles._distributed import dask_client, dask_stream
+            from pdmkit.ensembles import dask_client, dask_stream
 
             with dask_client(client) as c:
                 tasks = dask_stream(c, func, [item for _, item in todo], **kwargs)
@@ -507,7 +507,7 @@ def extract_features_run(
     >>> table.shape, len(errors), sorted(p.name for p in (run / "parts").iterdir())
     ((6, 11), 0, ['part-00000', 'part-00001'])
     """
-    from pdmkit.ensembles._distributed import parquet_partitions
+    from pdmkit.ensembles import parquet_partitions
     from pdmkit.features._extract import (
         _check_batch_size,
         _check_groups,

@@ -53,6 +53,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._progress import progress
+from pdmkit.ensembles import SEED_SINGLE_FAULTS, simulate_seed_single_fault_ensemble
 from pdmkit.errors import DataError
 
 __all__ = [
@@ -189,7 +190,7 @@ SEED_SENSOR_RECIPES: dict[str, SeedSensorRecipe] = {
 }
 
 #: The five classes of the seed's residual (8.3) and single-fault data set.
-_SINGLE_CLASSES = ("healthy", "throttle_1", "throttle_2", "damper_bottom", "damper_upper")
+_SINGLE_CLASSES = SEED_SINGLE_FAULTS
 _LABEL = "seed_label"
 _CONDITIONS = ("fault", "seed_label", "fault_code", "load_kg", "supply_bar")
 
@@ -770,73 +771,6 @@ SEED_RESIDUAL_FEATURES = tuple(
 )
 
 
-def _seed_residual_ensemble(
-    n_members: int = 660,
-    *,
-    repeats: int = 20,
-    operating_point: tuple[float, float] = (6.25, 6.0),
-    jitter: float | None = None,
-    t_end: float = 10.0,
-    seed: int = 0,
-):
-    """The seed's smaller data set (8.2.1) on the twin: single faults at one point.
-
-    Built like :func:`pdmkit.ensembles.simulate_seed_ensemble` (fault codes of
-    ``repeats`` recordings, faulty knobs from :data:`~pdmkit.ensembles.PNEUMATIC_FAULTS`,
-    unlabelled parameters per code, run-to-run ``jitter``), but with only healthy and
-    the four single faults (the ``ClassNames`` of the author's ``train_model.m``) and
-    every recording at ``operating_point`` (load kg, supply bar gauge).
-    """
-    from pdmkit.ensembles import Ensemble
-    from pdmkit.ensembles._pneumatic import (
-        _P_AMBIENT,
-        SEED_JITTER,
-        SEED_LABELS,
-        _fault_settings,
-        _operating_conditions,
-        _simulate_members,
-    )
-
-    jitter = SEED_JITTER if jitter is None else float(jitter)
-    n = int(n_members)
-    if n < len(_SINGLE_CLASSES):
-        raise DataError(f"n_members must be >= {len(_SINGLE_CLASSES)}; got {n_members!r}")
-    rng = np.random.default_rng([seed, 83])
-    n_codes = max(len(_SINGLE_CLASSES), round(n / int(repeats)))
-    code_labels = np.array([_SINGLE_CLASSES[i % 5] for i in range(n_codes)])
-    knobs = _fault_settings(code_labels, rng)
-    member_code = np.arange(n) % n_codes
-    rng.shuffle(member_code)
-    cols = {k: v[member_code] for k, v in knobs.items()}
-    drawn = _operating_conditions(n_codes, rng)
-    cols.update(
-        {k: v[member_code] for k, v in drawn.items() if k not in ("mass_load", "p_supply")}
-    )
-    load_kg, supply_bar = (float(v) for v in operating_point)
-    cols["mass_load"] = np.full(n, load_kg)
-    gauge = np.full(n, supply_bar * 1e5)
-    if jitter:
-        noise = np.random.default_rng([seed, 84]).standard_normal((4, n))
-        spread = (1.0 + jitter * noise).clip(0.5, 1.5)
-        for row, k in enumerate(("friction_coulomb", "friction_viscous", "valve_delay")):
-            cols[k] = cols[k] * spread[row]
-        gauge = gauge * spread[3]
-    cols["p_supply"] = _P_AMBIENT + gauge
-    ids = np.array([f"seed{i:05d}" for i in range(n)])
-    data = _simulate_members(cols, ids, seed, t_end, 1000.0, ["LeverPosition"], 250)
-    labels = code_labels[member_code]
-    conditions = pd.DataFrame(
-        {
-            "fault": labels,
-            "seed_label": [SEED_LABELS[c] for c in labels],
-            "fault_code": [f"RC{c:04d}" for c in member_code],
-            "load_kg": load_kg,
-            "supply_bar": supply_bar,  # the set point
-        }
-    )
-    return Ensemble(data, fs=1000.0, conditions=conditions, member_ids=list(ids))
-
-
 def seed_residual_classification(
     data=None,
     *,
@@ -913,7 +847,7 @@ def seed_residual_classification(
         raise DataError(f"validation must be 'holdout' or 'kfold'; got {validation!r}")
     started = time.perf_counter()
     if data is None:
-        ens = _seed_residual_ensemble(int(n_members), t_end=t_end, seed=seed)
+        ens = simulate_seed_single_fault_ensemble(int(n_members), t_end=t_end, seed=seed)
         point = SEED_RESIDUAL_SET["operating_point"]
         res = pneumatic_residuals(
             ens, ["LeverPosition"], reference="nominal", nominal_point=point

@@ -28,9 +28,13 @@ import pandas as pd
 
 from pdmkit.errors import ConvergenceWarning, DataError
 from pdmkit.features._common import check_fs
-from pdmkit.models._fractional import fit_fractional_tf
-from pdmkit.models._frf import fit_tf, frf_estimate
-from pdmkit.models._hammerstein import HammersteinWiener
+from pdmkit.models import (
+    HammersteinWiener,
+    fit_fractional_tf,
+    fit_tf,
+    frf_estimate,
+    nonlinearity,
+)
 
 __all__ = [
     "FRACTIONAL_FEATURES",
@@ -203,11 +207,9 @@ def hw_feature_names(input_nl=None, output_nl="saturation", nb: int = 2, nf: int
     >>> hw_feature_names()
     ['B0', 'B1', 'F1', 'F2', 'OutLower', 'OutUpper', 'FitPercent']
     """
-    from pdmkit.models._hammerstein import _nonlinearity
-
-    names = [f"in_{k}" for k in _nonlinearity(input_nl, "input_nl").param_names]
+    names = [f"in_{k}" for k in nonlinearity(input_nl, "input_nl").param_names]
     names += [f"b{i}" for i in range(nb)] + [f"f{i + 1}" for i in range(nf)]
-    names += [f"out_{k}" for k in _nonlinearity(output_nl, "output_nl").param_names]
+    names += [f"out_{k}" for k in nonlinearity(output_nl, "output_nl").param_names]
     return [_camel(n) for n in names] + ["FitPercent"]
 
 

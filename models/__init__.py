@@ -5,8 +5,10 @@ subpackage                what it holds
 ========================  ==============================================================
 ``models.pneumatic``      the pneumatic piston's digital twin (seed ``001``): parameters,
                           right-hand side, batched integrator, sensor models, estimation
-``models.mismatch``       user ODE model files, their batched simulation, and mismatch
-                          discovery (locate, candidate physics, sparse terms, verdict)
+``models.ode``            user ODE model files, their batched simulation (plain or with
+                          added terms), linearisation, the built-in showcase models
+``models.mismatch``       mismatch discovery: fit, locate, candidate physics, sparse
+                          terms, verdict
 ``models.diagnosis``      diagnostic masks and matrices (seed ``000``), symbolic dynamics
                           (seed ``002``)
 ``models.rigs``           simulated rigs of the source studies (the mass-beam rig)
@@ -66,6 +68,7 @@ from pdmkit.models._hammerstein import (
     PiecewiseLinear,
     Polynomial,
     Saturation,
+    nonlinearity,
 )
 from pdmkit.models._ident import (
     CRITERIA,
@@ -80,9 +83,7 @@ from pdmkit.models._ident import (
     select_order,
 )
 from pdmkit.models._ident_pem import armax, bj, oe
-from pdmkit.models._linearize import LinearModel, linearize
 from pdmkit.models._recursive import PoleTracks, RecursiveARX, smooth_tracks, track_poles
-from pdmkit.models._response import ResponseData
 from pdmkit.models._subspace import n4sid, ss_predict, ss_simulate
 from pdmkit.models.diagnosis import (
     DiagnosticMask,
@@ -95,14 +96,11 @@ from pdmkit.models.diagnosis import (
 )
 from pdmkit.models.mismatch import (
     CANDIDATE_IDS,
-    KINDS,
-    SHOWCASE_NAMES,
     Candidate,
     ConcealedCase,
     Effect,
     FitResult,
     MismatchResult,
-    OdeModel,
     Recording,
     SparseTerms,
     Term,
@@ -114,19 +112,28 @@ from pdmkit.models.mismatch import (
     fit_model,
     generate_concealed_case,
     library_terms,
-    load_model_file,
     make_recording,
     nominal_scales,
     region_statistics,
     residual_spectrum,
     residual_windows,
     score_concealed_cases,
-    showcase_model,
-    showcase_source,
-    simulate_ode,
     sparse_equation,
     stlsq_path,
     whiteness_test,
+)
+from pdmkit.models.ode import (
+    KINDS,
+    SHOWCASE_NAMES,
+    LinearModel,
+    OdeModel,
+    ResponseData,
+    linearize,
+    load_model_file,
+    load_model_source,
+    showcase_model,
+    showcase_source,
+    simulate_ode,
 )
 from pdmkit.models.pneumatic import (
     SENSOR_NAMES,
@@ -224,12 +231,14 @@ __all__ = [
     "library_terms",
     "linearize",
     "load_model_file",
+    "load_model_source",
     "make_recording",
     "max_entropy_partition",
     "model_distance",
     "modes_from_poles",
     "n4sid",
     "nominal_scales",
+    "nonlinearity",
     "oe",
     "orifice_mass_flow",
     "oustaloup",

@@ -34,6 +34,7 @@ __all__ = [
     "PiecewiseLinear",
     "Polynomial",
     "Saturation",
+    "nonlinearity",
 ]
 
 
@@ -222,7 +223,22 @@ _NL = {
 }
 
 
-def _nonlinearity(spec, which: str):
+def nonlinearity(spec, which: str = "nonlinearity"):
+    """The static nonlinearity block a Hammerstein-Wiener model uses for ``spec``.
+
+    Parameters
+    ----------
+    spec : {"saturation", "deadzone", "piecewise", "polynomial", "identity"}, block or None
+        A name of the built-in blocks, a block object, or None (identity).
+    which : str
+        The parameter's name in error messages.
+
+    Examples
+    --------
+    >>> from pdmkit.models import nonlinearity
+    >>> nonlinearity("saturation").param_names
+    ('lower', 'upper')
+    """
     if spec is None:
         return Identity()
     if isinstance(spec, str):
@@ -398,8 +414,8 @@ class HammersteinWiener:
                 raise ModelError(
                     f"{name} must be a non-negative integer (nb >= 1); got {v!r}."
                 )
-        self._in = _nonlinearity(self.input_nl, "input_nl")
-        self._out = _nonlinearity(self.output_nl, "output_nl")
+        self._in = nonlinearity(self.input_nl, "input_nl")
+        self._out = nonlinearity(self.output_nl, "output_nl")
         self._pwl_gain = isinstance(self._in, PiecewiseLinear)
         ysc = np.std(Y) or 1.0
 

@@ -1,9 +1,9 @@
 """pdmkit.models.mismatch: where a simulation and real recordings differ, and why.
 
-A user's model is a plain Python file (the model-file contract of
-``docs/mismatch.md``), loaded by :func:`load_model_file` (model files are code: a child
-check with a time limit, then your own process) and simulated batched by
-:func:`simulate_ode`. :func:`discover_mismatch` is a short pipeline of named steps:
+A user's model is a plain Python model file (:mod:`pdmkit.models.ode`: the contract of
+``docs/model_files.md``, :func:`~pdmkit.models.ode.load_model_file`,
+:func:`~pdmkit.models.ode.simulate_ode`). :func:`discover_mismatch` is a short pipeline
+of named steps:
 
 1. **fit** the nominal model by simulation error (:func:`fit_model`; long records in
    pieces, oversampled ones decimated, :mod:`._fit`);
@@ -40,13 +40,10 @@ from pdmkit.models.mismatch._candidates import (
     candidate_library,
 )
 from pdmkit.models.mismatch._cases import (
-    SHOWCASE_NAMES,
     ConcealedCase,
     example_result,
     generate_concealed_case,
     score_concealed_cases,
-    showcase_model,
-    showcase_source,
 )
 from pdmkit.models.mismatch._discover import (
     MismatchResult,
@@ -70,14 +67,6 @@ from pdmkit.models.mismatch._locate import (
     residual_windows,
     whiteness_test,
 )
-from pdmkit.models.mismatch._modelfile import (
-    KINDS,
-    MODEL_TIMEOUT,
-    OdeModel,
-    load_model_file,
-    load_model_source,
-)
-from pdmkit.models.mismatch._simulate import simulate_ode
 from pdmkit.models.mismatch._sparse import (
     SparseTerms,
     Term,
@@ -88,15 +77,11 @@ from pdmkit.models.mismatch._sparse import (
 
 __all__ = [
     "CANDIDATE_IDS",
-    "KINDS",
-    "MODEL_TIMEOUT",
-    "SHOWCASE_NAMES",
     "Candidate",
     "ConcealedCase",
     "Effect",
     "FitResult",
     "MismatchResult",
-    "OdeModel",
     "ParamSpec",
     "Recording",
     "Scales",
@@ -114,17 +99,12 @@ __all__ = [
     "fit_model",
     "generate_concealed_case",
     "library_terms",
-    "load_model_file",
-    "load_model_source",
     "make_recording",
     "nominal_scales",
     "region_statistics",
     "residual_spectrum",
     "residual_windows",
     "score_concealed_cases",
-    "showcase_model",
-    "showcase_source",
-    "simulate_ode",
     "sparse_equation",
     "stlsq_path",
     "whiteness_test",

@@ -66,7 +66,8 @@ class Scales:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models.mismatch import fit_model, nominal_scales, showcase_model
+    >>> from pdmkit.models.mismatch import fit_model, nominal_scales
+    >>> from pdmkit.models.ode import showcase_model
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.arange(200) * 0.02
     >>> data = {"time": t, "F": 40 * np.sin(3 * t), "x": 0.1 * np.sin(3 * t)}
@@ -1166,7 +1167,7 @@ def attach_candidates(
 
     Examples
     --------
-    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.ode import showcase_model
     >>> from pdmkit.models.mismatch._candidates import attach_candidates, _dummy_scales
     >>> msd = showcase_model("mass_spring_damper")
     >>> [e.key for e in attach_candidates(msd, _dummy_scales(msd))][:4]

@@ -1,7 +1,7 @@
-"""Showcase models and concealed test cases for mismatch discovery.
+"""Concealed test cases for mismatch discovery.
 
-The showcase models are written as model files (the text of :func:`showcase_source`),
-exactly what a user would write: a mass-spring-damper, two tanks, the Cascaded Tanks
+The showcase models (:mod:`pdmkit.models.ode`) are written as model files, exactly
+what a user would write: a mass-spring-damper, two tanks, the Cascaded Tanks
 benchmark and a pneumatic piston (a hidden chamber leak or valve dead time is concealed
 in it; its data come from the showcase model itself, not from the full pneumatic twin).
 :func:`generate_concealed_case` simulates one of them with a hidden effect from the
@@ -14,71 +14,29 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from pdmkit.errors import ModelError
+from pdmkit.models._xp import NumpyNamespace
 from pdmkit.models.mismatch._candidates import CANDIDATE_IDS, CANDIDATES, Effect, Scales
-from pdmkit.models.mismatch._modelfile import _load_source
-from pdmkit.models.mismatch._simulate import _NP, _run
+from pdmkit.models.ode import (
+    integrate_batch,
+    load_model_source,
+    showcase_model,
+    showcase_source,
+)
+
+_NP = NumpyNamespace()
 
 __all__ = [
-    "SHOWCASE_NAMES",
     "ConcealedCase",
     "example_result",
     "generate_concealed_case",
     "score_concealed_cases",
-    "showcase_model",
-    "showcase_source",
 ]
-
-#: the built-in showcase model files (plain model files shipped with the package)
-_SHOWCASES = resources.files("pdmkit.models") / "showcases"
-SHOWCASE_NAMES: tuple[str, ...] = (
-    "cascaded_tanks",
-    "mass_spring_damper",
-    "pneumatic_piston",
-    "two_tanks",
-)
-
-
-def showcase_source(name: str) -> str:
-    """The model-file text of a built-in showcase model.
-
-    Parameters
-    ----------
-    name : {"mass_spring_damper", "two_tanks", "cascaded_tanks", "pneumatic_piston"}
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> from pdmkit.models.mismatch._cases import showcase_source
-    >>> "def rhs(t, x, u, p):" in showcase_source("two_tanks")
-    True
-    """
-    if name not in SHOWCASE_NAMES:
-        raise ModelError(f"unknown showcase {name!r}; choose from {list(SHOWCASE_NAMES)}.")
-    return (_SHOWCASES / f"{name}.py").read_text(encoding="utf-8")
-
-
-def showcase_model(name: str, **params: float):
-    """A built-in showcase model as an :class:`OdeModel` (nominal values overridable).
-
-    Examples
-    --------
-    >>> from pdmkit.models.mismatch._cases import showcase_model
-    >>> showcase_model("mass_spring_damper")
-    <OdeModel 'mass_spring_damper': states x(position), v(velocity); ...; free k>
-    """
-    m = _load_source(showcase_source(name), f"<showcase {name}>", name)
-    return m.with_params(**params) if params else m
-
 
 # ---------------------------------------------------------------------------- generator
 #: effect id -> the places it is concealed: (system, attach, target, partner)
@@ -435,7 +393,7 @@ def generate_concealed_case(
     values.update({f"x0:{s}": v for s, v in true_model.initial.items()})
     n_sub = 4
     X0 = np.array([[true_model.initial[s] for s in true_model.states]])
-    y0, x0t = _run(
+    y0, x0t = integrate_batch(
         true_model, [], [], [], time, u, dict(true_model.params), X0, n_sub, _NP, True
     )
     rec = Recording(time, ts, u, {o: y0[0, :, j] for j, o in enumerate(true_model.outputs)})
@@ -474,7 +432,7 @@ def generate_concealed_case(
         B = grid.size
         with np.errstate(all="ignore"):
             # calibrate on a coarser step; the final truth below uses the fine one
-            Y, _ = _run(
+            Y, _ = integrate_batch(
                 true_model,
                 [eff],
                 theta,
@@ -506,7 +464,7 @@ def generate_concealed_case(
         if effect == "sparse":
             ((label, coef),) = eff.candidate.raw(params).items()
             params = {"term": label, "coefficient": coef}
-        Y, _ = _run(
+        Y, _ = integrate_batch(
             true_model, [eff], th, [None], time, u, dict(true_model.params), X0, fine, _NP
         )
         y_clean = Y[0]
@@ -523,7 +481,7 @@ def generate_concealed_case(
     file_params = dict(true_model.params)
     file_params[free] = true_model.params[free] * factor
     source = _with_params_source(showcase_source(system), file_params)
-    model = _load_source(source, f"<concealed {effect} case {seed}>", system)
+    model = load_model_source(source, name=system)
     import pandas as pd
 
     frame = pd.DataFrame({"time": time, **u})

@@ -77,7 +77,7 @@ from pdmkit.models.mismatch._locate import (
     residual_windows,
     whiteness_test,
 )
-from pdmkit.models.mismatch._simulate import _DERIV
+from pdmkit.models.ode import DERIVATIVE_ATTACH
 
 __all__ = ["MismatchResult", "discover_mismatch", "dm_test"]
 
@@ -192,7 +192,7 @@ class MismatchResult:
     augmented_effects : tuple of Effect
         The accepted effects (empty for the verdict ``none``); with
         ``augmented_values`` they re-simulate the augmented model
-        (:func:`~pdmkit.models.mismatch.simulate_ode`).
+        (:func:`~pdmkit.models.ode.simulate_ode`).
 
     Examples
     --------
@@ -580,7 +580,9 @@ def _companion_pairs(singles: list[_Scored], top: int) -> list:
             f = c.effects[0]
             if f.id not in e.candidate.companions or c is s:
                 continue
-            same_kind = (e.candidate.attach in _DERIV) and (f.candidate.attach in _DERIV)
+            same_kind = (e.candidate.attach in DERIVATIVE_ATTACH) and (
+                f.candidate.attach in DERIVATIVE_ATTACH
+            )
             if same_kind and f.target != e.target:
                 continue
             key = frozenset((e.key, f.key))

@@ -21,8 +21,11 @@ import numpy as np
 
 from pdmkit._checks import uniform_step
 from pdmkit.errors import DataError, ModelError
+from pdmkit.models._xp import NumpyNamespace
 from pdmkit.models.mismatch._candidates import Effect, Scales
-from pdmkit.models.mismatch._simulate import _NP, _jacobians, _run, _stable_n_sub
+from pdmkit.models.ode import integrate_batch, stable_substeps, state_jacobians
+
+_NP = NumpyNamespace()
 
 __all__ = ["FitResult", "Recording", "fit_model", "make_recording", "nominal_scales"]
 
@@ -47,7 +50,7 @@ class Recording:
     >>> import numpy as np
     >>> import pandas as pd
     >>> from pdmkit.models.mismatch._fit import make_recording
-    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.ode import showcase_model
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.arange(20) * 0.1
     >>> rec = make_recording(msd, pd.DataFrame({"time": t, "F": 1 + 0 * t, "x": 0 * t}))
@@ -100,7 +103,7 @@ def make_recording(model, data: Any, name: str = "data") -> Recording:
     Examples
     --------
     >>> from pdmkit.models.mismatch._fit import make_recording
-    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.ode import showcase_model
     >>> import numpy as np
     >>> t = np.arange(12) * 0.1
     >>> t[5:] += 0.1
@@ -415,7 +418,7 @@ class _Problem:
         t = self.rec.time[:n]
         useq = {k: v[:n] for k, v in self.rec.inputs.items()}
         with np.errstate(all="ignore"):
-            Y, X = _run(
+            Y, X = integrate_batch(
                 model,
                 union,
                 theta,
@@ -637,7 +640,7 @@ def simulate_states(model, rec: Recording, values: Mapping[str, float], n_sub: i
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
     X0 = np.array([[values[f"x0:{s}"] for s in model.states]])
     with np.errstate(all="ignore"):
-        _, Xt = _run(
+        _, Xt = integrate_batch(
             model, [], [], [], rec.time, rec.inputs, P, X0, n_sub, _NP, True, hold=rec.hold
         )
     return Xt[0]
@@ -750,7 +753,7 @@ class FitResult:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.ode import showcase_model
     >>> from pdmkit.models.mismatch._fit import fit_model
     >>> tank = showcase_model("two_tanks")
     >>> t = np.arange(100) * 2.0
@@ -816,7 +819,7 @@ def _choose_n_sub(
     else:
         X, index = along
     with np.errstate(all="ignore"):
-        need = _stable_n_sub(
+        need = stable_substeps(
             model, P, X, rec.ts, {k: v[index] for k, v in rec.inputs.items()}
         )
     return int(min(max(need, 1), 32))
@@ -857,7 +860,7 @@ def choose_decimation(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.ode import showcase_model
     >>> from pdmkit.models.mismatch._fit import choose_decimation, make_recording
     >>> msd = showcase_model("mass_spring_damper")  # resonance near 3 Hz
     >>> t = np.arange(40000) * 1e-4  # sampled at 10 kHz
@@ -874,7 +877,7 @@ def choose_decimation(
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
     fast = [
         float(np.max(np.abs(np.linalg.eigvals(J))))
-        for J in _jacobians(model, P, X, head.inputs, 12)
+        for J in state_jacobians(model, P, X, head.inputs, 12)
     ]
     if not fast or max(fast) <= 0:
         return 1
@@ -950,7 +953,7 @@ def choose_pieces(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.ode import showcase_model
     >>> from pdmkit.models.mismatch._fit import choose_pieces, make_recording
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.arange(20000) * 0.01
@@ -979,7 +982,7 @@ def choose_pieces(
         if not np.allclose(a, b, rtol=1e-12, atol=0.0, equal_nan=True):
             return None
     rates = []
-    for J in _jacobians(model, P, X, {k: v for k, v in head.inputs.items()}, 12):
+    for J in state_jacobians(model, P, X, {k: v for k, v in head.inputs.items()}, 12):
         lam = np.linalg.eigvals(J)
         fast = float(np.max(np.abs(lam)))
         decay = -lam.real[-lam.real > 1e-6 * max(fast, 1e-300)]
@@ -1101,8 +1104,8 @@ def fit_model(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models.mismatch._cases import showcase_model
-    >>> from pdmkit.models.mismatch._simulate import simulate_ode
+    >>> from pdmkit.models.ode import showcase_model
+    >>> from pdmkit.models.ode._simulate import simulate_ode
     >>> from pdmkit.models.mismatch._fit import fit_model
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.arange(400) * 0.02
@@ -1167,7 +1170,7 @@ def nominal_scales(model, data: Recording | Any, fit: FitResult, n_sub: int) -> 
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.ode import showcase_model
     >>> from pdmkit.models.mismatch._fit import fit_model, nominal_scales
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.arange(200) * 0.02

@@ -179,7 +179,7 @@ def region_statistics(model, x, u, residual):
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.ode import showcase_model
     >>> from pdmkit.models.mismatch._locate import region_statistics
     >>> t = np.linspace(0, 20, 2000)
     >>> x, v = np.sin(t), np.cos(t)

@@ -343,7 +343,7 @@ def library_terms(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models.mismatch._cases import showcase_model
+    >>> from pdmkit.models.ode import showcase_model
     >>> from pdmkit.models.mismatch._sparse import library_terms
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.linspace(0, 6, 300)

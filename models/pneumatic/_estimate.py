@@ -52,8 +52,8 @@ import numpy as np
 
 from pdmkit._progress import progress
 from pdmkit.errors import ConvergenceWarning, DataError, ModelError, did_you_mean
-from pdmkit.models._response import ResponseData
 from pdmkit.models._xp import get_namespace
+from pdmkit.models.ode import ResponseData
 from pdmkit.models.pneumatic._integrate import _THETA, _switch_times, simulate_piston
 from pdmkit.models.pneumatic._sensors import P_STD, SENSOR_UNITS, T_STD
 from pdmkit.models.pneumatic._twin import PneumaticParams, _command, _derivs, _resolve

@@ -37,8 +37,8 @@ import numpy as np
 
 from pdmkit._progress import progress
 from pdmkit.errors import ModelError
-from pdmkit.models._response import ResponseData
 from pdmkit.models._xp import get_namespace, is_torch
+from pdmkit.models.ode import ResponseData
 from pdmkit.models.pneumatic._sensors import (
     SENSOR_NAMES,
     SENSOR_UNITS,

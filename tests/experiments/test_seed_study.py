@@ -232,9 +232,9 @@ def test_seed_comparison_table_and_errors():
 
 @pytest.fixture(scope="module")
 def residual_set():
-    from pdmkit.experiments._seed_study import _seed_residual_ensemble
+    from pdmkit.ensembles import simulate_seed_single_fault_ensemble
 
-    return _seed_residual_ensemble(60, repeats=4, t_end=1.0, seed=5)
+    return simulate_seed_single_fault_ensemble(60, repeats=4, t_end=1.0, seed=5)
 
 
 def test_seed_residual_set_is_single_faults_at_the_references_point(residual_set):

@@ -5,8 +5,8 @@ import pytest
 import torch
 
 from pdmkit.errors import ModelError
-from pdmkit.models._linearize import linearize
-from pdmkit.models.mismatch._modelfile import OdeModel
+from pdmkit.models.ode._linearize import linearize
+from pdmkit.models.ode._modelfile import OdeModel
 
 
 def _msd():
@@ -64,7 +64,7 @@ def test_pendulum_bottom_and_top():
 
 
 def test_pneumatic_twin_jacobian_matches_finite_differences():
-    from pdmkit.models import PneumaticParams, initial_state, rhs
+    from pdmkit.models import PneumaticParams, initial_state, piston_rhs
 
     p = PneumaticParams()
     x0 = np.asarray(initial_state(p), dtype=float)
@@ -73,14 +73,14 @@ def test_pneumatic_twin_jacobian_matches_finite_differences():
     # pressures away from the orifices' kinks (zero pressure difference), where the
     # flow function is not differentiable
     x0[2:5] = [3.0e5, 2.5e5, 5.9e5]
-    lin = linearize(rhs, x0, t=0.5, args=(p,))
+    lin = linearize(piston_rhs, x0, t=0.5, args=(p,))
     n = x0.size
     fd = np.zeros((n, n))
     for j in range(n):
         h = 1e-6 * max(1.0, abs(x0[j]))
         e = np.zeros(n)
         e[j] = h
-        fd[:, j] = (rhs(0.5, x0 + e, p) - rhs(0.5, x0 - e, p)) / (2 * h)
+        fd[:, j] = (piston_rhs(0.5, x0 + e, p) - piston_rhs(0.5, x0 - e, p)) / (2 * h)
     scale = np.maximum(np.abs(fd), 1e-6 * np.max(np.abs(fd), axis=1, keepdims=True))
     assert np.all(np.abs(lin.A - fd) <= 1e-4 * scale + 1e-8)
     assert lin.B.shape == (n, 0)

@@ -7,9 +7,10 @@ import pandas as pd
 import pytest
 
 from pdmkit.errors import ModelError
-from pdmkit.models.mismatch._cases import generate_concealed_case, showcase_model
+from pdmkit.models.mismatch._cases import generate_concealed_case
 from pdmkit.models.mismatch._discover import discover_mismatch, dm_test
-from pdmkit.models.mismatch._simulate import simulate_ode
+from pdmkit.models.ode import showcase_model
+from pdmkit.models.ode._simulate import simulate_ode
 
 # a competing set for each concealed case: the true effect and its look-alikes
 FRICTION = [

@@ -8,9 +8,9 @@ import pytest
 
 from pdmkit.errors import DataError
 from pdmkit.models.mismatch._candidates import CANDIDATES, Effect
-from pdmkit.models.mismatch._cases import showcase_model
 from pdmkit.models.mismatch._fit import fit_model, make_recording, nominal_scales
-from pdmkit.models.mismatch._simulate import simulate_ode
+from pdmkit.models.ode import showcase_model
+from pdmkit.models.ode._simulate import simulate_ode
 
 
 @pytest.fixture

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 from scipy import signal, stats
 
-from pdmkit.models.mismatch._cases import showcase_model
 from pdmkit.models.mismatch._locate import (
     region_statistics,
     residual_spectrum,
     residual_windows,
     whiteness_test,
 )
+from pdmkit.models.ode import showcase_model
 
 
 def test_windows_rank_bursts_and_shares_sum_to_one(rng):

@@ -18,12 +18,10 @@ from pdmkit.models.mismatch import (
     decimate,
     discover_mismatch,
     generate_concealed_case,
-    load_model_file,
     make_recording,
-    showcase_model,
 )
 from pdmkit.models.mismatch._fit import _lm, _make_jobs, _Problem
-from pdmkit.models.mismatch._simulate import _run, simulate_ode
+from pdmkit.models.ode import integrate_batch, load_model_file, showcase_model, simulate_ode
 
 
 def _msd_record(n=20000, ts=0.01, seed=0, k=350.0):
@@ -39,7 +37,7 @@ def test_pieces_reproduce_the_whole_simulation_from_its_own_states():
     starts, length = np.array([0, 700, 1900]), 600
     X = np.stack([r.states[s][0] for s in msd.state_names], 1)  # (N, nx)
     P = dict(msd.params) | {"k": 350.0}
-    y, _ = _run(
+    y, _ = integrate_batch(
         msd,
         [],
         [],
@@ -57,7 +55,7 @@ def test_pieces_reproduce_the_whole_simulation_from_its_own_states():
 
 
 def _np():
-    from pdmkit.models.mismatch._simulate import _NP
+    from pdmkit.models.ode._simulate import _NP
 
     return _NP
 
@@ -173,10 +171,12 @@ def test_pieces_see_a_dead_time_that_reaches_before_their_start():
     masks = [np.array([True, False])]
     P = dict(msd.params)
     x0 = np.zeros((2, 2))
-    whole, X = _run(msd, [dead], theta, masks, t, {"F": F}, P, x0, 1, _np(), True)
+    whole, X = integrate_batch(
+        msd, [dead], theta, masks, t, {"F": F}, P, x0, 1, _np(), True
+    )
     starts, length = np.array([0, 1000, 2300]), 500
     x0p = np.stack([X[:, starts, :][b] for b in range(2)])  # (2, K, nx) true states
-    y, _ = _run(
+    y, _ = integrate_batch(
         msd, [dead], theta, masks, t, {"F": F}, P, x0p, 1, _np(), segments=(starts, length)
     )
     idx = (starts[:, None] + np.arange(length)).ravel()

@@ -16,15 +16,16 @@ import pandas as pd
 import pytest
 from scipy.integrate import solve_ivp
 
-from pdmkit.models.mismatch._cases import generate_concealed_case, showcase_model
+from pdmkit.models.mismatch._cases import generate_concealed_case
 from pdmkit.models.mismatch._discover import (
     _signatures,
     choose_input_hold,
     discover_mismatch,
 )
 from pdmkit.models.mismatch._fit import make_recording
-from pdmkit.models.mismatch._modelfile import OdeModel, load_model_file
-from pdmkit.models.mismatch._simulate import simulate_ode
+from pdmkit.models.ode import showcase_model
+from pdmkit.models.ode._modelfile import OdeModel, load_model_file
+from pdmkit.models.ode._simulate import simulate_ode
 
 LINEAR_MSD = """
 STATES = {"x": "position", "v": "velocity"}

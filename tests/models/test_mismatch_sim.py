@@ -17,9 +17,9 @@ from pdmkit.models.mismatch._candidates import (
     _dummy_scales,
     attach_candidates,
 )
-from pdmkit.models.mismatch._cases import showcase_model
-from pdmkit.models.mismatch._modelfile import OdeModel
-from pdmkit.models.mismatch._simulate import simulate_ode
+from pdmkit.models.ode import showcase_model
+from pdmkit.models.ode._modelfile import OdeModel
+from pdmkit.models.ode._simulate import simulate_ode
 
 
 def zoh_reference(f, y0, t, u):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pdmkit.errors import ModelError
-from pdmkit.models.mismatch._modelfile import KINDS, OdeModel, load_model_file
+from pdmkit.models.ode._modelfile import KINDS, OdeModel, load_model_file
 
 GOOD = """
 STATES = {"x": "position", "v": "velocity"}
@@ -136,7 +136,7 @@ def test_direct_construction_and_numpy_batches():
 def test_showcase_files_load(tmp_path):
     from pathlib import Path
 
-    folder = Path(__file__).resolve().parents[2] / "models" / "showcases"
+    folder = Path(__file__).resolve().parents[2] / "models" / "ode" / "showcases"
     names = sorted(p.stem for p in folder.glob("*.py"))
     assert names == [
         "cascaded_tanks",

@@ -5,10 +5,8 @@ import pytest
 
 from pdmkit.errors import ModelError
 from pdmkit.models.mismatch._candidates import CANDIDATE_IDS, Effect, candidate_library
-from pdmkit.models.mismatch._cases import generate_concealed_case, showcase_model
+from pdmkit.models.mismatch._cases import generate_concealed_case
 from pdmkit.models.mismatch._discover import discover_mismatch
-from pdmkit.models.mismatch._modelfile import OdeModel
-from pdmkit.models.mismatch._simulate import simulate_ode
 from pdmkit.models.mismatch._sparse import (
     SparseTerms,
     Term,
@@ -16,6 +14,9 @@ from pdmkit.models.mismatch._sparse import (
     sparse_equation,
     stlsq_path,
 )
+from pdmkit.models.ode import showcase_model
+from pdmkit.models.ode._modelfile import OdeModel
+from pdmkit.models.ode._simulate import simulate_ode
 
 
 def test_term_labels_parse_and_values():

@@ -155,7 +155,7 @@ class OdeModel:
 
     Examples
     --------
-    >>> from pdmkit.models.mismatch._modelfile import OdeModel
+    >>> from pdmkit.models.ode._modelfile import OdeModel
     >>> def rhs(t, x, u, p):
     ...     return {"h": (u["q"] - p["a"] * x["h"]) / p["A"]}
     >>> tank = OdeModel({"h": "level"}, {"q": "flow"}, ["h"], {"a": 0.5, "A": 2.0}, rhs,
@@ -284,7 +284,7 @@ class OdeModel:
 
         Examples
         --------
-        >>> from pdmkit.models.mismatch._modelfile import OdeModel
+        >>> from pdmkit.models.ode._modelfile import OdeModel
         >>> m = OdeModel({"h": "level"}, {}, ["h"], {"a": 1.0}, lambda t, x, u, p: {"h": 0})
         >>> m.with_params(a=2.0).params
         {'a': 2.0}
@@ -335,7 +335,7 @@ class OdeModel:
 
         Examples
         --------
-        >>> from pdmkit.models.mismatch._modelfile import OdeModel
+        >>> from pdmkit.models.ode._modelfile import OdeModel
         >>> m = OdeModel({"h": "level"}, {}, ["h"], {"a": 2.0},
         ...              lambda t, x, u, p: {"h": -p["a"] * x["h"]})
         >>> m.derivatives({"h": 3.0})
@@ -396,7 +396,7 @@ class OdeModel:
 
         Examples
         --------
-        >>> from pdmkit.models.mismatch._modelfile import OdeModel
+        >>> from pdmkit.models.ode._modelfile import OdeModel
         >>> m = OdeModel({"h": "level"}, {}, ["h"], {"a": 2.0},
         ...              lambda t, x, u, p: {"h": 1.0 / x["h"]})
         >>> m.check()
@@ -563,7 +563,7 @@ def load_model_source(source: str, *, name: str = "model") -> OdeModel:
 
     Examples
     --------
-    >>> from pdmkit.models.mismatch import load_model_source
+    >>> from pdmkit.models.ode import load_model_source
     >>> text = (
     ...     'STATES = {"x": "level"}\nOUTPUTS = ["x"]\nPARAMS = {"k": 0.5}\n'
     ...     'def rhs(t, x, u, p):\n    return {"x": -p["k"] * x["x"]}\n'

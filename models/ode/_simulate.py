@@ -20,7 +20,13 @@ import numpy as np
 from pdmkit.errors import ModelError
 from pdmkit.models._xp import NumpyNamespace, TorchNamespace, is_torch
 
-__all__ = ["simulate_ode"]
+__all__ = [
+    "DERIVATIVE_ATTACH",
+    "integrate_batch",
+    "simulate_ode",
+    "stable_substeps",
+    "state_jacobians",
+]
 
 
 # ---------------------------------------------------------------------------- backends
@@ -59,10 +65,12 @@ def _check_time(time) -> tuple[np.ndarray, float]:
     return t, ts
 
 
-_DERIV = ("velocity", "velocity_position", "level", "state")
+#: the ``attach`` kinds of augmentations whose ``derivs`` hook adds to the state
+#: derivatives (the others transform inputs or outputs)
+DERIVATIVE_ATTACH = ("velocity", "velocity_position", "level", "state")
 
 
-def _run(
+def integrate_batch(
     model,
     effects: Sequence,
     theta: Sequence[Mapping[str, Any]],
@@ -103,6 +111,21 @@ def _run(
     value (input transforms, lags, sensor models). ``useq`` maps each input to a
     ``(N,)`` or ``(B, N)`` array; ``params`` each model parameter to a scalar or
     ``(B,)`` array; ``x0`` is ``(B, nx)``.
+
+    Examples
+    --------
+    A plain batch of two members (no added terms), two RK4 steps per sample:
+
+    >>> import numpy as np
+    >>> from pdmkit.models._xp import NumpyNamespace
+    >>> from pdmkit.models.ode import integrate_batch, showcase_model
+    >>> msd = showcase_model("mass_spring_damper")
+    >>> t = np.arange(400) * 0.01
+    >>> params = {"m": 1.0, "c": 4.0, "k": np.array([400.0, 100.0])}
+    >>> y, _ = integrate_batch(msd, [], [], [], t, {"F": np.ones(400)}, params,
+    ...                        np.zeros((2, 2)), 2, NumpyNamespace())
+    >>> y.shape, np.round(y[:, -1, 0] * [400, 100], 2).tolist()  # static gain 1/k
+    ((2, 400, 1), [1.0, 1.0])
     """
     states = model.state_names
     inputs = model.input_names
@@ -192,7 +215,7 @@ def _run(
     theta = [
         e.candidate.prepare(xp, e, th, h) for e, th in zip(effects, theta, strict=True)
     ]
-    deriv = [i for i, e in enumerate(effects) if e.candidate.attach in _DERIV]
+    deriv = [i for i, e in enumerate(effects) if e.candidate.attach in DERIVATIVE_ATTACH]
     # an effect whose rows form one block (one structure of a batch: its jobs' rows are
     # adjacent) is evaluated on that block only, not on every row with neutral values:
     # with dozens of structures in a batch this is most of the arithmetic saved
@@ -271,7 +294,7 @@ def _run(
                     dx[s][sl] = v
         for i, o in extra:  # terms that read an effect's own states (hysteresis)
             e = effects[i]
-            if e.candidate.attach in _DERIV:
+            if e.candidate.attach in DERIVATIVE_ATTACH:
                 zz = Zl[o : o + e.candidate.n_extra]
                 dx = e.candidate.derivs_with_extra(xp, e, theta[i], tt, x, u, dx, zz)
         DX = [dx[s] for s in states]
@@ -435,8 +458,8 @@ def simulate_ode(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models.mismatch._modelfile import OdeModel
-    >>> from pdmkit.models.mismatch._simulate import simulate_ode
+    >>> from pdmkit.models.ode._modelfile import OdeModel
+    >>> from pdmkit.models.ode._simulate import simulate_ode
     >>> decay = OdeModel({"h": "level"}, {}, ["h"], {"a": 1.0},
     ...                  lambda t, x, u, p: {"h": -p["a"] * x["h"]}, initial={"h": 1.0})
     >>> t = np.linspace(0.0, 1.0, 11)
@@ -444,7 +467,7 @@ def simulate_ode(
     >>> np.round(r.outputs["h"][:, -1], 5), np.round(np.exp([-1.0, -2.0]), 5)
     (array([0.36788, 0.13534]), array([0.36788, 0.13534]))
     """
-    from pdmkit.models._response import ResponseData
+    from pdmkit.models.ode._response import ResponseData
 
     where = "simulate_ode"
     if not isinstance(n_sub, int | np.integer) or n_sub < 1:
@@ -491,7 +514,9 @@ def simulate_ode(
         for k, v in uin.items()
     }
     masks = [None] * len(effects)
-    Y, Xt = _run(model, effects, theta, masks, t, U, P, X0, int(n_sub), xp, True, hold)
+    Y, Xt = integrate_batch(
+        model, effects, theta, masks, t, U, P, X0, int(n_sub), xp, True, hold
+    )
     states = {s: Xt[:, :, j] for j, s in enumerate(model.state_names)}
     outputs = {o: Y[:, :, j] for j, o in enumerate(model.outputs)}
     shown = {
@@ -501,21 +526,42 @@ def simulate_ode(
     return ResponseData(t, states=states, outputs=outputs, inputs=shown, name=model.name)
 
 
-def _stable_n_sub(model, params, x_traj: np.ndarray, ts: float, u_traj=None) -> int:
+def stable_substeps(model, params, x_traj: np.ndarray, ts: float, u_traj=None) -> int:
     """Smallest RK4 sub-step count keeping ``h * |lambda_max| <= 0.5`` along a trajectory.
 
     The local Jacobian is estimated by finite differences at a few points of ``x_traj``
     ``(N, nx)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models.ode import showcase_model, stable_substeps
+    >>> msd = showcase_model("mass_spring_damper")  # |lambda| = 20 rad/s
+    >>> x = np.zeros((10, 2))
+    >>> stable_substeps(msd, msd.params, x, 0.01, {"F": np.zeros(10)})
+    1
+    >>> stable_substeps(msd, msd.params, x, 0.09, {"F": np.zeros(10)})  # 0.09 * 20 / 0.5
+    4
     """
     lam = 0.0
-    for J in _jacobians(model, params, x_traj, u_traj, 25):
+    for J in state_jacobians(model, params, x_traj, u_traj, 25):
         lam = max(lam, float(np.max(np.abs(np.linalg.eigvals(J)))))
     return max(1, math.ceil(ts * lam / 0.5))
 
 
-def _jacobians(model, params, x_traj: np.ndarray, u_traj, n_points: int):
+def state_jacobians(model, params, x_traj: np.ndarray, u_traj, n_points: int):
     """Finite-difference state Jacobians of ``rhs`` at ``n_points`` points of a
-    trajectory ``x_traj (N, nx)`` (inputs ``u_traj``); only finite ones."""
+    trajectory ``x_traj (N, nx)`` (inputs ``u_traj``); only finite ones.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models.ode import showcase_model, state_jacobians
+    >>> msd = showcase_model("mass_spring_damper")  # m = 1, c = 4, k = 400
+    >>> [J] = state_jacobians(msd, msd.params, np.zeros((5, 2)), {"F": np.zeros(5)}, 1)
+    >>> np.round(J, 3).tolist()
+    [[0.0, 1.0], [-400.0, -4.0]]
+    """
     states = model.state_names
     N = x_traj.shape[0]
     idx = np.unique(np.linspace(0, N - 1, min(N, n_points)).astype(int))

@@ -5,7 +5,7 @@
 quasi-stable point to fit physical parameters to measured FRFs; the poles of ``A`` are
 the model's natural frequencies and damping there.
 
-:func:`linearize` takes a user :class:`~pdmkit.models.mismatch.OdeModel` (the model-file
+:func:`linearize` takes a user :class:`~pdmkit.models.ode.OdeModel` (the model-file
 contract ``rhs(t, x, u, p)`` with dicts), or any function ``fun(t, x, *args)`` on a
 state vector, such as the pneumatic twin's :func:`pdmkit.models.piston_rhs` (its input, the
 valve command, is a function of time, so only ``A`` is returned there).
@@ -129,7 +129,7 @@ def linearize(model, x0, u0=None, *, params=None, t: float = 0.0, args=()) -> Li
     Parameters
     ----------
     model : OdeModel or callable
-        An :class:`~pdmkit.models.mismatch.OdeModel` (``rhs(t, x, u, p)`` with dicts),
+        An :class:`~pdmkit.models.ode.OdeModel` (``rhs(t, x, u, p)`` with dicts),
         or ``fun(t, x, *args) -> dx/dt`` on a 1-D state tensor (e.g.
         :func:`pdmkit.models.piston_rhs` with ``args=(PneumaticParams(),)``).
     x0 : dict or array_like
@@ -152,8 +152,8 @@ def linearize(model, x0, u0=None, *, params=None, t: float = 0.0, args=()) -> Li
     Examples
     --------
     >>> import torch
-    >>> from pdmkit.models.mismatch._modelfile import OdeModel
-    >>> from pdmkit.models._linearize import linearize
+    >>> from pdmkit.models.ode._modelfile import OdeModel
+    >>> from pdmkit.models.ode._linearize import linearize
     >>> pend = OdeModel({"th": "angle", "w": "angular_velocity"}, {"T": "torque"}, ["th"],
     ...                 {"g": 9.81, "l": 0.5},
     ...                 lambda t, x, u, p: {"th": x["w"],
@@ -164,7 +164,7 @@ def linearize(model, x0, u0=None, *, params=None, t: float = 0.0, args=()) -> Li
     """
     import torch
 
-    from pdmkit.models.mismatch import OdeModel
+    from pdmkit.models.ode import OdeModel
 
     dtype = torch.float64
     if isinstance(model, OdeModel):
