@@ -49,25 +49,26 @@ from pdmkit.experiments._runs import (
     package_versions,
     predict_members,
 )
-from pdmkit.experiments._seed_study import (
+from pdmkit.experiments._seed_indicators import (
     SEED_NUMBERS,
     SEED_SENSOR_ACCURACY,
     SEED_SENSOR_RECIPES,
     SeedResult,
     SeedSensorRecipe,
-    run_seed_study,
-    seed_air_leak_rul,
-    seed_comparison,
     seed_feature_table,
+    seed_indicators,
+    seed_rank,
+)
+from pdmkit.experiments._seed_recipes import (
+    seed_air_leak_rul,
     seed_flow_bagged_trees,
     seed_flow_knn,
     seed_flow_pca_bagged_trees,
-    seed_indicators,
-    seed_rank,
     seed_residual_classification,
     seed_sensor_faults,
     seed_sensor_table,
 )
+from pdmkit.experiments._seed_study import run_seed_study, seed_comparison
 from pdmkit.experiments._sensors import (
     SensorComparison,
     SensorCosts,

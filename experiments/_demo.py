@@ -482,10 +482,8 @@ def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
     from pdmkit.experiments._classify import classify
     from pdmkit.experiments._demo_mismatch import add_mismatch_section, demo_mismatch_cases
     from pdmkit.experiments._report import Report
-    from pdmkit.experiments._seed_study import (
-        seed_comparison,
-        seed_ensemble_parts,
-        seed_feature_table,
+    from pdmkit.experiments._seed_indicators import seed_feature_table
+    from pdmkit.experiments._seed_recipes import (
         seed_flow_bagged_trees,
         seed_flow_knn,
         seed_flow_pca_bagged_trees,
@@ -493,6 +491,7 @@ def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
         seed_sensor_faults,
         seed_sensor_table,
     )
+    from pdmkit.experiments._seed_study import seed_comparison, seed_ensemble_parts
     from pdmkit.experiments._sensors import SensorComparison, compare_sensors
     from pdmkit.features import extract_ensemble, rank_features
 

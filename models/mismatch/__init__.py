@@ -15,7 +15,9 @@ of named steps:
    :class:`Candidate` subclasses the same way), grow companions and pairs;
 4. **fall back** to a sparse equation selected through the simulation
    (:func:`sparse_equation`, :mod:`._sparse`);
-5. **decide** with significance, parsimony and whiteness (:mod:`._discover`).
+5. **decide** with significance, parsimony and whiteness (:mod:`._select`), and say
+   what was found (:class:`MismatchResult`, :mod:`._verdict`); :mod:`._discover` runs
+   the steps.
 
 :func:`generate_concealed_case` and :func:`score_concealed_cases` (:mod:`._cases`) hide
 an effect in a known model, for checks.

@@ -36,26 +36,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from pdmkit.errors import ConvergenceWarning, ModelError
-from pdmkit.models.mismatch._candidates import (
-    SPARSE_ID,
-    Effect,
-    Scales,
-    _position_partner,
-    attach_candidates,
-)
+from pdmkit.models.mismatch._candidates import SPARSE_ID, Scales, attach_candidates
 from pdmkit.models.mismatch._fit import (
     DEADLINE,
     PIECES_FROM,
     Recording,
     _choose_n_sub,
-    _cost,
     _effect_starts,
     _initial_values,
     _Job,
@@ -65,649 +59,33 @@ from pdmkit.models.mismatch._fit import (
     _Problem,
     choose_decimation,
     choose_pieces,
-    data_states,
     decimate,
     make_recording,
     part,
-    simulate_states,
 )
-from pdmkit.models.mismatch._locate import (
-    region_statistics,
-    residual_spectrum,
-    residual_windows,
-    whiteness_test,
+from pdmkit.models.mismatch._select import (
+    Significance,
+    _by_weight,
+    _choose,
+    _companion_pairs,
+    _friction_step,
+    _grow,
+    _score,
+    _Scored,
+    _simpler_rival,
+    _white,
+    _within_reach,
+    dm_test,
 )
-from pdmkit.models.ode import DERIVATIVE_ATTACH
-
-__all__ = ["MismatchResult", "discover_mismatch", "dm_test"]
-
-_NONE_PHYSICS = (
-    "No candidate effect improves the validation fit significantly beyond the noise: "
-    "the model explains these data as well as they allow."
-)
-_PARTIAL_PHYSICS = (
-    "A named effect explains part of the residual (best_partial), but a data-driven "
-    "equation beats it clearly without leaving a noise-like residual either: the "
-    "missing physics is not (only) a named effect. See lead_equation."
-)
-_UNEXPLAINED_PHYSICS = (
-    "Something systematic is left in the residual, but no effect of the library (nor a "
-    "sparse equation) explains it significantly: the missing physics is not a named "
-    "effect. See best_partial and lead_equation for what comes closest."
+from pdmkit.models.mismatch._verdict import (
+    MismatchResult,
+    _result,
+    add_warnings,
+    build_verdict,
+    candidate_table,
 )
 
-
-def _structured(s) -> bool:
-    """A residual with clear structure: not white and strongly correlated (a model
-    error, not measurement noise, which a control's residual is)."""
-    for j in range(s.e_val.shape[1]):
-        w = whiteness_test(s.e_val[:, j])
-        if not w["white"] and w["acf_max"] > 0.5:
-            return True
-    return False
-
-
-# ---------------------------------------------------------------------------- statistics
-def dm_test(e_ref: np.ndarray, e_new: np.ndarray) -> tuple[float, float]:
-    """One-sided Diebold-Mariano test that ``e_new`` has smaller squared errors.
-
-    ``d_t = sum(e_ref**2) - sum(e_new**2)`` (over outputs); the variance of its mean is
-    a Bartlett (Newey-West) HAC estimate with the plug-in bandwidth
-    ``floor(4 (N/100)^(2/9))``.
-
-    Returns
-    -------
-    (statistic, p_value)
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from pdmkit.models.mismatch._discover import dm_test
-    >>> rng = np.random.default_rng(0)
-    >>> noise = rng.normal(size=500)
-    >>> round(dm_test(noise + 1.0, noise)[1], 6)
-    0.0
-    >>> bool(dm_test(noise, noise + 0.01 * rng.normal(size=500))[1] > 0.01)
-    True
-    """
-    from scipy import stats
-
-    a = np.asarray(e_ref, dtype=float)
-    b = np.asarray(e_new, dtype=float)
-    a = a[:, None] if a.ndim == 1 else a
-    b = b[:, None] if b.ndim == 1 else b
-    with np.errstate(over="ignore", invalid="ignore"):
-        d = np.sum(a**2, axis=1) - np.sum(b**2, axis=1)
-    if not np.all(np.isfinite(d)):  # a diverged simulation: infinitely worse
-        worse = bool(np.any(np.isnan(d)) or np.any(d == -np.inf))
-        return (-math.inf, 1.0) if worse else (math.inf, 0.0)
-    n = d.size
-    dc = d - d.mean()
-    g0 = float(np.dot(dc, dc) / n)
-    if g0 <= 0:
-        return (math.inf if d.mean() > 0 else 0.0), (0.0 if d.mean() > 0 else 1.0)
-    var = g0
-    # Newey-West (1994) plug-in bandwidth
-    L = int(min(max(1, math.floor(4.0 * (n / 100.0) ** (2.0 / 9.0))), n - 1))
-    for k in range(1, L + 1):
-        gk = float(np.dot(dc[k:], dc[: n - k]) / n)
-        var += 2.0 * (1.0 - k / (L + 1)) * gk
-    var = max(var, g0 / n)
-    stat = float(d.mean() / math.sqrt(var / n))
-    return stat, float(stats.norm.sf(stat))
-
-
-# ---------------------------------------------------------------------------- result
-@dataclasses.dataclass
-class MismatchResult:
-    """What :func:`discover_mismatch` found.
-
-    Attributes
-    ----------
-    verdict : dict
-        ``effect`` (id or ``"none"``), ``target``, ``physics`` (one sentence),
-        ``params``; ``also`` lists the further effects when more than one was
-        accepted.
-    candidates : pandas.DataFrame
-        Every candidate (best variant per effect and target), best first: ``effect``,
-        ``target``, ``variant``, ``rmse_validation``, ``improvement`` (relative to the
-        nominal), ``criterion`` (BIC on the training part), ``p_value``,
-        ``n_params``, ``refit`` (fully refitted, or only screened).
-    located : list of dict
-        Time windows of the nominal residual, ``{"start", "end", "share"}``.
-    regions : pandas.DataFrame
-        Residual energy over regions of the state / input space.
-    fit : dict
-        ``rmse_nominal``, ``rmse_augmented`` (validation part), and training RMSEs.
-    whiteness : dict
-        ``{"before": ..., "after": ...}`` per output (:func:`whiteness_test`).
-    spectrum : pandas.DataFrame
-        Spectrum of the nominal residual and its coherence with the inputs.
-    signals : dict
-        Arrays for plots: ``time``, ``measured``, ``nominal``, ``augmented`` (train
-        recording), and the same with ``val_`` prefixes for a separate validation
-        recording; ``split`` is the time where validation starts (or None).
-    nominal_values, augmented_values : dict
-        Fitted values (``"p:<param>"``, ``"x0:<state>"``, ``"<effect key>.<param>"``).
-    augmented_effects : tuple of Effect
-        The accepted effects (empty for the verdict ``none``); with
-        ``augmented_values`` they re-simulate the augmented model
-        (:func:`~pdmkit.models.ode.simulate_ode`).
-
-    Examples
-    --------
-    >>> from pdmkit.models.mismatch._cases import example_result
-    >>> res = example_result()
-    >>> res.verdict["effect"], res.augmented_effects
-    ('none', ())
-    """
-
-    verdict: dict
-    candidates: Any
-    located: list
-    regions: Any
-    fit: dict
-    whiteness: dict
-    spectrum: Any
-    signals: dict
-    outputs: list
-    nominal_values: dict
-    augmented_values: dict | None
-    augmented_effects: tuple
-    timings: dict
-
-    def to_dict(self) -> dict:
-        """The JSON summary (verdict, located, candidates, fit, plus diagnostics).
-
-        Examples
-        --------
-        >>> from pdmkit.models.mismatch._cases import example_result
-        >>> res = example_result()
-        >>> sorted(res.to_dict())[:4]
-        ['candidates', 'fit', 'located', 'regions']
-        """
-        cands = [
-            {
-                "effect": r["effect"],
-                "target": r["target"],
-                "variant": r["variant"],
-                "rmse_validation": _f(r["rmse_validation"]),
-                "improvement": _f(r["improvement"]),
-                "criterion": _f(r["criterion"]),
-                "p_value": _f(r["p_value"]),
-            }
-            for r in self.candidates.to_dict("records")
-        ]
-        return {
-            "verdict": self.verdict,
-            "located": self.located,
-            "candidates": cands,
-            "fit": self.fit,
-            "regions": self.regions.head(8).to_dict("records") if len(self.regions) else [],
-            "whiteness": self.whiteness,
-            "timings": self.timings,
-        }
-
-    def to_pandas(self):
-        """The ranked candidate table (a copy).
-
-        Examples
-        --------
-        >>> from pdmkit.models.mismatch._cases import example_result
-        >>> res = example_result()
-        >>> list(res.to_pandas().columns)[:3]
-        ['effect', 'target', 'variant']
-        """
-        return self.candidates.copy()
-
-    def plot(self, ax=None, output: str | None = None):
-        """Measured vs nominal vs augmented (top) and the residuals (bottom).
-
-        Located windows are shaded; the validation split is a dashed line.
-
-        Examples
-        --------
-        >>> from pdmkit.models.mismatch._cases import example_result
-        >>> res = example_result()
-        >>> res.plot().shape
-        (2,)
-        """
-        import matplotlib.pyplot as plt
-
-        output = self.outputs[0] if output is None else output
-        if output not in self.outputs:
-            raise ModelError(f"plot: unknown output {output!r}; outputs: {self.outputs}.")
-        j = self.outputs.index(output)
-        s = self.signals
-        if ax is None:
-            _, ax = plt.subplots(2, 1, sharex=True, figsize=(10, 6))
-        ax = np.asarray(ax, dtype=object).ravel()
-        t = s["time"]
-        ax[0].plot(t, s["measured"][:, j], color="k", lw=0.8, label="measured")
-        ax[0].plot(t, s["nominal"][:, j], color="C0", lw=1.0, label="nominal model")
-        if s.get("augmented") is not None:
-            ax[0].plot(t, s["augmented"][:, j], color="C3", lw=1.0, label="augmented model")
-        ax[0].set_ylabel(output)
-        ax[0].legend(loc="best", fontsize="small")
-        ax[1].plot(
-            t,
-            s["measured"][:, j] - s["nominal"][:, j],
-            color="C0",
-            lw=0.8,
-            label="residual, nominal",
-        )
-        if s.get("augmented") is not None:
-            ax[1].plot(
-                t,
-                s["measured"][:, j] - s["augmented"][:, j],
-                color="C3",
-                lw=0.8,
-                label="residual, augmented",
-            )
-        ax[1].set_ylabel(f"{output} residual")
-        ax[1].set_xlabel("time [s]")
-        ax[1].legend(loc="best", fontsize="small")
-        for w in self.located:
-            for a in ax[:2]:
-                a.axvspan(w["start"], w["end"], color="orange", alpha=0.15, lw=0)
-        if s.get("split") is not None:
-            for a in ax[:2]:
-                a.axvline(s["split"], color="gray", ls="--", lw=0.8)
-        return ax
-
-
-def _f(x) -> float | None:
-    x = float(x)
-    return x if math.isfinite(x) else None
-
-
-# ---------------------------------------------------------------------------- helpers
-@dataclasses.dataclass
-class _Scored:
-    job: _Job
-    key: str
-    effects: tuple
-    rmse_val: float = math.inf
-    e_val: np.ndarray | None = None  # weighted validation errors (Nv, n_out)
-    y_val: np.ndarray | None = None
-    y_train: np.ndarray | None = None
-    bic: float = math.inf
-    p_value: float = 1.0
-    refit: bool = True
-    n_sub: int = 0  # RK4 steps per sample it was fitted with
-
-
-def _bic(cost: float, m: int, k: int) -> float:
-    if not math.isfinite(cost):
-        return math.inf
-    return m * math.log(max(2.0 * cost / m, 1e-300)) + k * math.log(m)
-
-
-def _rmse(err: np.ndarray, weights: np.ndarray) -> float:
-    with np.errstate(over="ignore"):  # a diverged simulation: inf
-        if err.shape[1] == 1:
-            return float(np.sqrt(np.mean(err**2)))
-        return float(np.sqrt(np.mean((err * weights) ** 2)))
-
-
-#: samples at the start of a validation record on which its initial state is fitted
-#: (a record fitted in pieces: one piece's length)
-VALIDATION_X0_SAMPLES = 2000
-
-
-def _validate(
-    model,
-    problems: Mapping[int, _Problem],
-    rec_val: Recording | None,
-    scored: list[_Scored],
-    x_scale,
-    max_iter: int,
-) -> None:
-    """Validation outputs and errors for every scored structure (batched per step)."""
-    for n_sub, problem in problems.items():
-        group = [s for s in scored if s.n_sub == n_sub]
-        if group:
-            _validate_one(model, problem, rec_val, group, x_scale, max_iter)
-
-
-def _validate_one(model, problem, rec_val, scored, x_scale, max_iter) -> None:
-    rec = problem.rec
-    w = problem.weights
-    rows = [(s.job, s.job.values(), s.job.x0) for s in scored]
-    if rec_val is None:
-        Y = problem.simulate(rows, n=rec.n)
-        y = rec.y(model)
-        for s, Yi in zip(scored, Y, strict=True):
-            s.y_train = Yi
-            s.y_val = Yi[problem.n_fit :]
-            err = Yi[problem.n_fit :] - y[problem.n_fit :]
-            s.e_val = np.where(np.isfinite(err * w), err * w, 1e3)
-            s.rmse_val = _rmse(np.where(np.isfinite(err), err, np.inf), w)
-        return
-    if problem.n_pieces == 1:
-        Ytr = problem.simulate(rows, n=rec.n)
-    else:  # the fitted pieces; samples between them are not simulated (NaN)
-        Ytr = np.full((len(rows), rec.n, len(model.outputs)), np.nan)
-        Ytr[:, problem.sample_index()] = problem.simulate(rows)
-    # the initial state is estimated on the record's first samples, then the whole
-    # record is simulated once: the initial state only shapes the start (a long record
-    # would otherwise be simulated at every iteration of this small fit)
-    n0 = VALIDATION_X0_SAMPLES if problem.n_pieces == 1 else problem.length
-    pv = _Problem(model, rec_val, min(rec_val.n, n0), w, problem.n_sub)
-    jobs = []
-    for s in scored:
-        x0 = data_states(model, rec_val, np.array([0]), s.job.x0[0])
-        jobs += _make_jobs(
-            model,
-            s.effects,
-            None,
-            [{}],
-            s.job.values(),
-            x_scale,
-            fit_free=False,
-            fit_effects=False,
-            x0=x0,
-        )
-    _lm(pv, jobs, max_iter, budgeted=False)
-    Y = pv.simulate([(j, j.values(), j.x0) for j in jobs], n=rec_val.n)
-    y = rec_val.y(model)
-    for s, Yi, Yt in zip(scored, Y, Ytr, strict=True):
-        s.y_train = Yt
-        s.y_val = Yi
-        err = Yi - y
-        s.e_val = np.where(np.isfinite(err * w), err * w, 1e3)
-        s.rmse_val = _rmse(np.where(np.isfinite(err), err, np.inf), w)
-
-
-def _friction_step(job: _Job, ts: float, n_sub: int) -> int:
-    """RK4 steps per sample at which a fitted friction's smoothing is not step-limited.
-
-    The smoothing width of Coulomb / Stribeck friction is widened to ``a h / 2`` so the
-    explicit step stays stable (:func:`pdmkit.models.mismatch._candidates._eps`); when that
-    dominates the intended width, the term is much smoother than real friction and the
-    refit needs finer steps (at most twice as many: the cost grows with them).
-    """
-    vals = job.values()
-    need = n_sub
-    for e in job.effects:
-        if e.id == "coulomb_friction":
-            a = vals[f"{e.key}.a"]
-        elif e.id == "stribeck_friction":
-            a = vals[f"{e.key}.a_c"] + vals[f"{e.key}.a_s"]
-        else:
-            continue
-        eps0 = e.opt("eps")
-        n = n_sub
-        while 0.5 * a * ts / n > 2.0 * eps0 and n < 2 * n_sub:
-            n *= 2
-        need = max(need, n)
-    return need
-
-
-def _choose(scored: list[_Scored], tol: float, min_gain: float, ts: float) -> _Scored:
-    """Lowest validation RMSE; within ``tol`` of it, the lowest BIC.
-
-    A hypothesis that nests a simpler one on the same target (Stribeck friction
-    contains Coulomb friction, drift contains offset) must beat it by ``min_gain``,
-    with values the simulation resolves (``Candidate.resolved``; ``ts`` the sample
-    interval).
-    """
-    best = min(scored, key=lambda s: s.rmse_val)
-    close = [s for s in scored if s.rmse_val <= best.rmse_val * (1.0 + tol)]
-    chosen = min(close, key=lambda s: (s.bic, s.rmse_val))
-    e = chosen.effects[0]
-    simpler = e.candidate.nests
-    if simpler is not None:
-        for s in scored:
-            f = s.effects[0]
-            if f.id == simpler and f.target == e.target:
-                h = ts / max(chosen.n_sub, 1)
-                unresolved = not e.candidate.resolved(e, chosen.job.values(), h)
-                if unresolved or chosen.rmse_val > s.rmse_val * (1.0 - min_gain):
-                    return s
-    return chosen
-
-
-#: a screened candidate is refit when it removes at least this share of what the best
-#: screened candidate removes from the nominal cost (a few iterations from a guess can
-#: leave a right candidate behind a wrong one that happens to start closer)
-REACH = 0.3
-
-
-def _within_reach(ranked: list[_Job], nominal_cost: float, keep: int) -> list[_Job]:
-    """The screened jobs to refit: the ``keep`` best, and every other one whose gain
-    over the nominal cost is within :data:`REACH` of the best gain (at most
-    ``3 * keep`` in all, best first)."""
-    if not ranked:
-        return []
-    best_gain = nominal_cost - ranked[0].cost
-    kept = list(ranked[:keep])
-    if math.isfinite(best_gain) and best_gain > 0:
-        kept += [
-            j
-            for j in ranked[keep:]
-            if math.isfinite(j.cost) and nominal_cost - j.cost >= REACH * best_gain
-        ]
-    return kept[: 3 * keep]
-
-
-#: terms of a sparse equation that are a named effect's signature
-_SIGNATURES = {
-    "sign": ("coulomb_friction", "Coulomb (dry) friction"),
-    "const": ("bias_force", "a constant (bias) force"),
-    "cube": ("cubic_stiffness", "cubic (Duffing) stiffness"),
-    "abs*": ("quadratic_drag", "quadratic drag"),
-}
-
-
-def _grow(current: _Scored, singles: list[_Scored], top: int) -> dict:
-    """``{effect keys: (current, single)}`` for the ``top`` refitted runner-ups (lowest
-    validation RMSE first) and the companions of ``current``'s effects: effects it
-    does not hold already, nor nests (Stribeck and Coulomb on one velocity)."""
-    held = {(e.id, e.target) for e in current.effects}
-    for e in current.effects:  # nor one that nests it or that it nests
-        if e.candidate.nests:
-            held.add((e.candidate.nests, e.target))
-        held |= {
-            (s.effects[0].id, e.target)
-            for s in singles
-            if s.effects[0].candidate.nests == e.id
-        }
-    keys = {e.key for e in current.effects}
-    out: dict = {}
-    for s in sorted(singles, key=lambda s: s.rmse_val):
-        f = s.effects[0]
-        if (f.id, f.target) in held:
-            continue
-        companion = any(f.id in e.candidate.companions for e in current.effects)
-        if (s.refit and len(out) < top) or companion:
-            held.add((f.id, f.target))
-            out[frozenset({*keys, f.key})] = (current, s)
-    return out
-
-
-def _simpler_rival(chosen: _Scored, considered: list[_Scored], min_gain: float):
-    """A considered structure that holds, instead of each effect of ``chosen`` that
-    nests a simpler one (``Candidate.nests``), that simpler effect on the same target, with
-    no more fitted values and a validation RMSE within ``min_gain`` of ``chosen``'s
-    (the best such, or None)."""
-    nesting = [(e, e.candidate.nests) for e in chosen.effects if e.candidate.nests]
-    if not nesting:
-        return None
-    best = None
-    for s in considered:
-        held = {(f.id, f.target) for f in s.effects}
-        if s is chosen or any((e.id, e.target) in held for e, _ in nesting):
-            continue
-        if not all((small, e.target) in held for e, small in nesting):
-            continue
-        close = s.rmse_val <= chosen.rmse_val * (1.0 + min_gain)
-        if close and s.job.n_fitted <= chosen.job.n_fitted:
-            if best is None or s.rmse_val < best.rmse_val:
-                best = s
-    return best
-
-
-def _by_weight(problem: _Problem, s: _Scored) -> list:
-    """The effects of a structure, the one whose removal (its parameters at their
-    neutral values, nothing refitted) raises the fitted cost most first."""
-    vals = s.job.values()
-    rows, order = [], []
-    for e in s.effects:
-        if set(e.param_names) <= set(e.candidate.neutral):
-            off = {
-                **vals,
-                **{f"{e.key}.{p}": e.candidate.neutral[p] for p in e.param_names},
-            }
-            rows.append((s.job, off, s.job.x0))
-            order.append(e)
-    if len(rows) < 2:
-        return list(s.effects)
-    costs = [_cost(r) for r in problem.residuals(problem.simulate(rows))]
-    ranked = [e for _, e in sorted(zip(costs, order, strict=True), key=lambda z: -z[0])]
-    return ranked + [e for e in s.effects if e not in ranked]
-
-
-def _companion_pairs(singles: list[_Scored], top: int) -> list:
-    """``(single, companion)`` for each of the ``top`` refitted singles (lowest
-    validation RMSE first) and every candidate listed as its companion (on the same
-    target when both act on a state's derivative), screened or refitted alike."""
-    ranked = [s for s in sorted(singles, key=lambda s: s.rmse_val) if s.refit][:top]
-    out, seen = [], set()
-    for s in ranked:
-        e = s.effects[0]
-        for c in singles:
-            f = c.effects[0]
-            if f.id not in e.candidate.companions or c is s:
-                continue
-            same_kind = (e.candidate.attach in DERIVATIVE_ATTACH) and (
-                f.candidate.attach in DERIVATIVE_ATTACH
-            )
-            if same_kind and f.target != e.target:
-                continue
-            key = frozenset((e.key, f.key))
-            if key in seen:
-                continue
-            seen.add(key)
-            out.append((s, c))
-    return out
-
-
-def _signatures(labels: Sequence[str], target: str, partner: str | None) -> list[dict]:
-    """Named effects whose signature the sparse terms hold (``sign(v)`` -> Coulomb,
-    ``1`` -> a bias force, ``x**3`` -> cubic stiffness, ``abs(v)*v`` -> drag)."""
-    found = []
-    for lab in labels:
-        if lab == f"sign({target})":
-            key = "sign"
-        elif lab == "1":
-            key = "const"
-        elif partner is not None and lab == f"{partner}**3":
-            key = "cube"
-        elif lab in (f"abs({target})*{target}", f"{target}*abs({target})"):
-            key = "abs*"
-        else:
-            continue
-        effect, words = _SIGNATURES[key]
-        found.append({"term": lab, "effect": effect, "physics": words})
-    return found
-
-
-def _at_bounds(job: _Job) -> list[str]:
-    """Fitted values that ended on a bound of their search range (free model
-    parameters always; effect parameters when the bound is not their neutral value)."""
-    lay = job.layout
-    out = []
-    neutral = {}
-    for e in job.effects:
-        for p in e.param_names:
-            if p in e.candidate.neutral:
-                neutral[f"{e.key}.{p}"] = float(e.candidate.neutral[p])
-    vals = job.values()
-    for i, name in enumerate(lay.names):
-        if name.startswith("x0:"):
-            continue
-        th, lo, hi = job.theta[i], lay.lo[i], lay.hi[i]
-        width = (hi - lo) if math.isfinite(hi - lo) else abs(th) + 1.0
-        tol = 1e-6 * max(width, 1e-12)
-        for bound in (lo, hi):
-            if math.isfinite(bound) and abs(th - bound) <= tol:
-                v = vals[name]
-                if name in neutral:  # the side where the effect fades out is natural
-                    other = hi if bound == lo else lo
-                    real = math.exp(bound) if lay.log[i] else bound
-                    far = math.exp(other) if lay.log[i] else other
-                    if abs(real - neutral[name]) <= abs(far - neutral[name]):
-                        continue
-                side = "lower" if bound == lo else "upper"
-                out.append(
-                    f"{name[2:] if name.startswith('p:') else name} = {v:.4g} ended on the "
-                    f"{side} bound of its search range; the model structure is probably "
-                    "wrong there (a missing effect, wrong units, or a parameter that "
-                    "should not be free)"
-                )
-    return out
-
-
-def _partner_of(model, velocity: str) -> str | None:
-    """The position a velocity state drives (for the x**3 signature), if any."""
-    if model.states.get(velocity) not in ("velocity", "angular_velocity"):
-        return None
-    return _position_partner(model, velocity, None)
-
-
-def _variant(e: Effect) -> str:
-    if e.candidate.id == SPARSE_ID:
-        return " + ".join(e.candidate.labels)
-    if e.candidate.id == "overflow":
-        return f"into {e.partner}" if e.partner else "lost"
-    if e.partner:
-        return f"with {e.partner}"
-    return ""
-
-
-def _verdict_params(s: _Scored) -> dict:
-    vals = s.job.values()
-    e = s.effects[0]
-    if e.candidate.id == SPARSE_ID:
-        c = {p: vals[f"{e.key}.{p}"] for p in e.param_names}
-        return {"equation": e.candidate.equation(e, c), **e.candidate.raw(c)}
-    out = {}
-    for e in s.effects:
-        for p in e.param_names:
-            out[p if len(s.effects) == 1 else f"{e.id}.{p}"] = vals[f"{e.key}.{p}"]
-        if e.partner and e.candidate.id == "overflow":
-            out["into_state"] = e.partner
-    return out
-
-
-def _white(s: _Scored) -> bool:
-    """Whether every output's validation residual passes the whiteness test."""
-    return all(whiteness_test(s.e_val[:, j])["white"] for j in range(s.e_val.shape[1]))
-
-
-def _explain(e: Effect, vals: Mapping[str, float], model=None, rec=None) -> str:
-    """The effect's sentence; with the model and recording, forces in N use the input
-    gain (1 / mass) of the fit that ``vals`` come from, not the nominal one."""
-    if model is not None and rec is not None and "force_gain" in e.options:
-        gain = _input_gain(model, e.target, e.options["force_input"], vals, rec)
-        if gain > 0:
-            e = dataclasses.replace(e, options={**e.options, "force_gain": gain})
-    return e.candidate.explain(e, {p: vals[f"{e.key}.{p}"] for p in e.param_names})
-
-
-def _input_gain(model, velocity: str, name: str, vals: Mapping[str, float], rec) -> float:
-    """d(d velocity/dt)/d input at the fitted parameters (1 / mass for a force)."""
-    P = {k: vals.get(f"p:{k}", v) for k, v in model.params.items()}
-    x = {s: vals.get(f"x0:{s}", model.initial[s]) for s in model.states}
-    u0 = {k: float(np.mean(v)) for k, v in rec.inputs.items()}
-    du = 1e-6 * max(float(np.std(rec.inputs[name])), 1e-9)
-    u1 = {**u0, name: u0[name] + du}
-    with np.errstate(all="ignore"):
-        d0 = float(np.asarray(model.derivatives(x, u0, P)[velocity]))
-        d1 = float(np.asarray(model.derivatives(x, u1, P)[velocity]))
-    g = (d1 - d0) / du
-    return g if math.isfinite(g) else 0.0
+__all__ = ["MismatchResult", "choose_input_hold", "discover_mismatch", "dm_test"]
 
 
 # ---------------------------------------------------------------------------- public
@@ -833,11 +211,7 @@ def discover_mismatch(
     stages = _Stages(max_seconds, progress)
     token = DEADLINE.set(stages.deadline)
     try:
-        return _discover(
-            model,
-            data,
-            validation,
-            stages,
+        options = _Options(
             effects=effects,
             min_improvement=min_improvement,
             alpha=alpha,
@@ -853,9 +227,59 @@ def discover_mismatch(
             input_hold=input_hold,
             candidates=tuple(candidates),
         )
+        return _discover(model, data, validation, stages, options)
     finally:
         DEADLINE.reset(token)
         stages.close()
+
+
+@dataclasses.dataclass(frozen=True)
+class _Options:
+    """:func:`discover_mismatch`'s settings (see its parameters)."""
+
+    effects: Sequence[str] | None
+    min_improvement: float
+    alpha: float
+    tie_tolerance: float
+    keep: int
+    screen_iter: int
+    max_iter: int
+    pairs: bool
+    pair_candidates: int
+    max_effects: int
+    data_name: str
+    validation_name: str
+    input_hold: str
+    candidates: tuple
+
+    def __post_init__(self) -> None:
+        for name in ("min_improvement", "alpha", "tie_tolerance"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and 0 <= v < 1):
+                raise ModelError(f"discover_mismatch: {name} must be in [0, 1); got {v!r}.")
+
+
+@dataclasses.dataclass
+class _Fits:
+    """What the later steps share: the fitting problem(s) and the nominal's scales."""
+
+    model: Any
+    problem: _Problem  # the training part at the base RK4 step
+    problems: dict  # by RK4 steps per sample (friction refits use finer ones)
+    rec_val: Recording | None
+    sc: Scales
+    x_scale: dict
+
+    def score(self, scored: list[_Scored], everyone=None) -> None:
+        _score(
+            self.model,
+            self.problems,
+            self.rec_val,
+            scored,
+            self.x_scale,
+            self.problem.n_res,
+            everyone,
+        )
 
 
 class _Stages:
@@ -914,38 +338,25 @@ class _Stages:
             self._bar.close()
 
 
-def _discover(
-    model,
-    data,
-    validation,
-    stages: _Stages,
-    *,
-    effects,
-    min_improvement,
-    alpha,
-    tie_tolerance,
-    keep,
-    screen_iter,
-    max_iter,
-    pairs,
-    pair_candidates,
-    max_effects,
-    data_name,
-    validation_name,
-    input_hold,
-    candidates,
-) -> MismatchResult:
-    """:func:`discover_mismatch`'s steps (arguments checked there, budget set)."""
-    import time as _time
+@dataclasses.dataclass
+class _Setup:
+    """The recordings as the fits see them, and the settings taken from them."""
 
-    t_start = stages.start
-    for name, v in (
-        ("min_improvement", min_improvement),
-        ("alpha", alpha),
-        ("tie_tolerance", tie_tolerance),
-    ):
-        if not (isinstance(v, int | float) and 0 <= v < 1):
-            raise ModelError(f"discover_mismatch: {name} must be in [0, 1); got {v!r}.")
+    rec: Recording
+    rec_val: Recording | None
+    hold: str
+    factor: int  # decimation applied
+    n_fit: int  # training samples of ``rec``
+    y_all: np.ndarray  # measured outputs of ``rec`` (N, n_out)
+    w: np.ndarray  # output weights (1 / std on the training part)
+    values0: dict
+    n_sub: int
+    x_scale: dict
+    pieces: tuple | None
+
+
+def _prepare(model, data, validation, *, data_name, validation_name, input_hold) -> _Setup:
+    """Recordings, input hold, decimation, training part, weights and pieces."""
     rec = data if isinstance(data, Recording) else make_recording(model, data, data_name)
     rec_val = None
     if validation is not None:
@@ -985,42 +396,40 @@ def _discover(
     pieces = choose_pieces(model, rec, n_fit, values0, n_sub)
     if pieces is not None and rec_val is None:  # validate on the tail, restarted
         rec_val = part(rec, n_fit)
+    return _Setup(
+        rec, rec_val, hold, factor, n_fit, y_all, w, values0, n_sub, x_scale, pieces
+    )
 
-    # ------------------------------------------------------------ 1. nominal fit
-    stages.enter("nominal fit")
-    problem = _Problem(model, rec, n_fit, w, n_sub, *(pieces or (None, None)))
-    nom = _make_jobs(model, (), None, [{}], values0, x_scale, tag="nominal")
+
+def _fit_nominal(model, s: _Setup, data_name: str) -> tuple[_Problem, _Job]:
+    """Step 1: the nominal model's free parameters and initial state."""
+    problem = _Problem(model, s.rec, s.n_fit, s.w, s.n_sub, *(s.pieces or (None, None)))
+    nom = _make_jobs(model, (), None, [{}], s.values0, s.x_scale, tag="nominal")
     _lm(problem, nom, 80)
     along = (problem.states(nom[0].values(), nom[0].x0), problem.sample_index())
-    n_sub2 = _choose_n_sub(model, rec, nom[0].values(), along)
+    n_sub2 = _choose_n_sub(model, s.rec, nom[0].values(), along)
     if any(k in ("velocity", "angular_velocity") for k in model.states.values()):
         # friction switches sign at zero speed: at least two RK4 steps per sample keep
         # the smoothed stick-slip close to the real one (Coulomb is otherwise mistaken
         # for Stribeck, whose low-speed peak mimics a sharper transition)
         n_sub2 = max(n_sub2, 2)
-    if n_sub2 > n_sub:
+    if n_sub2 > s.n_sub:
         problem = problem.with_step(n_sub2)
         nom = _make_jobs(
-            model, (), None, [{}], nom[0].values(), x_scale, tag="nominal", x0=nom[0].x0
+            model, (), None, [{}], nom[0].values(), s.x_scale, tag="nominal", x0=nom[0].x0
         )
         _lm(problem, nom, 80)
-    nominal = nom[0]
-    if not math.isfinite(nominal.cost):
+    if not math.isfinite(nom[0].cost):
         raise ModelError(
             f"{model.name}: the nominal model cannot be simulated on {data_name} (the "
             "simulation diverges or gives NaN); check PARAMS, INITIAL and the units."
         )
-    t_nominal = _time.perf_counter() - t_start
-    stages.leave()
-    x_nominal = problem.states(nominal.values(), nominal.x0)  # along the fitted samples
-    sc: Scales = _nominal_scales(
-        model, rec, nominal.values(), problem.n_sub, (x_nominal, problem.sample_index())
-    )
-    x_scale = {s: sc.x_scale(s) for s in model.states}
+    return problem, nom[0]
 
-    # ------------------------------------------------------------ 2. candidates
-    stages.enter("screening")
-    cands = attach_candidates(model, sc, effects, extra=candidates)
+
+def _screen(model, problem, sc, x_scale, nominal, cands, screen_iter: int, keep: int):
+    """Step 2a: every candidate from its starting points, a few iterations each;
+    ``(jobs, ranked best-per-effect first, kept for the refit)``."""
     jobs: list[_Job] = []
     for e in cands:
         jobs += _make_jobs(
@@ -1039,15 +448,18 @@ def _discover(
         if j.tag not in best_by_key or j.cost < best_by_key[j.tag].cost:
             best_by_key[j.tag] = j
     ranked = sorted(best_by_key.values(), key=lambda j: j.cost)
-    kept = _within_reach(ranked, nominal.cost, keep)
-    stages.leave()
-    stages.enter("refit")
+    return jobs, ranked, _within_reach(ranked, nominal.cost, keep)
+
+
+def _refit(model, problem, sc, x_scale, ranked, kept, max_iter: int, ts: float):
+    """Step 2b: the kept candidates to convergence; friction whose smoothing is limited
+    by the step again on finer steps (``ranked`` and ``kept`` updated in place).
+    Returns ``(problems by RK4 steps per sample, steps of each job)``."""
     _lm(problem, kept, max_iter)
-    # friction whose smoothing is limited by the step: refit on finer steps
     problems = {problem.n_sub: problem}
     n_sub_of = {id(j): problem.n_sub for j in ranked}
     for i, j in enumerate(kept):
-        n_f = _friction_step(j, rec.ts, problem.n_sub)
+        n_f = _friction_step(j, ts, problem.n_sub)
         if n_f > problem.n_sub:
             if n_f not in problems:
                 problems[n_f] = problem.with_step(n_f)
@@ -1059,380 +471,240 @@ def _discover(
                 ranked[ranked.index(j)] = fine
                 kept[i] = fine
                 n_sub_of[id(fine)] = n_f
-    t_screen = _time.perf_counter() - t_start - t_nominal
+    return problems, n_sub_of
+
+
+def _forward_selection(
+    f: _Fits,
+    singles: list[_Scored],
+    accepted: _Scored | None,
+    base: _Scored,
+    significant: Significance,
+    stages: _Stages,
+    o: _Options,
+) -> tuple[_Scored | None, _Scored | None, list]:
+    """Step 4: add the runner-up (or a companion) that helps most, while it helps
+    significantly, up to ``max_effects`` effects; companions are paired even when
+    neither helps alone (each hides the other). Returns ``(accepted single, the
+    accepted structure of several effects or None, its effects by weight)``."""
+    current = accepted
+    considered = [s for s in singles if s.refit and s.e_val is not None]
+    for size in range(2, o.max_effects + 1):
+        if stages.over():
+            stages.skipped.append(f"{size} effects")
+            break
+        grown = _grow(current, singles, o.pair_candidates) if current else {}
+        if size == 2:
+            for first, other in _companion_pairs(singles, o.pair_candidates):
+                grown.setdefault(frozenset((first.key, other.key)), (first, other))
+        pjobs = []
+        for first, other in grown.values():
+            eff = (*first.effects, *other.effects)
+            pjobs += _make_jobs(
+                f.model,
+                eff,
+                f.sc,
+                [{}],
+                {**other.job.values(), **first.job.values()},
+                f.x_scale,
+                tag="+".join(e.key for e in eff),
+                x0=first.job.x0,
+            )
+        if not pjobs:
+            break
+        _lm(f.problem, pjobs, o.max_iter, ftol=1e-7)  # the base step: the costliest fits
+        pscored = [_Scored(j, j.tag, j.effects, n_sub=f.problem.n_sub) for j in pjobs]
+        f.score(pscored)
+        considered += pscored
+        best = min(pscored, key=lambda s: s.rmse_val)
+        if not significant(best, current or base):
+            break
+        current = best
+    # a structure with the simpler effect that a chosen one nests (Coulomb friction
+    # for hysteresis), within min_improvement of it and not larger, is preferred
+    simpler = _simpler_rival(current, considered, o.min_improvement) if current else None
+    if simpler is not None and significant(simpler, base):
+        current = simpler
+    if current is None:
+        return accepted, None, []
+    if len(current.effects) > 1:
+        order = _by_weight(f.problem, current)
+        # the effect whose removal costs most leads the verdict
+        lead = next(s for s in singles if s.effects[0] == order[0])
+        return lead, current, order
+    return current, None, []
+
+
+def _sparse_terms(f: _Fits, nominal: _Job, base: _Scored, ref: _Scored, significant):
+    """Step 5: a sparse equation through the simulation, when the residual of ``ref``
+    (the accepted structure, or the nominal) is not white. Returns ``(scored
+    equations, the equation that became the verdict or None, whether an equation beat
+    the named explanation without whitening the residual)``."""
+    from pdmkit.models.mismatch._sparse import fit_sparse
+
+    sjobs = fit_sparse(f.problem, f.model, nominal.values(), f.sc, f.x_scale, x0=nominal.x0)
+    scored = [_Scored(j, j.tag, j.effects, n_sub=f.problem.n_sub) for j in sjobs]
+    if not scored:
+        return scored, None, False
+    f.score(scored)
+    for s in scored:
+        s.p_value = dm_test(base.e_val, s.e_val)[1]
+    cand = min(scored, key=lambda s: s.rmse_val)
+    # it replaces an accepted named effect only when it also whitens the residual (the
+    # named one did not): a closer fit alone is not a better explanation of real data
+    # that neither model captures fully
+    if significant(cand, ref) and (ref is base or _white(cand)):
+        return scored, cand, False
+    # an equation that beats the named explanation clearly, without whitening the
+    # residual either: the named effect is only part of the story
+    return scored, None, significant(cand, ref)
+
+
+def _single_effects(f: _Fits, s: _Setup, nominal, ranked, kept, n_sub_of, o: _Options):
+    """Step 3: validation scores of the nominal and every screened effect, and the
+    best single effect. Returns ``(base, singles, chosen, accepted or None)``."""
+    scored = [_Scored(nominal, "nominal", (), n_sub=f.problem.n_sub)]
+    scored += [
+        _Scored(j, j.tag, j.effects, refit=j in kept, n_sub=n_sub_of[id(j)]) for j in ranked
+    ]
+    # a long validation record is simulated for the refitted candidates only
+    n_val = s.rec_val.n if s.rec_val is not None else s.rec.n - s.n_fit
+    checked = [x for x in scored if x.refit or n_val <= PIECES_FROM]
+    f.score(checked, everyone=scored)
+    base, singles = scored[0], scored[1:]
+    for x in checked[1:]:
+        x.p_value = dm_test(base.e_val, x.e_val)[1]
+    refitted = [x for x in singles if x.refit]
+    chosen = (
+        _choose(refitted, o.tie_tolerance, o.min_improvement, s.rec.ts) if singles else None
+    )
+    significant = Significance(o.min_improvement, o.alpha)
+    accepted = chosen if chosen is not None and significant(chosen, base) else None
+    return base, singles, chosen, accepted
+
+
+def _discover(model, data, validation, stages: _Stages, o: _Options) -> MismatchResult:
+    """:func:`discover_mismatch`'s steps (arguments checked there, budget set)."""
+    t = {"start": stages.start}
+    s = _prepare(
+        model,
+        data,
+        validation,
+        data_name=o.data_name,
+        validation_name=o.validation_name,
+        input_hold=o.input_hold,
+    )
+    significant = Significance(o.min_improvement, o.alpha)
+    stages.enter("nominal fit")
+    problem, nominal = _fit_nominal(model, s, o.data_name)
+    t["nominal"] = time.perf_counter()
+    stages.leave()
+    x_nominal = problem.states(nominal.values(), nominal.x0)  # along the fitted samples
+    sc: Scales = _nominal_scales(
+        model, s.rec, nominal.values(), problem.n_sub, (x_nominal, problem.sample_index())
+    )
+    x_scale = {name: sc.x_scale(name) for name in model.states}
+    stages.enter("screening")
+    cands = attach_candidates(model, sc, o.effects, extra=o.candidates)
+    jobs, ranked, kept = _screen(
+        model, problem, sc, x_scale, nominal, cands, o.screen_iter, o.keep
+    )
+    stages.leave()
+    stages.enter("refit")
+    problems, n_sub_of = _refit(
+        model, problem, sc, x_scale, ranked, kept, o.max_iter, s.rec.ts
+    )
+    t["screen"] = time.perf_counter()
+    f = _Fits(model, problem, problems, s.rec_val, sc, x_scale)
     stages.leave()
     stages.enter("validation")
-
-    # ------------------------------------------------------------ 3. validation, scores
-    m = problem.n_res
-    scored = [_Scored(nominal, "nominal", (), n_sub=problem.n_sub)]
-    for j in ranked:
-        scored.append(_Scored(j, j.tag, j.effects, refit=j in kept, n_sub=n_sub_of[id(j)]))
-    # a long validation record is simulated for the refitted candidates only
-    n_val = rec_val.n if rec_val is not None else rec.n - n_fit
-    checked = [s for s in scored if s.refit or n_val <= PIECES_FROM]
-    _validate(model, problems, rec_val, checked, x_scale, 30)
-    for s in scored:
-        s.bic = _bic(s.job.cost, m, s.job.n_fitted)
-    base = scored[0]
-    for s in checked[1:]:
-        s.p_value = dm_test(base.e_val, s.e_val)[1]
-    singles = scored[1:]
-
-    def significant(s: _Scored, ref: _Scored) -> bool:
-        gain = 1.0 - s.rmse_val / ref.rmse_val if ref.rmse_val > 0 else 0.0
-        p = dm_test(ref.e_val, s.e_val)[1]
-        return gain >= min_improvement and p < alpha and s.bic < ref.bic
-
-    chosen = (
-        _choose([s for s in singles if s.refit], tie_tolerance, min_improvement, rec.ts)
-        if singles
-        else None
+    base, singles, chosen, accepted = _single_effects(
+        f, s, nominal, ranked, kept, n_sub_of, o
     )
-    accepted = chosen if chosen is not None and significant(chosen, base) else None
     stages.leave()
-
-    # ------------------------------------------------------------ 4. pairs
-    pair = None
-    pair_order: list = []
+    pair, pair_order = None, []
     stages.enter("pairs")
-    if pairs and stages.over():
+    if o.pairs and stages.over():
         stages.skipped.append("pairs")
-    elif pairs:
-        # forward selection: add the runner-up (or a companion) that helps most, while
-        # it helps significantly, up to max_effects effects in all; companions are
-        # paired even when neither helps alone (each hides the other)
-        current = accepted
-        considered = [s for s in singles if s.refit and s.e_val is not None]
-        for size in range(2, max_effects + 1):
-            if stages.over():
-                stages.skipped.append(f"{size} effects")
-                break
-            grown = _grow(current, singles, pair_candidates) if current else {}
-            if size == 2:
-                for first, o in _companion_pairs(singles, pair_candidates):
-                    grown.setdefault(frozenset((first.key, o.key)), (first, o))
-            if not grown:
-                break
-            pjobs = []
-            for first, o in grown.values():
-                vals = {**o.job.values(), **first.job.values()}
-                eff = (*first.effects, *o.effects)
-                pjobs += _make_jobs(
-                    model,
-                    eff,
-                    sc,
-                    [{}],
-                    vals,
-                    x_scale,
-                    tag="+".join(e.key for e in eff),
-                    x0=first.job.x0,
-                )
-            if not pjobs:
-                break
-            pp = problem  # the base step: these are the costliest fits
-            _lm(pp, pjobs, max_iter, ftol=1e-7)
-            pscored = [_Scored(j, j.tag, j.effects, n_sub=pp.n_sub) for j in pjobs]
-            _validate(model, problems, rec_val, pscored, x_scale, 30)
-            for s in pscored:
-                s.bic = _bic(s.job.cost, m, s.job.n_fitted)
-            considered += pscored
-            best = min(pscored, key=lambda s: s.rmse_val)
-            if not significant(best, current or base):
-                break
-            current = best
-        # a structure with the simpler effect that a chosen one nests (Coulomb friction
-        # for hysteresis), within min_improvement of it and not larger, is preferred
-        simpler = _simpler_rival(current, considered, min_improvement) if current else None
-        if simpler is not None and significant(simpler, base):
-            current = simpler
-        if current is None:
-            pass
-        elif len(current.effects) > 1:
-            pair = current
-            pair_order = _by_weight(problem, pair)
-            # the effect whose removal costs most leads the verdict
-            accepted = next(s for s in singles if s.effects[0] == pair_order[0])
-        else:
-            accepted = current
+    elif o.pairs:
+        accepted, pair, pair_order = _forward_selection(
+            f, singles, accepted, base, significant, stages, o
+        )
     stages.leave()
-
-    # ------------------------------------------------------------ 5. data-driven fallback
     stages.enter("data-driven terms")
-    sparse_scored: list[_Scored] = []
-    sparse_best = None
-    beaten: _Scored | None = None  # a named explanation an equation beat
+    sparse_scored, sparse_best, beaten = [], None, None
     ref = pair or accepted or base
-    t_sparse = 0.0
-    wanted = (effects is None or SPARSE_ID in effects) and not _white(ref)
+    t["sparse"] = 0.0
+    wanted = (o.effects is None or SPARSE_ID in o.effects) and not _white(ref)
     if wanted and stages.over():
         stages.skipped.append("data-driven terms")
     elif wanted:
-        from pdmkit.models.mismatch._sparse import fit_sparse
-
-        t0 = _time.perf_counter()
-        sjobs = fit_sparse(problem, model, nominal.values(), sc, x_scale, x0=nominal.x0)
-        sparse_scored = [_Scored(j, j.tag, j.effects, n_sub=problem.n_sub) for j in sjobs]
-        if sparse_scored:
-            _validate(model, problems, rec_val, sparse_scored, x_scale, 30)
-            for s in sparse_scored:
-                s.bic = _bic(s.job.cost, m, s.job.n_fitted)
-                s.p_value = dm_test(base.e_val, s.e_val)[1]
-            cand = min(sparse_scored, key=lambda s: s.rmse_val)
-            # it replaces an accepted named effect only when it also whitens the
-            # residual (the named one did not): a closer fit alone is not a better
-            # explanation of real data that neither model captures fully
-            if significant(cand, ref) and (ref is base or _white(cand)):
-                sparse_best = cand
-                accepted, pair = cand, None
-            elif significant(cand, ref):
-                # an equation beats the named explanation clearly, without whitening
-                # the residual either: the named effect is only part of the story
-                beaten, accepted, pair = ref, None, None
-        t_sparse = _time.perf_counter() - t0
+        t0 = time.perf_counter()
+        sparse_scored, sparse_best, beat = _sparse_terms(f, nominal, base, ref, significant)
+        if sparse_best is not None:
+            accepted, pair = sparse_best, None
+        elif beat:  # the named explanation an equation beat
+            beaten, accepted, pair = ref, None, None
+        t["sparse"] = time.perf_counter() - t0
     stages.leave()
     stages.enter("localisation")
-    t_total = _time.perf_counter() - t_start
+    t["end"] = time.perf_counter()
+    t["counts"] = (len(cands), len(jobs))
+    sel = _Selection(
+        base,
+        singles,
+        accepted,
+        pair,
+        pair_order,
+        sparse_scored,
+        sparse_best or chosen,
+        beaten,
+    )
+    return _conclude(model, s, f, nominal, x_nominal, sel, o, stages, t)
 
-    # ------------------------------------------------------------ 5. summary
-    import pandas as pd
 
-    by_target: dict[tuple[str, str], _Scored] = {}
-    for s in [*singles, *sparse_scored]:
-        e = s.effects[0]
-        k = (e.id, e.target)
-        if k not in by_target or s.rmse_val < by_target[k].rmse_val:
-            by_target[k] = s
-    rows = []
-    for s in by_target.values():
-        e = s.effects[0]
-        checked = s.e_val is not None  # screened only, on a long record: not validated
-        rows.append(
-            {
-                "effect": e.id,
-                "target": e.target,
-                "variant": _variant(e),
-                "rmse_validation": s.rmse_val if checked else math.nan,
-                "improvement": (
-                    1.0 - s.rmse_val / base.rmse_val if base.rmse_val > 0 else 0.0
-                )
-                if checked
-                else math.nan,
-                "criterion": s.bic - base.bic,
-                "p_value": s.p_value if checked else math.nan,
-                "n_params": s.job.n_fitted,
-                "refit": s.refit,
-                "_s": s,
-            }
-        )
-    table = pd.DataFrame(rows)
-    if len(table):
-        table = table.sort_values(["rmse_validation", "criterion"], ignore_index=True)
-        top = sparse_best or chosen
-        if top is not None:
-            # the chosen candidate (BIC tie-break) first
-            first = table.index[table["_s"].map(lambda s: s is top)]
-            if len(first):
-                table = pd.concat([table.loc[first], table.drop(first)], ignore_index=True)
-        table = table.drop(columns="_s")
+@dataclasses.dataclass
+class _Selection:
+    """What the steps selected: the nominal's score, every single effect's, the
+    accepted effect or structure (None: none), the equations tried."""
 
-    final = pair or accepted
-    if accepted is None:
-        verdict = {"effect": "none", "target": None, "physics": _NONE_PHYSICS, "params": {}}
-        if _structured(base) or beaten is not None:
-            # something systematic is left, but no candidate explains it: say so
-            lead = beaten or (min(singles, key=lambda s: s.rmse_val) if singles else None)
-            verdict = {
-                "effect": "unexplained",
-                "target": None,
-                "physics": _UNEXPLAINED_PHYSICS if beaten is None else _PARTIAL_PHYSICS,
-                "params": {},
-            }
-            if lead is not None:
-                e = lead.effects[0]
-                verdict["best_partial"] = {
-                    "effect": e.id,
-                    "target": e.target,
-                    "also": [f"{f.id}@{f.target}" for f in lead.effects[1:]],
-                    "improvement": 1.0 - lead.rmse_val / base.rmse_val
-                    if base.rmse_val > 0
-                    else 0.0,
-                    "p_value": lead.p_value,
-                    "physics": _explain(e, lead.job.values(), model, rec),
-                }
-            if sparse_scored:
-                lead_eq = min(sparse_scored, key=lambda s: s.rmse_val)
-                verdict["lead_equation"] = _verdict_params(lead_eq).get("equation")
-    else:
-        e = accepted.effects[0]
-        vals = accepted.job.values()
-        verdict = {
-            "effect": e.id,
-            "target": e.target,
-            "physics": _explain(e, vals, model, rec),
-            "params": _verdict_params(accepted),
-        }
-        if pair is not None:
-            pv = pair.job.values()
-            verdict["params"] = {p: pv[f"{e.key}.{p}"] for p in e.param_names}
-            if e.partner and e.id == "overflow":
-                verdict["params"]["into_state"] = e.partner
-            verdict["also"] = [
-                {
-                    "effect": e2.id,
-                    "target": e2.target,
-                    "physics": _explain(e2, pv, model, rec),
-                    "params": {p: pv[f"{e2.key}.{p}"] for p in e2.param_names},
-                }
-                for e2 in pair_order[1:]
-            ]
-            verdict["physics"] = _explain(e, pv, model, rec)
-    if accepted is not None and accepted.effects[0].id == SPARSE_ID:
-        e = accepted.effects[0]
-        named = _signatures(e.candidate.labels, e.target, _partner_of(model, e.target))
-        if named:
-            verdict["signatures"] = named
-            verdict["physics"] += (
-                " Its terms hold the signature of "
-                + ", ".join(f"{n['physics']} ({n['term']})" for n in named)
-                + "."
-            )
-    if final is not None and accepted is not None:
-        # other single effects these data cannot tell from the verdict (a constant force
-        # on a spring and a sensor offset look alike once the transients have died)
-        held = {(e.id, e.target) for e in final.effects}
-        close = [
-            s
-            for s in singles
-            if s.refit
-            and s.e_val is not None
-            and (s.effects[0].id, s.effects[0].target) not in held
-            and s.rmse_val <= final.rmse_val * (1.0 + tie_tolerance)
-        ]
-        if close:
-            verdict["alternatives"] = [
-                {
-                    "effect": s.effects[0].id,
-                    "target": s.effects[0].target,
-                    "rmse_validation": s.rmse_val,
-                }
-                for s in sorted(close, key=lambda s: s.rmse_val)
-            ]
-            said = ", ".join(
-                f"{a['effect']} on {a['target']}" for a in verdict["alternatives"]
-            )
-            verdict["physics"] += (
-                f" As close on these data: {said} (they may be equivalent here, or a "
-                "richer excitation would tell them apart)."
-            )
-    verdict["warnings"] = _at_bounds((final or base).job)
-    budget = stages.report()
-    if budget is not None:
-        verdict["budget"] = budget
-        if budget["reached"]:
-            skipped = ", ".join(budget["skipped"])
-            verdict["warnings"].append(
-                f"the time budget of {budget['max_seconds']:g} s ran out: this is the "
-                "best verdict so far (fits stopped early"
-                + (f"; skipped: {skipped}" if skipped else "")
-                + ")."
-            )
+    base: _Scored
+    singles: list
+    accepted: _Scored | None
+    pair: _Scored | None  # the accepted structure of several effects
+    pair_order: list  # its effects, the weightiest first
+    sparse_scored: list
+    top: _Scored | None  # the candidate table's first row
+    beaten: _Scored | None  # a named explanation an equation beat
+
+
+def _conclude(model, s, f, nominal, x_nominal, sel: _Selection, o, stages, t):
+    """Verdict, warnings, candidate table, timings: the result."""
+    verdict = build_verdict(
+        model,
+        s.rec,
+        accepted=sel.accepted,
+        pair=sel.pair,
+        pair_order=sel.pair_order,
+        base=sel.base,
+        singles=sel.singles,
+        sparse_scored=sel.sparse_scored,
+        beaten=sel.beaten,
+        tie_tolerance=o.tie_tolerance,
+    )
+    final = sel.pair or sel.accepted
+    add_warnings(verdict, (final or sel.base).job, stages.report())
     for text in verdict["warnings"]:
         warnings.warn(f"mismatch: {text}", ConvergenceWarning, stacklevel=2)
-    fitted = problem.sample_index()  # the training samples simulated
-    train_err_nom = y_all[fitted] - base.y_train[fitted]
-    fit = {
-        "rmse_nominal": base.rmse_val,
-        "rmse_augmented": final.rmse_val if final is not None else base.rmse_val,
-        "rmse_train_nominal": _rmse(train_err_nom, w),
-        "rmse_train_augmented": (
-            _rmse(y_all[fitted] - final.y_train[fitted], w)
-            if final is not None
-            else _rmse(train_err_nom, w)
-        ),
-        "free_nominal": {p: nominal.values()[f"p:{p}"] for p in model.free},
-        "free_augmented": (
-            {p: final.job.values()[f"p:{p}"] for p in model.free}
-            if final is not None
-            else None
-        ),
-        "validation": "separate recording" if rec_val is not None else "last third",
-        "n_sub": problem.n_sub,
-        "decimated": factor,
-        "pieces": (
-            {"n": problem.n_pieces, "samples": int(problem.length)}
-            if problem.n_pieces > 1
-            else None
-        ),
-        "input_hold": hold,
-        "n_sub_augmented": final.n_sub if final is not None else None,
+    timings = {
+        "nominal_s": t["nominal"] - t["start"],
+        "screen_refit_s": t["screen"] - t["nominal"],
+        "sparse_s": t["sparse"],
+        "total_s": t["end"] - t["start"],
+        "n_candidates": t["counts"][0],
+        "n_jobs": t["counts"][1],
     }
-
-    # ------------------------------------------------------------ 6. localisation
-    if problem.n_pieces == 1:  # the whole training recording
-        Xt = simulate_states(model, rec, nominal.values(), problem.n_sub)
-        at = np.arange(rec.n)
-    else:  # the fitted pieces
-        Xt, at = x_nominal, fitted
-    xs = {s: Xt[:, j] for j, s in enumerate(model.states)}
-    res_nom = (y_all[at] - base.y_train[at]) * w  # weighted residual
-    u_at = {k: v[at] for k, v in rec.inputs.items()}
-    located = residual_windows(rec.time[at], res_nom)
-    regions = region_statistics(model, xs, u_at, res_nom)
-    spectrum = residual_spectrum(res_nom.sum(axis=1), u_at, 1.0 / rec.ts)
-    if rec_val is None:
-        uval = {k: v[n_fit:] for k, v in rec.inputs.items()}
-        yval = y_all[n_fit:]
-    else:
-        uval = rec_val.inputs
-        yval = rec_val.y(model)
-    white = {"before": {}, "after": {}}
-    for j, o in enumerate(model.outputs):
-        white["before"][o] = whiteness_test(yval[:, j] - base.y_val[:, j], uval)
-        if final is not None:
-            white["after"][o] = whiteness_test(yval[:, j] - final.y_val[:, j], uval)
-    signals = {
-        "time": rec.time,
-        "measured": y_all,
-        "nominal": base.y_train,
-        "augmented": final.y_train if final is not None else None,
-        "split": float(rec.time[n_fit]) if rec_val is None else None,
-    }
-    if rec_val is not None:
-        signals.update(
-            val_time=rec_val.time,
-            val_measured=yval,
-            val_nominal=base.y_val,
-            val_augmented=final.y_val if final is not None else None,
-        )
-    nom_rmse, aug_rmse = fit["rmse_nominal"], fit["rmse_augmented"]
-    verdict["confidence"] = {
-        "p_value": dm_test(base.e_val, final.e_val)[1] if final is not None else None,
-        "improvement": 1.0 - aug_rmse / nom_rmse if nom_rmse > 0 else 0.0,
-        "white_before": all(w["white"] for w in white["before"].values()),
-        "white_after": (
-            all(w["white"] for w in white["after"].values()) if white["after"] else None
-        ),
-    }
-    return MismatchResult(
-        verdict=verdict,
-        candidates=table,
-        located=located,
-        regions=regions,
-        fit=fit,
-        whiteness=white,
-        spectrum=spectrum,
-        signals=signals,
-        outputs=list(model.outputs),
-        nominal_values=nominal.values(),
-        augmented_values=final.job.values() if final is not None else None,
-        augmented_effects=final.effects if final is not None else (),
-        timings={
-            "nominal_s": t_nominal,
-            "screen_refit_s": t_screen,
-            "sparse_s": t_sparse,
-            "total_s": t_total,
-            "n_candidates": len(cands),
-            "n_jobs": len(jobs),
-        },
+    table = candidate_table(sel.singles, sel.sparse_scored, sel.base, sel.top)
+    return _result(
+        model, s, f.problem, nominal, x_nominal, sel.base, final, verdict, table, timings
     )

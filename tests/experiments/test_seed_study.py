@@ -255,7 +255,7 @@ def test_residual_recipe_equals_a_hand_sklearn_pipeline(residual_set):
 
     from pdmkit.ensembles import pneumatic_residuals
     from pdmkit.experiments import seed_residual_classification
-    from pdmkit.experiments._seed_study import _CONDITIONS
+    from pdmkit.experiments._seed_indicators import _CONDITIONS
 
     res = pneumatic_residuals(
         residual_set, ["LeverPosition"], reference="nominal", nominal_point=(6.25, 6.0)
@@ -286,7 +286,7 @@ def test_residual_recipe_equals_a_hand_sklearn_pipeline(residual_set):
 
 
 def test_identical_leak_runs_and_the_leak_scale():
-    from pdmkit.experiments._seed_study import _cycles_before, _seed_leak_scale
+    from pdmkit.experiments._seed_recipes import _cycles_before, _seed_leak_scale
 
     kw = dict(max_cycles=6, schedule="seed", t_end=3.0, signals=["LeverPosition"])
     kw.update(seed=4, operating_point=(0.0, 6.0))

@@ -1,0 +1,568 @@
+"""The seed's building blocks: its numbers, indicators, ranking, models and scores.
+
+The seed's condition indicators of a signal (:func:`seed_indicators`) are the 13
+"signal statistics" of MATLAB's Diagnostic Feature Designer (``<signal>_stats/...``:
+ClearanceFactor, CrestFactor, ImpulseFactor, Kurtosis, Mean, PeakValue, RMS, SINAD, SNR,
+ShapeFactor, Skewness, Std, THD; pdmkit's ``stats`` group without PeakToPeak, and its
+``harmonic`` group) and its Welch-spectrum features (``<signal>_ps_spec/...``:
+PeakAmp1..N, PeakFreq1..N and BandPower of a band; pdmkit's ``spectral`` group with
+``frange``). :func:`seed_rank` is the Diagnostic Feature Designer's ranking, and the
+models and validations are Classification Learner's as the author's code
+(github.com/xvoron/thesis) uses them. Every recipe returns a :class:`SeedResult`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pdmkit.ensembles import SEED_SINGLE_FAULTS
+from pdmkit.errors import DataError
+
+__all__ = [
+    "SEED_NUMBERS",
+    "SEED_SENSOR_ACCURACY",
+    "SEED_SENSOR_RECIPES",
+    "SeedResult",
+    "SeedSensorRecipe",
+    "seed_feature_table",
+    "seed_indicators",
+    "seed_rank",
+]
+
+
+#: The seed's published numbers: recipe -> (section, metric, value).
+SEED_NUMBERS: dict[str, tuple[str, str, float]] = {
+    "flow_knn": ("7.3.4, table 7.2", "accuracy %", 97.52),
+    "flow_bagged_trees": ("table 7.2", "accuracy %", 99.45),
+    "flow_pca_bagged_trees": ("table 7.2", "accuracy %", 95.18),
+    "residual_classification": ("8.3", "accuracy %", 99.49),
+    "sensor_faults": ("8.1.1, figure 8.2b", "accuracy %", 100.0),
+    "air_leak_rul": ("8.4.2, figure 8.11", "RUL deviation %", 10.0),
+}
+
+#: Table 9.1 (and 7.3): test accuracy (%) of each sensor, best first.
+SEED_SENSOR_ACCURACY: dict[str, float] = {
+    "Flow": 97.2,
+    "Encoder": 96.1,
+    "Mics": 95.8,
+    "Strain": 95.0,
+    "Acc": 91.6,
+    "Proximity": 80.5,
+    "Pressure": 76.6,
+}
+
+#: The Diagnostic Feature Designer's 13 signal statistics, in its column order.
+SEED_STATS = (
+    "ClearanceFactor",
+    "CrestFactor",
+    "ImpulseFactor",
+    "Kurtosis",
+    "Mean",
+    "PeakValue",
+    "RMS",
+    "SINAD",
+    "SNR",
+    "ShapeFactor",
+    "Skewness",
+    "Std",
+    "THD",
+)
+
+
+@dataclass(frozen=True)
+class SeedSensorRecipe:
+    """How the seed's author treated one sensor (``sb/sensor_<name>/`` of the repo).
+
+    Parameters
+    ----------
+    signals : tuple of str
+        The twin's signals of the sensor.
+    frange : (lo, hi) or None
+        Band of the Welch-spectrum features in Hz; None: statistics only.
+    n_peaks : int
+        Spectral peaks per signal.
+    model : {"knn", "tree", "bagged_trees"}
+        1-nearest neighbour on standardised indicators (MATLAB "Fine KNN"), one tree of
+        at most 100 splits ("Fine Tree"), or 30 bagged full-depth trees.
+    top_k : int or None
+        Keep the Kruskal-Wallis top ``top_k`` indicators; None keeps all.
+    validation : {"holdout", "kfold"}
+        30 % stratified holdout, or 5-fold stratified cross-validation.
+
+    Examples
+    --------
+    >>> from pdmkit.experiments import SEED_SENSOR_RECIPES
+    >>> SEED_SENSOR_RECIPES["Flow"].signals, SEED_SENSOR_RECIPES["Flow"].frange
+    (('FlowContraction',), (0.0, 55.0))
+    """
+
+    signals: tuple[str, ...]
+    frange: tuple[float, float] | None
+    n_peaks: int
+    model: str
+    top_k: int | None
+    validation: str
+
+
+#: The author's per-sensor recipes (``sb/sb.md`` bands and peaks; the generated
+#: ``*_train.m`` models). The twin has the Z axis of each accelerometer only.
+SEED_SENSOR_RECIPES: dict[str, SeedSensorRecipe] = {
+    "Flow": SeedSensorRecipe(("FlowContraction",), (0.0, 55.0), 5, "knn", 5, "holdout"),
+    "Encoder": SeedSensorRecipe(
+        ("LeverPosition", "LeverVelocity"), None, 0, "tree", 5, "kfold"
+    ),
+    "Mics": SeedSensorRecipe(
+        ("MIC_uBumper", "MIC_bBumper", "MIC_Ambient"),
+        (0.0, 1e4),
+        10,
+        "bagged_trees",
+        5,
+        "kfold",
+    ),
+    "Strain": SeedSensorRecipe(
+        ("StrainGauge",), (0.0, 40.0), 10, "bagged_trees", 5, "kfold"
+    ),
+    "Acc": SeedSensorRecipe(
+        ("AccelerometerMoving_axisZ", "AccelerometerStatic_axisZ"),
+        (0.0, 301.0),
+        10,
+        "bagged_trees",
+        5,
+        "kfold",
+    ),
+    "Proximity": SeedSensorRecipe(
+        ("ProximitySensor_upper", "ProximitySensor_bottom"),
+        None,
+        0,
+        "bagged_trees",
+        None,
+        "kfold",
+    ),
+    "Pressure": SeedSensorRecipe(
+        ("AirPressure",), (0.0, 15.0), 10, "bagged_trees", None, "kfold"
+    ),
+}
+
+#: The five classes of the seed's residual (8.3) and single-fault data set.
+_SINGLE_CLASSES = SEED_SINGLE_FAULTS
+_LABEL = "seed_label"
+_CONDITIONS = ("fault", "seed_label", "fault_code", "load_kg", "supply_bar")
+
+
+@dataclass
+class SeedResult:
+    """One seed recipe's number on the twin, beside the seed's.
+
+    Attributes
+    ----------
+    recipe, section, metric : str
+        The recipe's key in :data:`SEED_NUMBERS`, the seed's section, what is measured.
+    seed : float
+        The seed's published number.
+    pdmkit : float
+        The same recipe on the twin (NaN when it could not be computed).
+    why : str
+        What differs between the two runs.
+    details : dict
+        Indicators used, members, classes, timings and the like.
+
+    Examples
+    --------
+    >>> from pdmkit.experiments import SeedResult
+    >>> r = SeedResult("flow_knn", "7.3.4", "accuracy %", 97.52, 91.0, "twin")
+    >>> r.difference
+    -6.52
+    """
+
+    recipe: str
+    section: str
+    metric: str
+    seed: float
+    pdmkit: float
+    why: str
+    details: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def difference(self) -> float:
+        """pdmkit's number minus the seed's (points)."""
+        return round(float(self.pdmkit) - float(self.seed), 2)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The result as plain JSON-able values."""
+        from pdmkit._outputs import to_jsonable
+
+        return to_jsonable(
+            {
+                "recipe": self.recipe,
+                "section": self.section,
+                "metric": self.metric,
+                "seed": self.seed,
+                "pdmkit": self.pdmkit,
+                "difference": self.difference,
+                "why": self.why,
+                "details": self.details,
+            }
+        )
+
+
+def _result(recipe: str, value: float, why: str, details: dict) -> SeedResult:
+    section, metric, seed = SEED_NUMBERS[recipe]
+    return SeedResult(recipe, section, metric, seed, round(float(value), 2), why, details)
+
+
+# --------------------------------------------------------------------------- indicators
+def seed_indicators(
+    ensemble,
+    signals: Sequence[str],
+    *,
+    frange: tuple[float, float] | None = None,
+    n_peaks: int = 5,
+    suffix: str = "",
+) -> pd.DataFrame:
+    """The seed's condition indicators of some signals (section 7.3.2), seed-named.
+
+    Per signal: the 13 signal statistics ``<signal>_stats/<name>`` of :data:`SEED_STATS`
+    (:func:`pdmkit.features.stats` and :func:`pdmkit.features.harmonic`) and, when
+    ``frange`` is given, ``<signal>_ps_spec/PeakAmp1..n_peaks``, ``PeakFreq1..`` and
+    ``BandPower`` of the Welch PSD within ``frange`` (:func:`pdmkit.features.spectral`;
+    ``BandPower`` is its ``TotalPower`` of the band). A band reaching past ``fs/2`` is
+    cut there. Peaks the band does not hold are NaN, as in the Designer.
+
+    Parameters
+    ----------
+    ensemble : Ensemble
+        Recordings holding ``signals``.
+    signals : sequence of str
+        Signals to describe.
+    frange : (lo, hi), optional
+        Band of the spectral features (Hz); None: statistics only.
+    n_peaks : int, default 5
+        Spectral peaks per signal.
+    suffix : str, default ""
+        Added to the signal name in the columns (``"_res"`` for residuals).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per member (indexed by member id).
+
+    Examples
+    --------
+    >>> from pdmkit.ensembles import simulate_seed_ensemble
+    >>> from pdmkit.experiments import seed_indicators
+    >>> ens = simulate_seed_ensemble(20, t_end=1.0, signals=["FlowContraction"])
+    >>> table = seed_indicators(ens, ["FlowContraction"], frange=(0, 55))
+    >>> table.shape
+    (20, 24)
+    >>> table.columns[[0, 13, 23]].tolist()  # doctest: +NORMALIZE_WHITESPACE
+    ['FlowContraction_stats/ClearanceFactor', 'FlowContraction_ps_spec/PeakAmp1',
+     'FlowContraction_ps_spec/BandPower']
+    """
+    from pdmkit.features import harmonic, spectral, stats
+
+    columns: dict[str, np.ndarray] = {}
+    for name in signals:
+        if name not in ensemble.signal_names:
+            raise DataError(
+                f"signals: {name!r} is not in the ensemble {ensemble.signal_names}"
+            )
+        x, has = ensemble.stack(name)
+        if not has.all():
+            raise DataError(f"signals: some members lack {name!r}")
+        fs = float(ensemble.fs[name])
+        found = {**stats(x), **harmonic(x, fs)}
+        for stat in SEED_STATS:
+            columns[f"{name}{suffix}_stats/{stat}"] = np.asarray(found[stat], dtype=float)
+        if frange is not None:
+            lo, hi = float(frange[0]), min(float(frange[1]), fs / 2)
+            spec = spectral(x, fs, frange=(lo, hi), n_peaks=int(n_peaks))
+            prefix = f"{name}{suffix}_ps_spec/"
+            for i in range(1, int(n_peaks) + 1):
+                columns[f"{prefix}PeakAmp{i}"] = np.asarray(spec[f"PeakAmp{i}"], float)
+            for i in range(1, int(n_peaks) + 1):
+                columns[f"{prefix}PeakFreq{i}"] = np.asarray(spec[f"PeakFreq{i}"], float)
+            columns[f"{prefix}BandPower"] = np.asarray(spec["TotalPower"], float)
+    return pd.DataFrame(columns, index=pd.Index(list(ensemble.member_ids), name="member"))
+
+
+def seed_feature_table(
+    ensemble,
+    *,
+    sensors: Sequence[str] | None = None,
+    residuals: bool = True,
+) -> pd.DataFrame:
+    """Every indicator the seed study needs, with the member's labels, for one ensemble.
+
+    Parameters
+    ----------
+    ensemble : Ensemble
+        A seed ensemble (:func:`pdmkit.ensembles.simulate_seed_ensemble`), or any
+        ensemble with the sensors' signals and the conditions ``seed_label`` (or
+        ``fault``), ``load_kg`` and ``supply_bar``.
+    sensors : sequence of str, optional
+        Sensors of :data:`SEED_SENSOR_RECIPES` to describe (default: those whose signals
+        the ensemble holds).
+    residuals : bool, default True
+        Add the 13 statistics of ``LeverPosition`` minus one nominal healthy twin
+        response, as the seed did (``LeverPosition_res_stats/...``, section 8.3), for
+        the members of the five single-fault classes.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Indicators and the condition columns, one row per member.
+
+    Examples
+    --------
+    >>> from pdmkit.ensembles import simulate_seed_ensemble
+    >>> from pdmkit.experiments import seed_feature_table
+    >>> ens = simulate_seed_ensemble(20, t_end=1.0, signals=["FlowContraction"])
+    >>> seed_feature_table(ens).filter(like="_stats/Mean").columns.tolist()
+    ['FlowContraction_stats/Mean']
+    """
+    from pdmkit.ensembles import pneumatic_residuals
+
+    have = set(ensemble.signal_names)
+    if sensors is None:
+        sensors = [s for s, r in SEED_SENSOR_RECIPES.items() if set(r.signals) <= have]
+    unknown = [s for s in sensors if s not in SEED_SENSOR_RECIPES]
+    if unknown:
+        raise DataError(f"sensors: {unknown} are not among {list(SEED_SENSOR_RECIPES)}")
+    parts = []
+    for sensor in sensors:
+        recipe = SEED_SENSOR_RECIPES[sensor]
+        parts.append(
+            seed_indicators(
+                ensemble, recipe.signals, frange=recipe.frange, n_peaks=recipe.n_peaks
+            )
+        )
+    conditions = ensemble.conditions
+    cols = [c for c in _CONDITIONS if c in conditions.columns]
+    labels = conditions[cols].copy()
+    labels.index = pd.Index(list(ensemble.member_ids), name="member")
+    table = pd.concat([*parts, labels], axis=1)
+    if residuals and "LeverPosition" in have and "fault" in conditions.columns:
+        single = conditions["fault"].isin(_SINGLE_CLASSES).to_numpy()
+        if single.any():
+            sub = ensemble.select(np.flatnonzero(single))
+            res = pneumatic_residuals(sub, ["LeverPosition"], reference="nominal")
+            table = table.join(seed_indicators(res, ["LeverPosition_res"]))
+    return table
+
+
+# --------------------------------------------------------------------------- ranking
+def seed_rank(
+    table: pd.DataFrame,
+    features: Sequence[str],
+    labels,
+    *,
+    correlation_weight: float = 1.0,
+) -> pd.Series:
+    """Kruskal-Wallis ranking as the seed's Diagnostic Feature Designer ran it (7.3.3).
+
+    The Kruskal-Wallis H of each indicator over the classes
+    (:func:`pdmkit.features.rank_features`, equal to :func:`scipy.stats.kruskal`),
+    then weighted by correlation as the Designer's generated code does
+    (``correlationWeightedScore(fNorm, z, 1)`` in the author's
+    ``flow_features_process.m``): taken greedily, each next indicator's score is
+    ``H * (1 - w * mean |r|)``, ``r`` its Pearson correlations with the indicators
+    already taken (MATLAB ``rankfeatures``' cross-correlation weighting, which that
+    function applies). ``correlation_weight=0`` gives the plain H order. The seed
+    ranked the whole table once, before splitting it.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Indicator table.
+    features : sequence of str
+        Columns to rank.
+    labels : str or array_like
+        Label column name, or one label per row.
+    correlation_weight : float, default 1.0
+        The Designer's "correlation importance" (0..1).
+
+    Returns
+    -------
+    pandas.Series
+        Weighted scores, best first (indicators with an undefined H last, as NaN).
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> from pdmkit.experiments import seed_rank
+    >>> rng = np.random.default_rng(0)
+    >>> y = np.repeat(["a", "b"], 30)
+    >>> good = rng.normal(size=60) + 3 * (y == "b")
+    >>> t = pd.DataFrame({"good": good, "twin": 2 * good + 0.01 * rng.normal(size=60),
+    ...                   "fair": rng.normal(size=60) + 1.5 * (y == "b")})
+    >>> seed_rank(t, ["good", "twin", "fair"], y).index.tolist()  # twin is redundant
+    ['good', 'fair', 'twin']
+    >>> seed_rank(t, ["good", "twin", "fair"], y, correlation_weight=0).index[-1]
+    'fair'
+    """
+    from pdmkit.features import rank_features
+
+    if not 0.0 <= float(correlation_weight) <= 1.0:
+        raise DataError(f"correlation_weight must be in [0, 1]; got {correlation_weight!r}")
+    features = list(features)
+    ranking = rank_features(table, labels, method="kruskal", features=features)
+    h = pd.Series(ranking.scores.to_numpy(float), index=ranking.features)
+    h = h.reindex(features)
+    defined = [f for f in features if np.isfinite(h[f])]
+    if not defined:
+        return h.sort_values(ascending=False)
+    x = table[defined].to_numpy(float)
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        corr = np.abs(np.corrcoef(x, rowvar=False))
+    corr = np.nan_to_num(np.atleast_2d(corr), nan=0.0)
+    z = h[defined].to_numpy(float)
+    left = list(range(len(defined)))
+    taken: list[int] = []
+    scores: list[float] = []
+    while left:
+        if taken:
+            weight = 1.0 - float(correlation_weight) * corr[np.ix_(left, taken)].mean(
+                axis=1
+            )
+        else:
+            weight = np.ones(len(left))
+        weighted = z[left] * weight
+        best = int(np.argmax(weighted))
+        taken.append(left.pop(best))
+        scores.append(float(weighted[best]))
+    out = pd.Series(scores, index=[defined[i] for i in taken], dtype=float)
+    rest = [f for f in features if f not in out.index]
+    return pd.concat([out, h[rest]]) if rest else out
+
+
+# --------------------------------------------------------------------------- models
+def _model(kind: str, seed: int):
+    from sklearn.neighbors import KNeighborsClassifier
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+    from sklearn.tree import DecisionTreeClassifier
+
+    from pdmkit.experiments._classify import make_classifier
+
+    if kind == "knn":  # MATLAB "Fine KNN": 1 neighbour, Euclidean, standardised
+        return make_pipeline(StandardScaler(), KNeighborsClassifier(n_neighbors=1))
+    if kind == "tree":  # MATLAB "Fine Tree": Gini, at most 100 splits
+        return DecisionTreeClassifier(max_leaf_nodes=101, random_state=seed)
+    if kind == "bagged_trees":  # MATLAB "Bagged Trees": 30 full-depth trees
+        return make_classifier("bagged_trees", selection=None, random_state=seed)
+    if kind == "pca_bagged_trees":  # PCA of the raw indicators, 98 % of the variance
+        from sklearn.decomposition import PCA
+
+        return make_pipeline(
+            PCA(n_components=0.98, svd_solver="full"),
+            make_classifier("bagged_trees", selection=None, random_state=seed),
+        )
+    if kind == "svm_quadratic":  # MATLAB "Quadratic SVM", one-vs-one, standardised
+        from sklearn.svm import SVC
+
+        return make_pipeline(
+            StandardScaler(), SVC(kernel="poly", degree=2, coef0=1.0, gamma="scale")
+        )
+    raise DataError(f"model must be one of knn, tree, bagged_trees; got {kind!r}")
+
+
+def _evaluate(
+    table: pd.DataFrame,
+    features: list[str],
+    label: str,
+    model: str,
+    validation: str,
+    seed: int,
+    split: str,
+) -> tuple[float, dict]:
+    """Accuracy (%) of ``model`` on ``features`` with the seed's validation."""
+    from sklearn.model_selection import (
+        GroupShuffleSplit,
+        StratifiedGroupKFold,
+        StratifiedKFold,
+        cross_val_predict,
+        train_test_split,
+    )
+
+    if split not in ("seed", "code"):
+        raise DataError(f"split must be 'seed' or 'code'; got {split!r}")
+    if split == "code" and "fault_code" not in table.columns:
+        raise DataError("split='code' needs a 'fault_code' column in the table")
+    data = table.dropna(subset=[label])
+    x = np.nan_to_num(data[features].to_numpy(float), nan=0.0, posinf=0.0, neginf=0.0)
+    y = data[label].astype(str).to_numpy()
+    estimator = _model(model, seed)
+    notes: dict[str, Any] = {"validation": validation, "split": split}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # classes smaller than the folds
+        if validation == "holdout":
+            if split == "code":
+                groups = data["fault_code"].to_numpy()
+                cut = GroupShuffleSplit(n_splits=1, test_size=0.3, random_state=seed)
+                train, test = next(cut.split(x, y, groups))
+            else:
+                rows = np.arange(len(y))
+                try:
+                    train, test = train_test_split(
+                        rows, test_size=0.3, stratify=y, random_state=seed
+                    )
+                except ValueError:  # classes too small to stratify
+                    train, test = train_test_split(rows, test_size=0.3, random_state=seed)
+                    notes["stratified"] = False
+            estimator.fit(x[train], y[train])
+            accuracy = float(np.mean(estimator.predict(x[test]) == y[test]))
+            notes["n_test"] = len(test)
+        else:
+            if split == "code":
+                cv = StratifiedGroupKFold(n_splits=5, shuffle=True, random_state=seed)
+                pred = cross_val_predict(
+                    estimator, x, y, cv=cv, groups=data["fault_code"].to_numpy()
+                )
+            else:
+                folds = int(min(5, max(2, np.min(np.unique(y, return_counts=True)[1]))))
+                cv = StratifiedKFold(
+                    n_splits=max(folds, 2), shuffle=True, random_state=seed
+                )
+                pred = cross_val_predict(estimator, x, y, cv=cv)
+                notes["folds"] = cv.get_n_splits()
+            accuracy = float(np.mean(pred == y))
+    notes["n_members"] = len(y)
+    notes["n_classes"] = len(np.unique(y))
+    return 100.0 * accuracy, notes
+
+
+def _table_for(data, sensors: Sequence[str], residuals: bool = False) -> pd.DataFrame:
+    if isinstance(data, pd.DataFrame):
+        return data
+    if hasattr(data, "signal_names") and hasattr(data, "conditions"):
+        return seed_feature_table(data, sensors=sensors, residuals=residuals)
+    raise DataError(
+        f"data must be a seed Ensemble or a seed_feature_table DataFrame; got "
+        f"{type(data).__name__}"
+    )
+
+
+def _flow_columns(table: pd.DataFrame) -> list[str]:
+    prefixes = ("FlowContraction_stats/", "FlowContraction_ps_spec/")
+    cols = [c for c in table.columns if str(c).startswith(prefixes)]
+    if not cols:
+        raise DataError(
+            "the table has no FlowContraction_* indicators: build it with "
+            "seed_feature_table (or pass an ensemble holding FlowContraction)"
+        )
+    return cols
+
+
+def _label_of(table: pd.DataFrame, label: str) -> str:
+    if label not in table.columns:
+        raise DataError(
+            f"label: no column {label!r} in the table {list(table.columns)[:8]}"
+        )
+    return label

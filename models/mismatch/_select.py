@@ -1,0 +1,384 @@
+"""Score, compare and select model structures in mismatch discovery.
+
+A *structure* is the nominal model with a set of candidate effects, fitted
+(:class:`_Scored` holds one with its validation errors). This module simulates the
+validation part for fitted structures, compares them (validation RMSE, BIC, and the
+one-sided Diebold-Mariano test :func:`dm_test`), picks the best single effect
+(:func:`_choose`: nested hypotheses must earn their extra parameters), and grows
+explanations by forward selection (:func:`_grow`, :func:`_companion_pairs`,
+:func:`_simpler_rival`, :func:`_by_weight`).
+
+References: Diebold & Mariano, *Comparing predictive accuracy*, JBES 1995; Newey &
+West, *Automatic lag selection in covariance matrix estimation*, RES 1994.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from pdmkit.models.mismatch._fit import (
+    Recording,
+    _cost,
+    _Job,
+    _lm,
+    _make_jobs,
+    _Problem,
+    data_states,
+)
+from pdmkit.models.mismatch._locate import whiteness_test
+from pdmkit.models.ode import DERIVATIVE_ATTACH
+
+__all__ = ["dm_test"]
+
+
+def dm_test(e_ref: np.ndarray, e_new: np.ndarray) -> tuple[float, float]:
+    """One-sided Diebold-Mariano test that ``e_new`` has smaller squared errors.
+
+    ``d_t = sum(e_ref**2) - sum(e_new**2)`` (over outputs); the variance of its mean is
+    a Bartlett (Newey-West) HAC estimate with the plug-in bandwidth
+    ``floor(4 (N/100)^(2/9))``.
+
+    Returns
+    -------
+    (statistic, p_value)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models.mismatch import dm_test
+    >>> rng = np.random.default_rng(0)
+    >>> noise = rng.normal(size=500)
+    >>> round(dm_test(noise + 1.0, noise)[1], 6)
+    0.0
+    >>> bool(dm_test(noise, noise + 0.01 * rng.normal(size=500))[1] > 0.01)
+    True
+    """
+    from scipy import stats
+
+    a = np.asarray(e_ref, dtype=float)
+    b = np.asarray(e_new, dtype=float)
+    a = a[:, None] if a.ndim == 1 else a
+    b = b[:, None] if b.ndim == 1 else b
+    with np.errstate(over="ignore", invalid="ignore"):
+        d = np.sum(a**2, axis=1) - np.sum(b**2, axis=1)
+    if not np.all(np.isfinite(d)):  # a diverged simulation: infinitely worse
+        worse = bool(np.any(np.isnan(d)) or np.any(d == -np.inf))
+        return (-math.inf, 1.0) if worse else (math.inf, 0.0)
+    n = d.size
+    dc = d - d.mean()
+    g0 = float(np.dot(dc, dc) / n)
+    if g0 <= 0:
+        return (math.inf if d.mean() > 0 else 0.0), (0.0 if d.mean() > 0 else 1.0)
+    var = g0
+    # Newey-West (1994) plug-in bandwidth
+    L = int(min(max(1, math.floor(4.0 * (n / 100.0) ** (2.0 / 9.0))), n - 1))
+    for k in range(1, L + 1):
+        gk = float(np.dot(dc[k:], dc[: n - k]) / n)
+        var += 2.0 * (1.0 - k / (L + 1)) * gk
+    var = max(var, g0 / n)
+    stat = float(d.mean() / math.sqrt(var / n))
+    return stat, float(stats.norm.sf(stat))
+
+
+@dataclasses.dataclass
+class _Scored:
+    job: _Job
+    key: str
+    effects: tuple
+    rmse_val: float = math.inf
+    e_val: np.ndarray | None = None  # weighted validation errors (Nv, n_out)
+    y_val: np.ndarray | None = None
+    y_train: np.ndarray | None = None
+    bic: float = math.inf
+    p_value: float = 1.0
+    refit: bool = True
+    n_sub: int = 0  # RK4 steps per sample it was fitted with
+
+
+def _bic(cost: float, m: int, k: int) -> float:
+    if not math.isfinite(cost):
+        return math.inf
+    return m * math.log(max(2.0 * cost / m, 1e-300)) + k * math.log(m)
+
+
+def _rmse(err: np.ndarray, weights: np.ndarray) -> float:
+    with np.errstate(over="ignore"):  # a diverged simulation: inf
+        if err.shape[1] == 1:
+            return float(np.sqrt(np.mean(err**2)))
+        return float(np.sqrt(np.mean((err * weights) ** 2)))
+
+
+#: samples at the start of a validation record on which its initial state is fitted
+#: (a record fitted in pieces: one piece's length)
+VALIDATION_X0_SAMPLES = 2000
+
+
+def _validate(
+    model,
+    problems: Mapping[int, _Problem],
+    rec_val: Recording | None,
+    scored: list[_Scored],
+    x_scale,
+    max_iter: int,
+) -> None:
+    """Validation outputs and errors for every scored structure (batched per step)."""
+    for n_sub, problem in problems.items():
+        group = [s for s in scored if s.n_sub == n_sub]
+        if group:
+            _validate_one(model, problem, rec_val, group, x_scale, max_iter)
+
+
+def _validate_one(model, problem, rec_val, scored, x_scale, max_iter) -> None:
+    rec = problem.rec
+    w = problem.weights
+    rows = [(s.job, s.job.values(), s.job.x0) for s in scored]
+    if rec_val is None:
+        Y = problem.simulate(rows, n=rec.n)
+        y = rec.y(model)
+        for s, Yi in zip(scored, Y, strict=True):
+            s.y_train = Yi
+            s.y_val = Yi[problem.n_fit :]
+            err = Yi[problem.n_fit :] - y[problem.n_fit :]
+            s.e_val = np.where(np.isfinite(err * w), err * w, 1e3)
+            s.rmse_val = _rmse(np.where(np.isfinite(err), err, np.inf), w)
+        return
+    if problem.n_pieces == 1:
+        Ytr = problem.simulate(rows, n=rec.n)
+    else:  # the fitted pieces; samples between them are not simulated (NaN)
+        Ytr = np.full((len(rows), rec.n, len(model.outputs)), np.nan)
+        Ytr[:, problem.sample_index()] = problem.simulate(rows)
+    # the initial state is estimated on the record's first samples, then the whole
+    # record is simulated once: the initial state only shapes the start (a long record
+    # would otherwise be simulated at every iteration of this small fit)
+    n0 = VALIDATION_X0_SAMPLES if problem.n_pieces == 1 else problem.length
+    pv = _Problem(model, rec_val, min(rec_val.n, n0), w, problem.n_sub)
+    jobs = []
+    for s in scored:
+        x0 = data_states(model, rec_val, np.array([0]), s.job.x0[0])
+        jobs += _make_jobs(
+            model,
+            s.effects,
+            None,
+            [{}],
+            s.job.values(),
+            x_scale,
+            fit_free=False,
+            fit_effects=False,
+            x0=x0,
+        )
+    _lm(pv, jobs, max_iter, budgeted=False)
+    Y = pv.simulate([(j, j.values(), j.x0) for j in jobs], n=rec_val.n)
+    y = rec_val.y(model)
+    for s, Yi, Yt in zip(scored, Y, Ytr, strict=True):
+        s.y_train = Yt
+        s.y_val = Yi
+        err = Yi - y
+        s.e_val = np.where(np.isfinite(err * w), err * w, 1e3)
+        s.rmse_val = _rmse(np.where(np.isfinite(err), err, np.inf), w)
+
+
+def _friction_step(job: _Job, ts: float, n_sub: int) -> int:
+    """RK4 steps per sample at which a fitted friction's smoothing is not step-limited.
+
+    The smoothing width of Coulomb / Stribeck friction is widened to ``a h / 2`` so the
+    explicit step stays stable (:func:`pdmkit.models.mismatch._candidates._eps`); when that
+    dominates the intended width, the term is much smoother than real friction and the
+    refit needs finer steps (at most twice as many: the cost grows with them).
+    """
+    vals = job.values()
+    need = n_sub
+    for e in job.effects:
+        if e.id == "coulomb_friction":
+            a = vals[f"{e.key}.a"]
+        elif e.id == "stribeck_friction":
+            a = vals[f"{e.key}.a_c"] + vals[f"{e.key}.a_s"]
+        else:
+            continue
+        eps0 = e.opt("eps")
+        n = n_sub
+        while 0.5 * a * ts / n > 2.0 * eps0 and n < 2 * n_sub:
+            n *= 2
+        need = max(need, n)
+    return need
+
+
+def _choose(scored: list[_Scored], tol: float, min_gain: float, ts: float) -> _Scored:
+    """Lowest validation RMSE; within ``tol`` of it, the lowest BIC.
+
+    A hypothesis that nests a simpler one on the same target (Stribeck friction
+    contains Coulomb friction, drift contains offset) must beat it by ``min_gain``,
+    with values the simulation resolves (``Candidate.resolved``; ``ts`` the sample
+    interval).
+    """
+    best = min(scored, key=lambda s: s.rmse_val)
+    close = [s for s in scored if s.rmse_val <= best.rmse_val * (1.0 + tol)]
+    chosen = min(close, key=lambda s: (s.bic, s.rmse_val))
+    e = chosen.effects[0]
+    simpler = e.candidate.nests
+    if simpler is not None:
+        for s in scored:
+            f = s.effects[0]
+            if f.id == simpler and f.target == e.target:
+                h = ts / max(chosen.n_sub, 1)
+                unresolved = not e.candidate.resolved(e, chosen.job.values(), h)
+                if unresolved or chosen.rmse_val > s.rmse_val * (1.0 - min_gain):
+                    return s
+    return chosen
+
+
+#: a screened candidate is refit when it removes at least this share of what the best
+#: screened candidate removes from the nominal cost (a few iterations from a guess can
+#: leave a right candidate behind a wrong one that happens to start closer)
+REACH = 0.3
+
+
+def _within_reach(ranked: list[_Job], nominal_cost: float, keep: int) -> list[_Job]:
+    """The screened jobs to refit: the ``keep`` best, and every other one whose gain
+    over the nominal cost is within :data:`REACH` of the best gain (at most
+    ``3 * keep`` in all, best first)."""
+    if not ranked:
+        return []
+    best_gain = nominal_cost - ranked[0].cost
+    kept = list(ranked[:keep])
+    if math.isfinite(best_gain) and best_gain > 0:
+        kept += [
+            j
+            for j in ranked[keep:]
+            if math.isfinite(j.cost) and nominal_cost - j.cost >= REACH * best_gain
+        ]
+    return kept[: 3 * keep]
+
+
+def _grow(current: _Scored, singles: list[_Scored], top: int) -> dict:
+    """``{effect keys: (current, single)}`` for the ``top`` refitted runner-ups (lowest
+    validation RMSE first) and the companions of ``current``'s effects: effects it
+    does not hold already, nor nests (Stribeck and Coulomb on one velocity)."""
+    held = {(e.id, e.target) for e in current.effects}
+    for e in current.effects:  # nor one that nests it or that it nests
+        if e.candidate.nests:
+            held.add((e.candidate.nests, e.target))
+        held |= {
+            (s.effects[0].id, e.target)
+            for s in singles
+            if s.effects[0].candidate.nests == e.id
+        }
+    keys = {e.key for e in current.effects}
+    out: dict = {}
+    for s in sorted(singles, key=lambda s: s.rmse_val):
+        f = s.effects[0]
+        if (f.id, f.target) in held:
+            continue
+        companion = any(f.id in e.candidate.companions for e in current.effects)
+        if (s.refit and len(out) < top) or companion:
+            held.add((f.id, f.target))
+            out[frozenset({*keys, f.key})] = (current, s)
+    return out
+
+
+def _simpler_rival(chosen: _Scored, considered: list[_Scored], min_gain: float):
+    """A considered structure that holds, instead of each effect of ``chosen`` that
+    nests a simpler one (``Candidate.nests``), that simpler effect on the same target, with
+    no more fitted values and a validation RMSE within ``min_gain`` of ``chosen``'s
+    (the best such, or None)."""
+    nesting = [(e, e.candidate.nests) for e in chosen.effects if e.candidate.nests]
+    if not nesting:
+        return None
+    best = None
+    for s in considered:
+        held = {(f.id, f.target) for f in s.effects}
+        if s is chosen or any((e.id, e.target) in held for e, _ in nesting):
+            continue
+        if not all((small, e.target) in held for e, small in nesting):
+            continue
+        close = s.rmse_val <= chosen.rmse_val * (1.0 + min_gain)
+        if close and s.job.n_fitted <= chosen.job.n_fitted:
+            if best is None or s.rmse_val < best.rmse_val:
+                best = s
+    return best
+
+
+def _by_weight(problem: _Problem, s: _Scored) -> list:
+    """The effects of a structure, the one whose removal (its parameters at their
+    neutral values, nothing refitted) raises the fitted cost most first."""
+    vals = s.job.values()
+    rows, order = [], []
+    for e in s.effects:
+        if set(e.param_names) <= set(e.candidate.neutral):
+            off = {
+                **vals,
+                **{f"{e.key}.{p}": e.candidate.neutral[p] for p in e.param_names},
+            }
+            rows.append((s.job, off, s.job.x0))
+            order.append(e)
+    if len(rows) < 2:
+        return list(s.effects)
+    costs = [_cost(r) for r in problem.residuals(problem.simulate(rows))]
+    ranked = [e for _, e in sorted(zip(costs, order, strict=True), key=lambda z: -z[0])]
+    return ranked + [e for e in s.effects if e not in ranked]
+
+
+def _companion_pairs(singles: list[_Scored], top: int) -> list:
+    """``(single, companion)`` for each of the ``top`` refitted singles (lowest
+    validation RMSE first) and every candidate listed as its companion (on the same
+    target when both act on a state's derivative), screened or refitted alike."""
+    ranked = [s for s in sorted(singles, key=lambda s: s.rmse_val) if s.refit][:top]
+    out, seen = [], set()
+    for s in ranked:
+        e = s.effects[0]
+        for c in singles:
+            f = c.effects[0]
+            if f.id not in e.candidate.companions or c is s:
+                continue
+            same_kind = (e.candidate.attach in DERIVATIVE_ATTACH) and (
+                f.candidate.attach in DERIVATIVE_ATTACH
+            )
+            if same_kind and f.target != e.target:
+                continue
+            key = frozenset((e.key, f.key))
+            if key in seen:
+                continue
+            seen.add(key)
+            out.append((s, c))
+    return out
+
+
+def _white(s: _Scored) -> bool:
+    """Whether every output's validation residual passes the whiteness test."""
+    return all(whiteness_test(s.e_val[:, j])["white"] for j in range(s.e_val.shape[1]))
+
+
+def _structured(s) -> bool:
+    """A residual with clear structure: not white and strongly correlated (a model
+    error, not measurement noise, which a control's residual is)."""
+    for j in range(s.e_val.shape[1]):
+        w = whiteness_test(s.e_val[:, j])
+        if not w["white"] and w["acf_max"] > 0.5:
+            return True
+    return False
+
+
+def _score(model, problems, rec_val, scored, x_scale, n_res: int, everyone=None) -> None:
+    """Validation errors of ``scored`` and the BIC (on ``n_res`` training residuals)
+    of ``everyone`` (default: ``scored``)."""
+    _validate(model, problems, rec_val, scored, x_scale, 30)
+    for s in scored if everyone is None else everyone:
+        s.bic = _bic(s.job.cost, n_res, s.job.n_fitted)
+
+
+@dataclasses.dataclass(frozen=True)
+class Significance:
+    """Whether a structure beats a reference: a relative validation-RMSE gain of at
+    least ``min_improvement``, a Diebold-Mariano p-value below ``alpha`` and a lower
+    BIC."""
+
+    min_improvement: float
+    alpha: float
+
+    def __call__(self, s: _Scored, ref: _Scored) -> bool:
+        gain = 1.0 - s.rmse_val / ref.rmse_val if ref.rmse_val > 0 else 0.0
+        p = dm_test(ref.e_val, s.e_val)[1]
+        return gain >= self.min_improvement and p < self.alpha and s.bic < ref.bic
