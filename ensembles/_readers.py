@@ -38,7 +38,7 @@ import pandas as pd
 
 from pdmkit._checks import npy_declared, parse_timestamps
 from pdmkit._config import _LIMIT_ENV, max_bytes
-from pdmkit.errors import DataError, DataNotFoundError, DataWarning
+from pdmkit.errors import DataError, DataNotFoundError, DataWarning, did_you_mean
 
 __all__ = ["read_mat", "read_members", "read_npz", "read_table"]
 
@@ -405,6 +405,76 @@ def _header_lines(options: dict) -> int:
     return lines + (int(header) + 1 if isinstance(header, int) else 1)
 
 
+#: Options that say how a CSV line is split (when given, no delimiter is guessed).
+_SEP_OPTIONS = {"sep", "delimiter", "delim_whitespace", "dialect"}
+#: Bytes read from the top of a text table to tell how its lines are split.
+_SNIFF_BYTES = 1 << 16
+#: Data lines looked at to tell how a text table's lines are split.
+_SNIFF_LINES = 20
+
+
+def _whitespace_delimited(path: Path, compression: str) -> bool:
+    """True when the lines of a text table are split by runs of spaces (or tabs).
+
+    Raw C-MAPSS files and many rig loggers write numbers separated by one or more
+    spaces, often with spaces at the start or end of a line: no comma, semicolon or
+    tab-pair (an empty tab-separated field) in the first lines, and at least two fields
+    on every one of them, as many on each data line (the first line may be a header
+    with more names). Reads at most the first 64 KiB.
+    """
+    try:
+        with _open_text_bytes(path, compression) as f:
+            head = f.read(_SNIFF_BYTES)
+    except (DataError, *_DECOMPRESS_ERRORS):
+        return False
+    text = head.decode("utf-8", "replace")
+    lines = text.splitlines()
+    if len(head) == _SNIFF_BYTES and len(lines) > 1:
+        lines = lines[:-1]  # the last line may be cut off
+    lines = [ln for ln in lines if ln.strip()][: _SNIFF_LINES + 1]
+    if (
+        not lines
+        or any(ch in ln for ln in lines for ch in ",;")
+        or any("\t\t" in ln for ln in lines)
+    ):
+        return False
+    counts = [len(ln.split()) for ln in lines]
+    if min(counts) < 2:
+        return False
+    data = counts[1:] or counts
+    return len(set(data)) == 1 and counts[0] >= data[0]
+
+
+def _short_rows(path: Path, table: pd.DataFrame, options: dict) -> pd.DataFrame:
+    """Drop the empty columns a whitespace table's header names beyond its rows.
+
+    The header line of a whitespace-delimited file can name more columns than its
+    rows hold (the C-MAPSS ``train_FD001.txt`` here names 31, its rows hold 26); the
+    last names are then empty columns. They are dropped with a DataWarning that names
+    them.
+    """
+    if options.get("header", "infer") is None or options.get("names") is not None:
+        return table
+    empty = []
+    for c in reversed(table.columns):
+        if table[c].isna().all():
+            empty.append(c)
+        else:
+            break
+    if not empty or len(empty) == table.shape[1]:
+        return table
+    empty.reverse()
+    shown = ", ".join(map(str, empty)) if len(empty) <= 3 else f"{empty[0]} ... {empty[-1]}"
+    warnings.warn(
+        f"{path}: the header line names {table.shape[1]} columns but the rows hold "
+        f"{table.shape[1] - len(empty)}; the last {len(empty)} ({shown}) are empty and "
+        "left out. Correct the header line, or pass names=[...] to read_table",
+        DataWarning,
+        stacklevel=5,
+    )
+    return table.drop(columns=empty)
+
+
 def _read_csv(
     path: Path, compression: str, options: dict
 ) -> tuple[pd.DataFrame, Callable[[int], str]]:
@@ -423,7 +493,11 @@ def _read_csv(
             )
     if (path.suffixes[-2] if compression else path.suffix).lower() == ".tsv":
         options.setdefault("sep", "\t")
+    elif not _SEP_OPTIONS & options.keys() and _whitespace_delimited(path, compression):
+        options["sep"] = r"\s+"
     table = pd.read_csv(path, **options)
+    if options.get("sep") == r"\s+":
+        table = _short_rows(path, table, options)
     if "header" not in options and "names" not in options and _headerless(table.columns):
         table, options = _reread_headerless(path, table, options, compression)
     _duplicated_header(path, table, options)
@@ -544,6 +618,13 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
     samples after it keep their positions; empty lines (and missing values) after the
     last value are not rows.
 
+    A text table whose lines are split by runs of spaces (or tabs) instead of commas,
+    as raw C-MAPSS files (``train_FD001.txt``) and many rig loggers write them, is read
+    with ``sep=r"\\s+"``: told from the first lines (no comma or semicolon, the same
+    number of fields, at least two, on every data line). When its header line names
+    more columns than the rows hold, the empty columns at the end are dropped with a
+    :class:`pdmkit.errors.DataWarning` naming them. Pass ``sep=`` to decide yourself.
+
     The file is untrusted input:
 
     - A CSV without a header line (every name pandas would take from the first line is
@@ -589,7 +670,8 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
     Warns
     -----
     pdmkit.errors.DataWarning
-        A CSV without a header line was given generated column names.
+        A CSV without a header line was given generated column names; a whitespace
+        table's header named columns its rows do not hold.
 
     Examples
     --------
@@ -605,6 +687,17 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
     Traceback (most recent call last):
     ...
     pdmkit.errors.DataError: ...run.csv: column 'flow' mixes numbers and text: 2 cell(s) are numbers, 1 not (the first at line 3: 'err'); ...
+
+    Numbers separated by spaces, without a header (a raw C-MAPSS file):
+
+    >>> import warnings
+    >>> raw = path.with_name("train.txt")
+    >>> _ = raw.write_text("1 1 -0.0007  518.67 \\n1 2  0.0019  518.67 \\n")
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     table = read_table(raw)
+    >>> table.shape, list(table.columns[:2]), caught[0].category.__name__
+    ((2, 4), ['column_0', 'column_1'], 'DataWarning')
     """  # noqa: E501
     return _read_table(path, options)[0]
 
@@ -1091,13 +1184,16 @@ def _time_rate(path: Path, column: pd.Series, where: Callable[[int], str]) -> fl
 MAX_SIGNALS = 1024
 
 
-def _member_arrays(path: Path, notes: list) -> tuple[dict, float | None, dict]:
+def _member_arrays(
+    path: Path, notes: list, time: str | None = None
+) -> tuple[dict, float | None, dict]:
     """(signals, sampling rate or None, condition values) of one member file.
 
     What was read other than as written (a boolean signal, a variable skipped) is
     appended to ``notes`` as ``("variable" or "column", its name, what was done)``.
+    ``time`` names the time column (or variable); default one of :data:`_TIME_NAMES`.
     """
-    signals, fs, conditions = _member_contents(path, notes)
+    signals, fs, conditions = _member_contents(path, notes, time)
     limit = int(os.environ.get("PDMKIT_MAX_SIGNALS", MAX_SIGNALS))
     if len(signals) > limit:
         raise DataError(
@@ -1140,12 +1236,34 @@ def _unread_variable(value: Any, arr: np.ndarray | None) -> str | None:
     return f"holds {arr.dtype} values of shape {arr.shape}, {_NOT_READ}"
 
 
-def _member_contents(path: Path, notes: list) -> tuple[dict, float | None, dict]:
+def _no_time_column(path: Path, time: str, names: list, what: str) -> DataError:
+    return DataError(
+        f"{path}: no time {what} {time!r} (time= / --time); it has {names[:12]}"
+        f"{did_you_mean(time, names)}. Name its time {what}, or leave time out and "
+        "pass fs= (--fs)"
+    )
+
+
+def _member_contents(
+    path: Path, notes: list, time: str | None = None
+) -> tuple[dict, float | None, dict]:
     suffix = path.suffix.lower()
     if suffix in (".mat", ".npz"):
         data = read_mat(path) if suffix == ".mat" else read_npz(path)
         signals, fs, conditions = {}, None, {}
         limit = max_bytes("member")
+        if time is not None:
+            if time not in data:
+                raise _no_time_column(path, time, [str(k) for k in data], "variable")
+            stamps = np.asarray(data.pop(time))
+            if stamps.dtype.kind not in "iuf" or stamps.size < 2:
+                raise DataError(
+                    f"{path}: time variable {time!r} holds {stamps.dtype} of shape "
+                    f"{stamps.shape}; expected a vector of times in seconds"
+                )
+            fs = _time_rate(
+                path, pd.Series(stamps.reshape(-1), name=time), lambda k: f"sample {k}"
+            )
         for key, value in data.items():
             numeric = isinstance(value, np.ndarray | np.generic | bool | int | float | str)
             arr = np.asarray(value) if numeric or isinstance(value, complex) else None
@@ -1198,7 +1316,10 @@ def _member_contents(path: Path, notes: list) -> tuple[dict, float | None, dict]
         return signals, fs, conditions
     table, where = _read_table(path, {})
     fs = None
-    time = next((c for c in _TIME_NAMES if c in table.columns), None)
+    if time is not None and time not in table.columns:
+        raise _no_time_column(path, time, [str(c) for c in table.columns], "column")
+    if time is None:
+        time = next((c for c in _TIME_NAMES if c in table.columns), None)
     if time is not None:
         fs = _time_rate(path, table.pop(time), where)
     signals, conditions = {}, {}
@@ -1255,13 +1376,140 @@ def _without_clashes(kept: list, fail) -> list:
     return out
 
 
+class _NameConditions:
+    """Condition values a member gets from its file name: a regular expression's
+    groups (``label_from_name``) and a labels table's row (``labels``)."""
+
+    _KEYS = ("file", "member", "name", "filename", "path")
+
+    def __init__(self, label_from_name: Any, labels: Any) -> None:
+        self.pattern = self._pattern(label_from_name)
+        self.table, self.source = self._table(labels)
+        self.used: set = set()
+
+    @staticmethod
+    def _pattern(regex: Any) -> re.Pattern | None:
+        if regex is None:
+            return None
+        try:
+            pattern = re.compile(regex)
+        except (re.error, TypeError) as exc:
+            raise DataError(
+                f"label_from_name (--label-from-name) {regex!r} is not a regular "
+                f"expression ({_why(exc)})"
+            ) from None
+        if not pattern.groupindex and pattern.groups != 1:
+            raise DataError(
+                f"label_from_name (--label-from-name) {pattern.pattern!r} has "
+                f"{pattern.groups} groups; it needs one group (...) for the label, or "
+                r"named groups (?P<label>...) (?P<load>\d+) for condition columns, "
+                r"e.g. '^\d+_([A-Za-z]+)'"
+            )
+        return pattern
+
+    def _table(self, labels: Any) -> tuple[dict | None, str]:
+        if labels is None:
+            return None, ""
+        if isinstance(labels, pd.DataFrame):
+            table, source = labels, "the labels table"
+        else:
+            table, source = read_table(labels), f"labels table {labels}"
+        lower = {str(c).lower(): c for c in table.columns}
+        key = next((lower[k] for k in self._KEYS if k in lower), None)
+        if key is None:
+            raise DataError(
+                f"{source}: no column names the member files; expected one of "
+                f"{list(self._KEYS)} (the file name, e.g. a.csv, or its member id a), "
+                f"found {[str(c) for c in table.columns]}"
+            )
+        if table.shape[1] < 2:
+            raise DataError(
+                f"{source}: only the column {key!r}; add the label / condition columns "
+                "beside it (e.g. file,fault)"
+            )
+        # keyed by member id: "a.csv" and "a" name the same member
+        names = table[key].astype(str).map(lambda v: Path(v.strip()).name.split(".")[0])
+        dup = names[names.duplicated()].unique().tolist()
+        if dup:
+            raise DataError(
+                f"{source}: member file(s) {dup[:5]} are listed more than once; give "
+                "each member one row"
+            )
+        rows = table.drop(columns=[key]).to_dict(orient="records")
+        out = {}
+        for name, row in zip(names, rows, strict=True):
+            out[name] = {str(k): v for k, v in row.items()}
+        return out, source
+
+    def conditions(self, path: Path) -> dict:
+        """The conditions ``path``'s name gives; DataError when it gives none."""
+        extra: dict = {}
+        if self.pattern is not None:
+            match = self.pattern.search(path.name)
+            if match is None:
+                raise DataError(
+                    f"{path.name}: its name does not match label_from_name "
+                    f"(--label-from-name) {self.pattern.pattern!r}, so it has no label; "
+                    "rename the file or widen the expression"
+                )
+            found = match.groupdict() if self.pattern.groupindex else {"label": match[1]}
+            # a group that took no part in the match gives no value
+            extra.update({k: v for k, v in found.items() if v is not None})
+        if self.table is not None:
+            key = stem = path.name.split(".")[0]
+            if key not in self.table:
+                raise DataError(
+                    f"{path.name} is not listed in {self.source}; add a row for it "
+                    f"(by file name {path.name!r} or member id {stem!r})"
+                    f"{did_you_mean(path.name, self.table)}"
+                )
+            self.used.add(key)
+            for name, value in self.table[key].items():
+                if name in extra and str(extra[name]) != str(value):
+                    raise DataError(
+                        f"{path.name}: condition {name!r} is {extra[name]!r} by its name "
+                        f"(label_from_name) but {value!r} in {self.source}; keep one"
+                    )
+                extra[name] = value
+        return extra
+
+    @staticmethod
+    def merge(path: Path, conditions: dict, extra: dict) -> dict:
+        """The file's own ``conditions`` and ``extra``; a clash is a DataError."""
+        for name, value in extra.items():
+            own = conditions.get(name)
+            if own is not None and str(own) != str(value):
+                raise DataError(
+                    f"{path.name}: condition {name!r} is {own!r} in the file but "
+                    f"{value!r} from its name or the labels table; keep one"
+                )
+        return {**conditions, **extra}
+
+    def warn_unused(self) -> None:
+        """A DataWarning for labels-table rows that name no member file read."""
+        if self.table is None:
+            return
+        unused = [k for k in self.table if k not in self.used]
+        if unused:
+            warnings.warn(
+                f"{self.source}: {len(unused)} row(s) name no member file read: "
+                f"{unused[:5]}{' ...' if len(unused) > 5 else ''}; check the names",
+                DataWarning,
+                stacklevel=3,
+            )
+
+
 def read_members(
     files: Any,
     *,
     fs: float | None = None,
     signals: Any = None,
+    time: str | None = None,
+    label_from_name: Any = None,
+    labels: Any = None,
     on_error: str = "raise",
     return_errors: bool = False,
+    progress: bool | None = None,
 ):
     """Build an ensemble from member files: one recording per file.
 
@@ -1307,10 +1555,28 @@ def read_members(
     signals : sequence of str, optional
         Signals every member must have (default: all found; a member lacking one gets
         None there).
+    time : str, optional
+        The time column of CSV / Parquet members (or time variable of ``.mat`` /
+        ``.npz`` members, in seconds) when it is not named ``time``, ``t``, ``Time``
+        or ``TIME``; a member without it is an error naming the file.
+    label_from_name : str or re.Pattern, optional
+        A regular expression searched in each member's file name: its one group
+        becomes the condition ``label``, or its named groups (``(?P<fault>...)``)
+        conditions of their names, so a label need not be repeated on every row of a
+        member file. A file whose name does not match is an error naming it.
+    labels : path or DataFrame, optional
+        A table (CSV / Parquet, read by :func:`read_table`) with a column ``file``
+        (or ``member``, ``name``, ``filename``, ``path``) naming each member file
+        (``a.csv``) or member id (``a``), and condition columns beside it. A member
+        file the table does not list is an error naming it; rows naming no file read
+        give a DataWarning. A condition given twice with different values (in the
+        file, by its name, in the table) is an error.
     on_error : {"raise", "skip"}, default "raise"
     return_errors : bool, default False
         Also return the errors table (columns ``member``, ``signal``, ``source``,
         ``error``).
+    progress : bool, optional
+        A progress bar over the files; default only when stderr is a terminal.
 
     Returns
     -------
@@ -1344,6 +1610,15 @@ def read_members(
     ['b', 'c']
     >>> print(errors["error"].iloc[0])
     b.csv is sampled at 100 Hz; expected 50 Hz (fs as given); member skipped
+
+    The label from the file names, and a time column named otherwise:
+
+    >>> e = pathlib.Path(tempfile.mkdtemp())
+    >>> for name in ("run1_IR.csv", "run2_OR.csv"):
+    ...     pd.DataFrame({"sec": t, "vib": np.sin(t)}).to_csv(e / name, index=False)
+    >>> ens = read_members(e, time="sec", label_from_name=r"_([A-Z]+)[.]csv")
+    >>> ens.conditions["label"].tolist(), ens.fs["vib"]
+    (['IR', 'OR'], 50.0)
     """
     import glob
 
@@ -1403,11 +1678,16 @@ def read_members(
 
     read: list[tuple[str, Path, dict, float | None, dict]] = []
     noted: dict[tuple[str, str, str], list[Path]] = {}
-    for path in paths:
+    from pdmkit._progress import progress as _progress_bar
+
+    named = _NameConditions(label_from_name, labels)
+    for path in _progress_bar(paths, desc="reading members", enable=progress):
         member = path.name.split(".")[0]
         notes: list[tuple[str, str, str]] = []
         try:
-            arrays, rate, conds = _member_arrays(path, notes)
+            extra = named.conditions(path)
+            arrays, rate, conds = _member_arrays(path, notes, time)
+            conds = named.merge(path, conds, extra)
         except DataError as exc:
             fail(member, None, path, str(exc))
             continue
@@ -1438,6 +1718,7 @@ def read_members(
             continue
         read.append((member, path, arrays, rate, conds))
 
+    named.warn_unused()
     for (what, name, done), where in noted.items():
         files = (
             str(where[0])

@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, clone
-from sklearn.metrics import confusion_matrix
-from sklearn.model_selection import StratifiedKFold, cross_val_score, train_test_split
+from sklearn.metrics import accuracy_score, confusion_matrix
+from sklearn.model_selection import StratifiedKFold, TimeSeriesSplit, train_test_split
 from sklearn.pipeline import Pipeline
 
 from pdmkit._outputs import to_jsonable
@@ -27,6 +27,7 @@ from pdmkit.errors import DataError
 __all__ = [
     "MODELS",
     "SELECTIONS",
+    "SPLITS",
     "ClassificationResult",
     "classify",
     "compare_models",
@@ -383,13 +384,136 @@ def _smallest_fit_size(y: pd.Series, folds: int) -> int:
 
 
 def _cv_scores(
-    pipe: Pipeline, X: np.ndarray, y: np.ndarray, n_splits: int, random_state: int | None
+    pipe: Pipeline,
+    X: np.ndarray,
+    y: np.ndarray,
+    n_splits: int,
+    random_state: int | None,
+    *,
+    progress: bool | None = None,
+    in_time: bool = False,
+    notes: list[str] | None = None,
 ) -> np.ndarray:
-    """Accuracy on each fold of a shuffled stratified k-fold split."""
-    folds = StratifiedKFold(n_splits=n_splits, shuffle=True, random_state=random_state)
-    return cross_val_score(
-        clone(pipe), X, y, cv=folds, scoring="accuracy", error_score="raise"
+    """Accuracy on each fold: of a shuffled stratified k-fold split, or (``in_time``)
+    of forward-chaining folds over rows in time order (``TimeSeriesSplit``: each fold
+    trains on the rows before the ones it tests). A forward fold whose training rows
+    hold a single class is skipped, with a note.
+
+    Each fold is ``clone(pipe).fit`` and the accuracy of its predictions, as
+    ``cross_val_score(..., scoring="accuracy")`` computes it, with a progress bar
+    (``progress``; default only on a terminal).
+    """
+    from pdmkit._progress import progress as bar
+
+    if in_time:
+        folds = TimeSeriesSplit(n_splits=n_splits)
+    else:
+        folds = StratifiedKFold(n_splits=n_splits, shuffle=True, random_state=random_state)
+    scores, skipped = [], 0
+    for train, test in bar(
+        folds.split(X, y), desc="cv folds", total=n_splits, enable=progress
+    ):
+        if in_time and len(np.unique(y[train])) < 2:
+            skipped += 1
+            continue
+        model = clone(pipe).fit(X[train], y[train])
+        scores.append(accuracy_score(y[test], model.predict(X[test])))
+    if skipped and notes is not None:
+        notes.append(
+            f"{skipped} of {n_splits} forward cross-validation folds skipped: their "
+            "earlier members hold a single class"
+        )
+    return np.asarray(scores, dtype=float)
+
+
+#: How the members are split into a training and a test part (:func:`classify`).
+SPLITS = ("stratified", "time")
+
+
+def _order_key(table: pd.DataFrame, order: str | None) -> tuple[np.ndarray, Any]:
+    """Sort key of the members in time (numbers, or seconds for timestamps), and a
+    function that shows one member's time for messages."""
+    if order is None:
+        return np.arange(len(table), dtype=float), lambda i: f"member {table.index[i]!r}"
+    if order not in table.columns:
+        conditions = [str(c) for c in table.columns if "/" not in str(c)]
+        raise DataError(
+            f"order column {order!r} is not in the feature table; condition columns "
+            f"found: {conditions}. Pass order= the column that orders members in time"
+        )
+    column = table[order]
+    if pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
+        key = column.to_numpy(dtype=float)
+    else:
+        from pdmkit._checks import parse_timestamps
+
+        stamps = parse_timestamps(column)
+        if stamps.isna().any():
+            bad = column[stamps.isna()].iloc[0]
+            raise DataError(
+                f"order column {order!r} holds {str(bad)!r}, neither a number nor a "
+                "timestamp; a time split orders members by numbers or timestamps"
+            )
+        key = (stamps - stamps.min()).dt.total_seconds().to_numpy(dtype=float)
+    if not np.isfinite(key).all():
+        bad = table.index[~np.isfinite(key)]
+        raise DataError(
+            f"order column {order!r} is missing for members {_show(bad)}; every member "
+            "needs its time for a time split"
+        )
+    return key, lambda i: f"{order}={_plain(column.iloc[i])!r}"
+
+
+def _time_split(
+    table: pd.DataFrame,
+    y: pd.Series,
+    order: str | None,
+    test_size: float,
+    notes: list[str],
+) -> tuple[np.ndarray, np.ndarray]:
+    """Positions of the earlier (training) and later (test) members."""
+    key, shown = _order_key(table, order)
+    ranked = np.argsort(key, kind="stable")
+    n = len(ranked)
+    n_test = math.ceil(test_size * n)
+    train_pos, test_pos = ranked[: n - n_test], ranked[n - n_test :]
+    if len(train_pos) == 0:
+        raise DataError(
+            f"{n} members split in time with test_size={test_size} leave no training "
+            "member; lower test_size"
+        )
+    by = f"by {order!r}" if order is not None else "in the order given"
+    notes.append(
+        f"time split {by}: trained on the {len(train_pos)} earliest members (up to "
+        f"{shown(train_pos[-1])}), tested on the {len(test_pos)} latest (from "
+        f"{shown(test_pos[0])})"
     )
+    if key[train_pos[-1]] == key[test_pos[0]]:
+        notes.append(
+            f"members on both sides of the split share the time {shown(test_pos[0])}"
+        )
+    seen = set(y.iloc[train_pos])
+    if len(seen) < 2:
+        raise DataError(
+            f"the {len(train_pos)} earliest members ({by}) hold only class "
+            f"{_show(seen)}; a classifier needs two classes to learn from. Lower "
+            "test_size (--test-size) or use the stratified split"
+        )
+    unseen = _sort_labels(set(y.iloc[test_pos]) - seen)
+    if unseen:
+        notes.append(
+            f"class(es) {_show(unseen)} appear only among the later (test) members: "
+            "the classifier never saw them and cannot predict them"
+        )
+    return train_pos, test_pos
+
+
+def _sort_labels(values: set) -> list:
+    values = [_plain(v) for v in values]
+    try:
+        return sorted(values)
+    except TypeError:
+        return sorted(values, key=str)
 
 
 def _selected_names(pipe: Pipeline, features: list) -> list[str]:
@@ -444,6 +568,10 @@ class ClassificationResult:
         Member ids of the held-out part; ``y_true`` / ``y_pred`` align with it.
     notes : list of str
         What was adjusted on the way (fewer folds, smaller ``top_k``, ...).
+    split : str
+        ``"stratified"`` or ``"time"`` (see :func:`classify`).
+    order : str or None
+        The column that ordered the members of a time split (None: their order).
 
     Examples
     --------
@@ -480,6 +608,8 @@ class ClassificationResult:
     y_true: np.ndarray = field(default_factory=lambda: np.array([], dtype=object))
     y_pred: np.ndarray = field(default_factory=lambda: np.array([], dtype=object))
     notes: list[str] = field(default_factory=list)
+    split: str = "stratified"
+    order: str | None = None
 
     def __repr__(self) -> str:
         cv = (
@@ -554,7 +684,9 @@ class ClassificationResult:
             Keys ``accuracy``, ``model``, ``features``, ``labels``, ``confusion``
             (rows true, columns predicted), ``n_train``, ``n_test``, ``cv_accuracy``,
             ``cv_accuracy_std``, ``cv_folds``, ``recall`` (class -> recall),
-            ``label``, ``selection``, ``top_k``, ``n_input_features``, ``notes``.
+            ``label``, ``selection``, ``top_k``, ``n_input_features``, ``split``
+            (``"stratified"`` or ``"time"``), ``order`` (the time column of a time
+            split), ``notes`` (a time split's first note says where it fell).
 
         Examples
         --------
@@ -582,6 +714,8 @@ class ClassificationResult:
                 "labels": [_plain(c) for c in self.labels],
                 "confusion": self.confusion.tolist(),
                 "recall": {str(_plain(c)): float(self.recall[c]) for c in self.labels},
+                "split": self.split,
+                "order": self.order,
                 "notes": list(self.notes),
             }
         )
@@ -691,6 +825,9 @@ def classify(
     test_size: float = 0.25,
     cv: int | None = 5,
     random_state: int | None = 0,
+    split: str = "stratified",
+    order: str | None = None,
+    progress: bool | None = None,
 ) -> ClassificationResult:
     """Train a fault classifier on a feature table and score it on held-out members.
 
@@ -701,6 +838,14 @@ def classify(
     random_state=random_state)``), then fitted on the whole training part and scored
     on the test part. Feature selection is part of the pipeline, so it only ever
     sees training members.
+
+    With ``split="time"`` the members are ordered by the column ``order`` (numbers or
+    timestamps; default: the table's row order) and the earliest ``1 - test_size``
+    train, the latest ``test_size`` test: the score of a classifier that meets the
+    future, as deployed, where a random split lets neighbours in time (which share
+    the machine's state and drift) sit on both sides. The cross-validation then runs
+    forward in time (``TimeSeriesSplit(cv)`` on the training part). The notes say
+    where the split fell and name the classes seen only after it.
 
     Parameters
     ----------
@@ -721,6 +866,13 @@ def classify(
         when the smallest class has fewer training members; ``None`` skips it.
     random_state : int or None, default 0
         Seed of the split, the folds and the randomised models.
+    split : {"stratified", "time"}, default "stratified"
+        A random split stratified by class, or a time-ordered one (see above).
+    order : str, optional
+        With ``split="time"``: the column ordering the members in time.
+    progress : bool, optional
+        A progress bar over the cross-validation folds; default only when stderr is
+        a terminal.
 
     Returns
     -------
@@ -748,8 +900,19 @@ def classify(
     ['DE/stats/F2', 'DE/stats/F4']
     >>> res.accuracy, res.n_train, res.n_test
     (1.0, 67, 23)
+
+    Trained on the earlier members, tested on the later ones:
+
+    >>> table["hour"] = rng.permutation(90)
+    >>> res = classify(table, "fault", top_k=2, split="time", order="hour")
+    >>> res.split, res.n_train, res.n_test, res.notes[0][:40]
+    ('time', 67, 23, "time split by 'hour': trained on the 67 ")
     """
     notes: list[str] = []
+    if split not in SPLITS:
+        raise DataError(f"split must be one of {list(SPLITS)}; got {split!r}")
+    if order is not None and split != "time":
+        raise DataError("order= orders the members for split='time'; pass that too")
     y = _check_table(table, label)
     features = _check_features(table, label, features)
     X = _feature_matrix(table, features)
@@ -759,7 +922,7 @@ def classify(
     n_classes = y.nunique()
     n_test = math.ceil(test_size * n)
     n_train = n - n_test
-    if n_test < n_classes or n_train < n_classes:
+    if split == "stratified" and (n_test < n_classes or n_train < n_classes):
         raise DataError(
             f"{n} members split with test_size={test_size} give {n_train} training and "
             f"{n_test} test members, but each part needs at least one member of each of "
@@ -771,19 +934,36 @@ def classify(
 
     positions = np.arange(n)
     y_all = _label_values(y, notes)
-    train_pos, test_pos = train_test_split(
-        positions, test_size=test_size, stratify=y_all, random_state=random_state
-    )
+    if split == "time":
+        train_pos, test_pos = _time_split(table, y, order, test_size, notes)
+        folds = _forward_folds(len(train_pos), cv)
+        smallest_fit = len(train_pos) // (folds + 1) + len(train_pos) % (folds + 1)
+    else:
+        train_pos, test_pos = train_test_split(
+            positions, test_size=test_size, stratify=y_all, random_state=random_state
+        )
+        folds = _cv_folds(y.iloc[train_pos], cv, notes, "training part")
+        smallest_fit = _smallest_fit_size(y.iloc[train_pos], folds)
     y_train, y_test = y_all[train_pos], y_all[test_pos]
 
-    folds = _cv_folds(y.iloc[train_pos], cv, notes, "training part")
-    smallest_fit = _smallest_fit_size(y.iloc[train_pos], folds)
     _fit_to_size(pipe, len(features), smallest_fit, notes, top_k)
     if folds:
-        scores = _cv_scores(pipe, X[train_pos], y_train, folds, random_state)
+        scores = _cv_scores(
+            pipe,
+            X[train_pos],
+            y_train,
+            folds,
+            random_state,
+            progress=progress,
+            in_time=split == "time",
+            notes=notes,
+        )
+    else:
+        scores = np.array([])
+    if len(scores):
         cv_mean, cv_std = float(scores.mean()), float(scores.std())
     else:
-        scores, cv_mean, cv_std = np.array([]), math.nan, math.nan
+        cv_mean, cv_std = math.nan, math.nan
 
     pipe.fit(X[train_pos], y_train)
     y_pred = pipe.predict(X[test_pos])
@@ -791,7 +971,15 @@ def classify(
     cm = confusion_matrix(y_test, y_pred, labels=labels)
     predicted = cm.sum(axis=0)
     support = cm.sum(axis=1)
-    recall = {c: cm[i, i] / support[i] for i, c in enumerate(labels)}
+    recall = {
+        c: (cm[i, i] / support[i] if support[i] else math.nan) for i, c in enumerate(labels)
+    }
+    absent = [c for i, c in enumerate(labels) if not support[i]]
+    if absent:  # a time split can leave a class out of the later members
+        notes.append(
+            f"class(es) {_show(absent)} have no member in the test part: their recall "
+            "is undefined (NaN)"
+        )
     precision = {
         c: (cm[i, i] / predicted[i] if predicted[i] else math.nan)
         for i, c in enumerate(labels)
@@ -818,7 +1006,18 @@ def classify(
         y_true=y_test,
         y_pred=np.asarray(y_pred),
         notes=notes,
+        split=split,
+        order=order,
     )
+
+
+def _forward_folds(n_train: int, cv: int | None) -> int:
+    """Forward-chaining folds of a time split (0: none); each needs rows to train on."""
+    if cv is None or cv == 0:
+        return 0
+    if isinstance(cv, bool) or not isinstance(cv, int | np.integer) or cv < 2:
+        raise ValueError(f"cv must be an integer >= 2, or None to skip; got {cv!r}")
+    return int(min(cv, n_train - 1)) if n_train > 2 else 0
 
 
 def compare_models(

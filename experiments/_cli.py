@@ -95,7 +95,9 @@ def _add_input_options(
         ".mat/.npz with an fs variable; folders and glob patterns too)",
     )
     if features_ok:
-        source.add_argument("--features", type=Path, help="feature table (Parquet)")
+        source.add_argument(
+            "--features", type=Path, help="feature table (Parquet, CSV or text)"
+        )
     parser.add_argument(
         "--fs",
         type=float,
@@ -122,6 +124,42 @@ def _add_input_options(
         metavar="KEY=VALUE",
         help="an indicator-group option (repeat), e.g. ar_order=12, nperseg=2048, "
         "frf_input=Force (a model group's input signal)",
+    )
+    parser.add_argument(
+        "--time",
+        metavar="COL",
+        help="the time column (seconds or timestamps) when it is not named time: of "
+        "the --members tables, or of the --features table (rank, classify --split time)",
+    )
+    parser.add_argument(
+        "--label-from-name",
+        metavar="REGEX",
+        help="take each --members file's label from its name: the one group of REGEX "
+        "becomes the condition 'label' (e.g. '^\\d+_([A-Za-z]+)'), named groups "
+        "(?P<fault>...) conditions of their names",
+    )
+    parser.add_argument(
+        "--labels",
+        type=Path,
+        metavar="TABLE",
+        help="CSV/Parquet table of the --members files' conditions: a column file (or "
+        "member) naming each file, the label / condition columns beside it",
+    )
+    parser.add_argument(
+        "--bearing",
+        metavar="SPEC",
+        help="bearing of the envelope indicators: a name (6205, 6203, ZA-2115; see "
+        "docs/inputs.md) or n_balls=9,ball_d=7.94mm,pitch_d=39.04mm,angle=0 (mm, cm, m, "
+        "in); adds the envelope group",
+    )
+    parser.add_argument(
+        "--shaft-hz",
+        metavar="HZ|COL",
+        help="shaft speed in Hz (rpm / 60) for --bearing, or the condition column "
+        "holding each member's",
+    )
+    parser.add_argument(
+        "--quiet", action="store_true", help="no progress bars (they show on a terminal)"
     )
     parser.add_argument("--out", type=Path, default=Path("results"), help="output folder")
     parser.add_argument("--json", type=Path, help="also write the JSON summary here")
@@ -166,11 +204,24 @@ def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
         _check_option_names(list(GROUP_OPTIONS), extra, where="pdmkit --option")
     except TypeError as exc:
         raise DataError(str(exc)) from None
+    extra = {**extra, **_bearing_options(args)}
+    members = getattr(args, "members", None)
+    for flag, value in (
+        ("--label-from-name", getattr(args, "label_from_name", None)),
+        ("--labels", getattr(args, "labels", None)),
+        ("--time", getattr(args, "time", None)),
+    ):
+        if value is not None and not members:
+            raise DataError(
+                f"{flag} applies to --members files (or, --time, to a --features "
+                "table); give the member files with --members"
+            )
     if args.dataset is not None:
         profile = get_profile(args.dataset)
         _say(f"loading dataset {profile.name!r}")
         ensemble = profile.load()
         groups = tuple(args.groups) if args.groups else profile.groups
+        groups = _envelope_group(groups, {"bearing": None}, args)
         sensors = {k: list(v) for k, v in profile.sensors.items()}
         label = args.label or profile.label
         # the profile's defaults serve the groups chosen; the user's own must match
@@ -180,24 +231,93 @@ def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
         options = {**defaults, **extra}
         _check_label(ensemble, label, f"dataset {profile.name!r}")
         return ensemble, groups, options, label, sensors, profile, None
-    if getattr(args, "members", None):
+    groups = _envelope_group(groups, extra, args)
+    if members:
         from pdmkit.ensembles._readers import read_members
 
+        written = getattr(args, "json", None)
+        if args.labels is not None and written is not None:
+            if Path(written).resolve() == Path(args.labels).resolve():
+                raise DataError(
+                    f"--json {written} would overwrite the --labels table; write the "
+                    "summary elsewhere"
+                )
+
         ensemble, errors = read_members(
-            args.members,
+            members,
             fs=args.fs,
             signals=args.signals,
+            time=args.time,
+            label_from_name=args.label_from_name,
+            labels=args.labels,
             on_error=on_error,
             return_errors=True,
+            progress=_progress_flag(args),
         )
-        _check_label(ensemble, args.label, "the --members files")
-        return ensemble, groups, extra, args.label, None, None, errors
+        label = args.label
+        named = args.label_from_name is not None or args.labels is not None
+        if label is None and named and "label" in ensemble.conditions.columns:
+            label = "label"  # what --label-from-name's group (or the table) names
+        _check_label(ensemble, label, "the --members files")
+        return ensemble, groups, extra, label, None, None, errors
     # a path or fsspec URL: streamed in batches, never loaded whole
     if "://" in str(args.ensemble):  # a missing backend: one line naming its package
         from pdmkit.ensembles._parquet import url_filesystem
 
         url_filesystem(str(args.ensemble))
     return str(args.ensemble), groups, extra, args.label, None, None, None
+
+
+def _progress_flag(args: argparse.Namespace) -> bool | None:
+    """Progress bars: off with --quiet, else on a terminal only (None)."""
+    return False if getattr(args, "quiet", False) else None
+
+
+def _bearing_options(args: argparse.Namespace) -> dict:
+    """``{"bearing": ..., "shaft_hz": ...}`` from --bearing and --shaft-hz (or {})."""
+    spec, shaft = getattr(args, "bearing", None), getattr(args, "shaft_hz", None)
+    if spec is None and shaft is None:
+        return {}
+    if spec is None or shaft is None:
+        given, missing = ("--bearing", "--shaft-hz")
+        if spec is None:
+            given, missing = missing, given
+        raise DataError(
+            f"{given} needs {missing}: the envelope indicators need the bearing "
+            "(e.g. --bearing 6205) and the shaft speed (--shaft-hz 29.95, rpm / 60, or "
+            "a condition column holding each member's)"
+        )
+    from pdmkit.features import BearingGeometry
+
+    try:
+        speed: float | str = float(shaft)
+    except ValueError:
+        speed = shaft  # a condition column, checked by the extraction
+    else:
+        if not math.isfinite(speed) or speed <= 0:
+            raise DataError(
+                f"--shaft-hz must be a positive shaft speed in Hz (rpm / 60) or a "
+                f"condition column; got {shaft!r}"
+            )
+    return {"bearing": BearingGeometry.parse(spec), "shaft_hz": speed}
+
+
+def _envelope_group(groups: tuple, options: dict, args: argparse.Namespace) -> tuple:
+    """``groups`` with "envelope" added for --bearing; refuse envelope without one."""
+    if getattr(args, "bearing", None) is not None and "envelope" not in groups:
+        if args.groups:
+            raise DataError(
+                f"--bearing sets up the envelope group, which --groups {' '.join(groups)} "
+                "leaves out; add envelope to --groups (or leave --groups out)"
+            )
+        groups = (*groups, "envelope")
+    if "envelope" in groups and "bearing" not in options:
+        raise DataError(
+            "the envelope group needs the bearing and the shaft speed: pass --bearing "
+            "(a name such as 6205, or n_balls=9,ball_d=7.94mm,pitch_d=39.04mm,angle=0) "
+            "and --shaft-hz (rpm / 60)"
+        )
+    return groups
 
 
 def _check_label(ensemble, label: str | None, where: str) -> None:
@@ -223,6 +343,14 @@ def _feature_table(args: argparse.Namespace, common: bool = True):
     if getattr(args, "features", None) is not None:
         from pdmkit.ensembles import read_table
 
+        for flag in ("label_from_name", "labels", "bearing", "shaft_hz"):
+            if getattr(args, flag, None) is not None:
+                name = "--" + flag.replace("_", "-")
+                raise DataError(
+                    f"{name} applies to --members files (the indicators of a "
+                    "--features table are extracted already); give the member files "
+                    "with --members"
+                )
         table = read_table(args.features)
         return table, args.label, None, _indicator_columns(table, args.signals, common)
     ensemble, groups, options, label, sensors, profile, skipped = _extraction_input(
@@ -240,7 +368,13 @@ def _feature_table(args: argparse.Namespace, common: bool = True):
         )
     size = f"{len(ensemble)} members" if not isinstance(ensemble, str) else ensemble
     _say(f"extracting {', '.join(groups)} indicators from {size}")
-    table = extract_ensemble(ensemble, groups=groups, **options)
+    batch = {}
+    if not isinstance(ensemble, str) and len(ensemble) > 1:
+        # about 20 steps for the progress bar (each batch is still vectorised)
+        batch = {"batch_size": max(1, math.ceil(len(ensemble) / 20))}
+    table = extract_ensemble(
+        ensemble, groups=groups, progress=_progress_flag(args), **batch, **options
+    )
     if label is not None and label in table.columns and table[label].isna().any():
         unlabelled = table.index[table[label].isna()]
         warnings.warn(
@@ -396,6 +530,7 @@ def _features(args: argparse.Namespace, run: OutputRun) -> int:
         fresh=args.fresh,
         client=client,
         replace_stale=True,  # other settings: a failed run, or one saved to OUT, goes
+        progress=_progress_flag(args),
         **options,
     )
     if read_errors is not None and len(read_errors):
@@ -506,17 +641,96 @@ def _cmd_rank(args: argparse.Namespace) -> int:
         return _rank(args, run)
 
 
+#: Column names that order members or rows in time, when --order / --time name none.
+_ORDER_NAMES = ("time", "timestamp", "datetime", "date", "cycle")
+
+
+def _order_column(table: pd.DataFrame, args: argparse.Namespace) -> str | None:
+    """The column that orders the table's rows in time, or None (the order given).
+
+    ``--order``, else ``--time`` for a ``--features`` table, else a condition column
+    named time / timestamp / datetime / date / cycle, else a first column without a
+    name that holds timestamps (a table pandas wrote with its time index, as the IMS
+    feature files are).
+    """
+    columns = [str(c) for c in table.columns]
+    given = getattr(args, "order", None)
+    flag = "--order"
+    if given is None and getattr(args, "features", None) is not None:
+        given, flag = getattr(args, "time", None), "--time"
+    if given is not None:
+        if given not in columns:
+            conditions = [c for c in columns if "/" not in c]
+            raise DataError(
+                f"{flag} {given!r} is not a column of the feature table; its columns "
+                f"without '/' are {conditions}{did_you_mean(given, conditions)}"
+            )
+        return given
+    lower = {c.lower(): c for c in columns if "/" not in c}
+    found = next((lower[n] for n in _ORDER_NAMES if n in lower), None)
+    if found is not None:
+        return found
+    first = columns[0] if columns else ""
+    if first.startswith("Unnamed: ") and not pd.api.types.is_numeric_dtype(table[first]):
+        from pdmkit._checks import parse_timestamps
+
+        if parse_timestamps(table[first]).notna().all():
+            return first
+    return None
+
+
 def _rank(args: argparse.Namespace, run: OutputRun) -> int:
     from pdmkit.experiments._report import Report
+    from pdmkit.features import rank_features
 
     table, label, _, features = _feature_table(args)
-    label = _require_label(table, label)
-    ranking = _ranking(table, label, args.method, features)
+    if args.method in ("kruskal", "anova"):
+        for flag in ("unit", "window"):
+            if getattr(args, flag) is not None:
+                raise DataError(
+                    f"--{flag} is for the prognostic methods (monotonicity, "
+                    f"trendability, prognosability), not --method {args.method}"
+                )
+        label = _require_label(table, label)
+        ranking = _ranking(table, label, args.method, features)
+        described = {"label": label}
+    else:
+        if args.unit is not None and args.unit not in table.columns:
+            conditions = [str(c) for c in table.columns if "/" not in str(c)]
+            raise DataError(
+                f"--unit {args.unit!r} is not a column of the feature table; its "
+                f"columns without '/' are {conditions}"
+                f"{did_you_mean(args.unit, conditions)}"
+            )
+        unit = args.unit if args.unit is not None else None
+        if unit is None and "unit" in table.columns:
+            unit = "unit"
+        order = _order_column(table, args)
+        units = table[unit].nunique() if unit is not None else 1
+        by = f"{order!r}"
+        if order is not None and order.startswith("Unnamed: "):
+            by = "the unnamed first column (timestamps)"
+        _say(
+            f"{args.method}: {units} unit(s)"
+            + (f" told apart by {unit!r}" if unit is not None else " (no --unit column)")
+            + (f", rows ordered by {by}" if order else ", rows in the order given")
+            + (f", smoothed over {args.window} rows" if args.window else "")
+        )
+        ranking = rank_features(
+            table,
+            method=args.method,
+            features=features or None,
+            unit=unit,
+            time=order,
+            window=args.window,
+        )
+        described = {"unit": unit, "time": order, "n_units": int(units)}
+        described["window"] = args.window
     ranked = ranking.to_pandas()
     run.add_parquet("ranking.parquet", ranked)
     summary = {
         "method": args.method,
-        "label": label,
+        **described,
         "ranking": ranked.head(args.top).to_dict(orient="records"),
     }
     report = Report(f"pdmkit rank ({args.method})")
@@ -537,6 +751,11 @@ def _classify(args: argparse.Namespace, run: OutputRun) -> int:
 
     table, label, _, features = _feature_table(args)
     label = _require_label(table, label)
+    order = None
+    if args.split == "time":
+        order = _order_column(table, args)
+    elif args.order is not None:
+        raise DataError("--order orders the members for --split time; give that too")
     result = classify(
         table,
         label,
@@ -546,8 +765,14 @@ def _classify(args: argparse.Namespace, run: OutputRun) -> int:
         selection=args.selection,
         test_size=args.test_size,
         random_state=args.seed,
+        split=args.split,
+        order=order,
+        progress=_progress_flag(args),
     )
     summary = result.summary()
+    split_note = next((n for n in result.notes if n.startswith("time split")), None)
+    if split_note is not None:
+        _say(split_note)
     _say(f"held-out accuracy {summary['accuracy']:.4f} ({args.model}, top {args.top_k})")
     report = Report(f"pdmkit classify ({args.model})")
     report.add_text(
@@ -555,6 +780,8 @@ def _classify(args: argparse.Namespace, run: OutputRun) -> int:
         f"(trained on {summary['n_train']}); selected indicators: "
         f"{', '.join(summary['features'])}."
     )
+    if split_note is not None:
+        report.add_text(split_note[0].upper() + split_note[1:] + ".")
     report.add_figure(result.plot(), caption="Confusion matrix (held-out part)")
     report.add_table(result.to_pandas(), caption="Per-class recall")
     if args.selection in ("kruskal", "anova"):
@@ -587,6 +814,7 @@ def _sensors(args: argparse.Namespace, run: OutputRun) -> int:
         model=args.model,
         top_k=args.top_k,
         random_state=args.seed,
+        progress=_progress_flag(args),
     )
     summary = comparison.summary()
     report = Report("pdmkit sensors")
@@ -698,7 +926,7 @@ def _cmd_mismatch(args: argparse.Namespace) -> int:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
-    from pdmkit.experiments._identify import format_fit, run_identify
+    from pdmkit.experiments._identify import format_fit, format_hz, run_identify
 
     summary = run_identify(
         args.data,
@@ -710,12 +938,22 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         json_path=args.json,
         fs=args.fs,
         criterion=args.criterion,
+        band=args.band,
+        decimate=args.decimate,
     )
-    modes = ", ".join(f"{f:.4g} Hz" for f in summary["natural_frequencies_hz"] or [])
+    for key in ("decimation", "band", "order_search"):
+        part = summary.get(key) or {}
+        if part.get("note") and not part.get("at_edge"):  # at the edge: a warning
+            _say(part["note"])
+    modes = format_hz(summary.get("natural_frequencies_hz"))
+    dropped = len(summary.get("not_modes") or [])
     _say(
         f"{summary['structure']} {summary['order']}: fit "
-        f"{format_fit(summary['fit_percent'], 1)}"
-        f"{'; modes ' + modes if modes else ''}; see {args.out}/report.html"
+        f"{format_fit(summary.get('fit_percent'), 1)}"
+        f"{' in the band' if summary.get('band') else ''}"
+        f"{'; modes ' + modes if modes else ''}"
+        f"{f' ({dropped} pole(s) that are not modes in not_modes)' if dropped else ''}"
+        f"; see {args.out}/report.html"
     )
     return 0
 
@@ -792,7 +1030,33 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("rank", help="rank condition indicators")
     _add_input_options(p)
-    p.add_argument("--method", default="kruskal", choices=["kruskal", "anova"])
+    p.add_argument(
+        "--method",
+        default="kruskal",
+        choices=["kruskal", "anova", "monotonicity", "trendability", "prognosability"],
+        help="kruskal, anova: separate the --label classes; monotonicity, "
+        "trendability, prognosability (Coble & Hines): track degradation over the "
+        "run-to-failure rows of each --unit, ordered by --order/--time",
+    )
+    p.add_argument(
+        "--unit",
+        metavar="COL",
+        help="prognostic methods: the column telling run-to-failure units apart "
+        "(default: unit, else all rows form one unit)",
+    )
+    p.add_argument(
+        "--order",
+        metavar="COL",
+        help="prognostic methods: the column ordering each unit's rows (numbers or "
+        "timestamps; default --time, else time/timestamp/date/cycle)",
+    )
+    p.add_argument(
+        "--window",
+        type=_positive_int,
+        metavar="N",
+        help="prognostic methods: smooth each unit's path over N rows (moving mean) "
+        "first; snapshot indicators are noisy",
+    )
     p.add_argument("--top", type=int, default=20, help="rows in the summary")
     p.set_defaults(func=_cmd_rank)
 
@@ -809,6 +1073,21 @@ def build_parser() -> argparse.ArgumentParser:
         type=_fraction,
         default=0.25,
         help="share of the members held out for the test (0 to 1, default 0.25)",
+    )
+    p.add_argument(
+        "--split",
+        default="stratified",
+        choices=["stratified", "time"],
+        help="stratified: members drawn at random, each class on both sides "
+        "(default); time: train on the earlier members, test on the later ones, "
+        "ordered by --order",
+    )
+    p.add_argument(
+        "--order",
+        metavar="COL",
+        help="--split time: the column ordering the members in time (numbers or "
+        "timestamps; default --time of a --features table, else a condition named "
+        "time/timestamp/date/cycle, else the order the members were given in)",
     )
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=_cmd_classify)
@@ -926,17 +1205,38 @@ def build_parser() -> argparse.ArgumentParser:
         "identify",
         help="identify a model (poles, resonances, damping) from an input/output record",
         description="Identify a linear (ar, arx, armax, oe, bj, n4sid), "
-        "Hammerstein-Wiener (hw) or fractional-order model from a CSV/Parquet record.",
+        "Hammerstein-Wiener (hw) or fractional-order model from a CSV/Parquet table "
+        "or a .mat/.npz file.",
     )
-    p.add_argument("data", type=Path, metavar="DATA", help="CSV or Parquet recording")
-    p.add_argument("--input", required=True, help="input column")
-    p.add_argument("--output", required=True, help="output column")
+    p.add_argument(
+        "data", type=Path, metavar="DATA", help="CSV, Parquet, .mat or .npz recording"
+    )
+    p.add_argument(
+        "--input", required=True, help="input column (.mat/.npz: variable, e.g. Force)"
+    )
+    p.add_argument(
+        "--output",
+        required=True,
+        help="output column (.mat/.npz: variable; Acceleration2 = 2nd row of a 2-D one)",
+    )
     p.add_argument("--structure", default="arx", choices=list(IDENTIFY_STRUCTURES))
     p.add_argument(
         "--order", default=None, help="4, or na=4,nb=3,nk=1 (default: by --criterion)"
     )
     p.add_argument("--criterion", default="aic", choices=["aic", "bic", "mdl"])
     p.add_argument("--fs", type=float, help="sampling rate (Hz) when there is no time")
+    p.add_argument(
+        "--band",
+        metavar="F1,F2",
+        help="band of interest in Hz: fit and modes focus on it (decimates "
+        "automatically when it lies far below Nyquist)",
+    )
+    p.add_argument(
+        "--decimate",
+        type=int,
+        metavar="N",
+        help="decimate by N first (anti-aliased); 1 turns automatic decimation off",
+    )
     p.add_argument("--out", type=Path, default=Path("results/identify"))
     p.add_argument("--json", type=Path)
     p.set_defaults(func=_cmd_identify)

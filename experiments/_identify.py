@@ -1,9 +1,20 @@
 """The identification workflow: recording -> linear model -> JSON summary + HTML report.
 
-``pdmkit identify DATA.csv --input COL --output COL --structure arx --json OUT.json
+``pdmkit identify DATA --input COL --output COL --structure arx --json OUT.json
 --out DIR`` calls :func:`run_identify`. The data are a CSV or Parquet table with one
-column for the input and one for the output, and either a ``time`` column (s, uniform)
-or a sampling rate given as ``fs``.
+column for the input and one for the output, or a MATLAB ``.mat`` / NumPy ``.npz`` file
+with one variable for each (a row or column of a 2-D variable is named ``Name2``,
+1-based, or ``Name[1]``, 0-based); and either a ``time`` column (s, uniform), a sampling
+rate stored in the file (``fs``/``Fs``, or ``Ts``), or ``fs`` given.
+
+The identification checks itself: an order chosen at the edge of its search range
+extends the search; poles that are not resonances (real, at Nyquist, cancelled by a
+zero, outside ``band``) leave the modes table with their reason; a negative fit or an
+unstable model is a warning that names an alternative that fits (e.g. OE from an ARX
+start). ``band`` focuses the fit (the same zero-phase band-pass on input and output
+leaves the transfer function unchanged and weights the fit to the band) and decimates
+the record (anti-aliased, :func:`scipy.signal.decimate`) when the band lies far below
+Nyquist.
 
 New model structures plug in through :data:`IDENTIFY_STRUCTURES`: a function
 ``(u, y, fs, order, criterion) -> model`` whose model has ``simulate(u)`` and
@@ -14,7 +25,9 @@ New model structures plug in through :data:`IDENTIFY_STRUCTURES`: a function
 
 from __future__ import annotations
 
+import math
 import os
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -24,17 +37,20 @@ import pandas as pd
 
 from pdmkit._checks import check_fs, check_magnitude, uniform_step
 from pdmkit._outputs import OutputRun, to_jsonable
-from pdmkit.ensembles import read_table
-from pdmkit.errors import DataError, ModelError
+from pdmkit.ensembles import read_mat, read_npz, read_table
+from pdmkit.errors import ConvergenceWarning, DataError, DataWarning, ModelError
 from pdmkit.experiments._report import Report
-from pdmkit.models._frf import frf_estimate
-from pdmkit.models._ident import STRUCTURES, fit_percent, identify
+from pdmkit.models._frf import frf_comparison
+from pdmkit.models._ident import STRUCTURES, fit_percent, identify, physical_modes
 
 __all__ = [
     "IDENTIFY_STRUCTURES",
     "build_identify_report",
+    "decimate_record",
     "identify_summary",
+    "parse_band",
     "parse_order",
+    "read_record",
     "run_identify",
 ]
 
@@ -192,10 +208,78 @@ def parse_order(text: str | int | dict | None) -> int | dict | None:
 
 
 def format_fit(percent: float | None, digits: int = 2) -> str:
-    """A fit percentage as text; None (a simulation that diverged) said so."""
+    """A fit percentage as text; None (a simulation that diverged) said so.
+
+    Examples
+    --------
+    >>> format_fit(81.234), format_fit(None)
+    ('81.23 %', "undefined (the model's simulation diverges)")
+    """
     if percent is None or not np.isfinite(percent):
         return "undefined (the model's simulation diverges)"
     return f"{percent:.{digits}f} %"
+
+
+def format_hz(values, digits: int = 4) -> str:
+    """Frequencies as ``"5.18 Hz, 6.63 Hz"``; a missing (None, NaN) value is ``"?"``.
+
+    Examples
+    --------
+    >>> format_hz([5.181, None, float("nan")])
+    '5.181 Hz, ? Hz, ? Hz'
+    """
+    out = []
+    for v in values or []:
+        ok = v is not None and isinstance(v, int | float) and math.isfinite(v)
+        out.append(f"{v:.{digits}g} Hz" if ok else "? Hz")
+    return ", ".join(out)
+
+
+def parse_band(text: str | tuple | list | None) -> tuple[float, float] | None:
+    """Read ``--band F1,F2`` (Hz) as a pair ``(F1, F2)`` with ``0 <= F1 < F2``.
+
+    Examples
+    --------
+    >>> parse_band("2,15"), parse_band(None)
+    ((2.0, 15.0), None)
+    """
+    if text is None or (isinstance(text, str) and not text.strip()):
+        return None
+    parts = text.split(",") if isinstance(text, str) else list(text)
+    try:
+        f1, f2 = (float(p) for p in parts)
+    except (TypeError, ValueError):
+        raise DataError(
+            f"--band must be two frequencies in Hz, 'F1,F2' (e.g. '2,15'); got {text!r}."
+        ) from None
+    if not (math.isfinite(f1) and math.isfinite(f2) and 0 <= f1 < f2):
+        raise DataError(f"--band needs 0 <= F1 < F2 (Hz); got F1={f1:g}, F2={f2:g}.")
+    return f1, f2
+
+
+# --------------------------------------------------------------------------- reading
+def _numeric(x, path, name: str, role: str) -> np.ndarray:
+    if isinstance(x, pd.Series):
+        x = pd.to_numeric(x, errors="coerce").to_numpy(dtype=float)
+    try:
+        x = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise DataError(
+            f"{path}: {role} {name!r} is not numeric (found {type(x).__name__})."
+        ) from None
+    bad = np.flatnonzero(~np.isfinite(x))
+    if bad.size:
+        raise DataError(
+            f"{path}: {role} {name!r} has {bad.size} missing or non-numeric value(s), "
+            f"the first in row {int(bad[0])}; clean or interpolate them."
+        )
+    check_magnitude(x, f"{path}: {role} {name!r}")
+    if role in ("input", "output") and x.size and np.ptp(x) == 0:
+        raise DataError(
+            f"{path}: {role} column {name!r} is constant ({x[0]:g}); there is nothing "
+            "to identify from it."
+        )
+    return x
 
 
 def _column(table: pd.DataFrame, name: str, path, role: str) -> np.ndarray:
@@ -203,20 +287,119 @@ def _column(table: pd.DataFrame, name: str, path, role: str) -> np.ndarray:
         raise DataError(
             f"{path}: no {role} column {name!r}; the table has {list(table.columns)}."
         )
-    x = pd.to_numeric(table[name], errors="coerce").to_numpy(dtype=float)
-    bad = np.flatnonzero(~np.isfinite(x))
-    if bad.size:
+    return _numeric(table[name], path, name, role)
+
+
+def _signals(data: dict) -> dict[str, tuple]:
+    """Names of the 1-D signals in a ``.mat``/``.npz`` dict -> (variable, channel)."""
+    out: dict[str, tuple] = {}
+    for key, val in data.items():
+        arr = np.asarray(val) if not isinstance(val, dict) else None
+        if arr is None or arr.dtype.kind not in "biuf" or arr.size < 2:
+            continue
+        arr = np.squeeze(arr)
+        if arr.ndim == 1:
+            out[key] = (key, None)
+        elif arr.ndim == 2:
+            for i in range(min(arr.shape)):
+                out[f"{key}{i + 1}"] = (key, i)
+                out[f"{key}[{i}]"] = (key, i)
+    return out
+
+
+def _variable(data: dict, name: str, path, role: str) -> np.ndarray:
+    """One signal of a ``.mat``/``.npz`` file: ``Name``, ``Name2`` (1-based) or
+    ``Name[1]`` (0-based) for a row/column of a 2-D variable."""
+    names = _signals(data)
+    if name not in names:
+        shown = [k for k in names if "[" not in k]
+        multi = [
+            f"{k} ({min(np.shape(np.squeeze(v)))} channels: {k}1..)"
+            for k, v in data.items()
+            if not isinstance(v, dict) and np.ndim(np.squeeze(np.asarray(v))) == 2
+        ]
+        hint = f"; 2-D variables: {', '.join(multi)}" if multi else ""
+        raise DataError(f"{path}: no {role} variable {name!r}; the file has {shown}{hint}.")
+    key, ch = names[name]
+    arr = np.squeeze(np.asarray(data[key]))
+    if ch is not None:
+        arr = arr[ch] if arr.shape[0] <= arr.shape[1] else arr[:, ch]
+    return _numeric(arr, path, name, role)
+
+
+def _file_rate(data: dict, path) -> float | None:
+    for key in ("fs", "Fs", "FS", "fsamp"):
+        if key in data and np.size(data[key]) == 1:
+            return check_fs(float(np.squeeze(data[key])), f"{path}: {key}")
+    for key in ("Ts", "ts", "dt", "Ts_s"):
+        if key in data and np.size(data[key]) == 1:
+            return 1.0 / check_fs(float(np.squeeze(data[key])), f"{path}: {key}")
+    for key in ("time", "t"):
+        if key in data and np.size(data[key]) > 1:
+            t = _numeric(np.ravel(data[key]), path, key, "time")
+            return 1.0 / uniform_step(t, str(path))
+    return None
+
+
+def read_record(
+    path: str | os.PathLike, input: str | None, output: str, fs: float | None = None
+) -> tuple[np.ndarray | None, np.ndarray, float]:
+    """Input, output and sampling rate from a CSV/Parquet table or a ``.mat``/``.npz``.
+
+    Tables go through :func:`pdmkit.ensembles.read_table`, MATLAB and NumPy files
+    through :func:`~pdmkit.ensembles.read_mat` / :func:`~pdmkit.ensembles.read_npz`.
+    In a ``.mat``/``.npz`` file a row (or column) of a 2-D variable is a signal of
+    its own, named ``Name1``, ``Name2``, ... (1-based, as the F-16 benchmark names
+    its accelerometers) or ``Name[0]``, ... (0-based). The sampling rate is ``fs``
+    when given, else the file's ``fs``/``Fs`` (or ``1/Ts``) variable, else its
+    uniform ``time`` column or variable.
+
+    Parameters
+    ----------
+    path : path
+    input : str or None
+        Input signal name (None: no input, an AR model).
+    output : str
+    fs : float, optional
+
+    Returns
+    -------
+    (u, y, fs)
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import numpy as np
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "rig.npz"
+    >>> np.savez(path, force=np.arange(8.0), acc=np.arange(16.0).reshape(2, 8), fs=50.0)
+    >>> u, y, rate = read_record(path, "force", "acc2")
+    >>> y[:3], rate
+    (array([ 8.,  9., 10.]), 50.0)
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix in (".mat", ".npz"):
+        data = read_mat(path) if suffix == ".mat" else read_npz(path)
+        y = _variable(data, output, path, "output")
+        u = None if input is None else _variable(data, input, path, "input")
+        rate = check_fs(fs) if fs is not None else _file_rate(data, path)
+        if rate is None:
+            raise DataError(
+                f"{path}: no sampling rate: the file has no fs/Fs, Ts or time "
+                f"variable (it has {sorted(data)}); pass --fs."
+            )
+    else:
+        table = read_table(path)
+        if len(table) == 0:
+            raise DataError(f"{path}: the table has no rows.")
+        rate = _sampling_rate(table, fs, path)
+        y = _column(table, output, path, "output")
+        u = None if input is None else _column(table, input, path, "input")
+    if u is not None and u.shape != y.shape:
         raise DataError(
-            f"{path}: column {name!r} has {bad.size} missing or non-numeric value(s), the "
-            f"first in row {int(bad[0])}; clean or interpolate them."
+            f"{path}: input {input!r} has {u.size} samples but output {output!r} "
+            f"{y.size}; they must be one record."
         )
-    check_magnitude(x, f"{path}: column {name!r}")
-    if role in ("input", "output") and x.size and np.ptp(x) == 0:
-        raise DataError(
-            f"{path}: {role} column {name!r} is constant ({x[0]:g}); there is nothing "
-            "to identify from it."
-        )
-    return x
+    return u, y, rate
 
 
 def _sampling_rate(table: pd.DataFrame, fs, path) -> float:
@@ -230,8 +413,231 @@ def _sampling_rate(table: pd.DataFrame, fs, path) -> float:
     return 1.0 / uniform_step(_column(table, "time", path, "time"), str(path))
 
 
-def identify_summary(model, **sources: Any) -> dict:
+# --------------------------------------------------------------------------- prepare
+#: Automatic decimation keeps the band's upper edge below this fraction of Nyquist.
+AUTO_DECIMATE_EDGE = 0.4
+#: ... and at least this many samples.
+AUTO_DECIMATE_MIN_SAMPLES = 2000
+
+
+def _stages(q: int) -> list[int]:
+    """Factors of ``q`` of at most 10 each (decimate's IIR filter wants q <= 13)."""
+    out = []
+    while q > 13:
+        d = next((d for d in range(10, 1, -1) if q % d == 0), None)
+        if d is None:
+            break
+        out.append(d)
+        q //= d
+    return [*out, q] if q > 1 else out
+
+
+def decimate_record(x: np.ndarray, q: int) -> np.ndarray:
+    """Anti-aliased decimation by ``q`` (:func:`scipy.signal.decimate`, zero phase).
+
+    Factors above 13 run in stages of at most 10 (scipy's advice for its order-8
+    Chebyshev filter).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(4000) / 400.0
+    >>> x = np.sin(2 * np.pi * 5 * t) + np.sin(2 * np.pi * 150 * t)  # 150 Hz aliases
+    >>> xd = decimate_record(x, 8)                                   # fs 50 Hz
+    >>> ref = np.sin(2 * np.pi * 5 * t[::8])
+    >>> bool(np.max(np.abs(xd - ref)[50:-50]) < 0.02)
+    True
+    """
+    from scipy import signal
+
+    for d in _stages(int(q)):
+        x = signal.decimate(x, d, zero_phase=True)
+    return x
+
+
+def _auto_factor(fs: float, band, n: int) -> int:
+    if band is None:
+        return 1
+    q = int(np.floor(AUTO_DECIMATE_EDGE * fs / 2.0 / band[1]))
+    q = min(q, n // AUTO_DECIMATE_MIN_SAMPLES)
+    return q if q >= 2 else 1
+
+
+def _prepare(u, y, fs: float, band, decimate) -> tuple:
+    """Decimate and band-focus a record; returns (u, y, fs, uf, yf, notes)."""
+    from scipy import signal
+
+    notes: dict[str, Any] = {}
+    n = y.size
+    if decimate is not None:
+        if isinstance(decimate, bool) or int(decimate) != decimate or decimate < 1:
+            raise DataError(f"--decimate must be an integer >= 1; got {decimate!r}.")
+        q, automatic = int(decimate), False
+    else:
+        q, automatic = _auto_factor(fs, band, n), True
+    if q > 1:
+        if n // q < 100:
+            raise DataError(
+                f"--decimate {q} leaves {n // q} of {n} samples; too few to identify."
+            )
+        y = decimate_record(y, q)
+        u = None if u is None else decimate_record(u, q)
+        why = (
+            f"automatically, the band's upper edge {band[1]:g} Hz being far below the "
+            f"Nyquist frequency {fs / 2:g} Hz"
+            if automatic
+            else "as asked (--decimate)"
+        )
+        notes["decimation"] = {
+            "factor": q,
+            "automatic": automatic,
+            "fs_before": fs,
+            "fs": fs / q,
+            "method": "scipy.signal.decimate (order-8 Chebyshev I, zero phase)",
+            "note": f"decimated by {q} {why}: {fs:g} Hz -> {fs / q:g} Hz, "
+            f"{n} -> {y.size} samples.",
+        }
+        fs = fs / q
+    nyq = fs / 2.0
+    uf, yf = u, y
+    if band is not None:
+        f1, f2 = band
+        if f2 >= nyq:
+            raise DataError(
+                f"--band {f1:g},{f2:g}: the upper edge must lie below the Nyquist "
+                f"frequency {nyq:g} Hz (after decimation)."
+            )
+        if f1 > 0 and f2 < 0.95 * nyq:
+            sos = signal.butter(4, [f1, f2], "bandpass", fs=fs, output="sos")
+            kind = f"band-pass {f1:g}-{f2:g} Hz"
+        elif f1 > 0:
+            sos = signal.butter(4, f1, "highpass", fs=fs, output="sos")
+            kind = f"high-pass {f1:g} Hz"
+        else:
+            sos = signal.butter(4, f2, "lowpass", fs=fs, output="sos")
+            kind = f"low-pass {f2:g} Hz"
+        yf = signal.sosfiltfilt(sos, y - y.mean())
+        uf = None if u is None else signal.sosfiltfilt(sos, u - u.mean())
+        notes["band"] = {
+            "band_hz": [f1, f2],
+            "prefilter": f"Butterworth order 4 {kind}, zero phase "
+            "(scipy.signal.sosfiltfilt), applied to input and output alike",
+            "note": f"fit and modes focus on {f1:g}-{f2:g} Hz: input and output "
+            f"filtered alike ({kind}); the fit is measured on the filtered output.",
+        }
+    return u, y, fs, uf, yf, notes
+
+
+# --------------------------------------------------------------------------- checks
+def _poles_zeros(model) -> tuple[np.ndarray, np.ndarray] | None:
+    if hasattr(model, "poles") and hasattr(model, "zeros"):
+        return np.asarray(model.poles), np.asarray(model.zeros)
+    if isinstance(model, _HammersteinWienerResult):
+        return np.atleast_1d(np.asarray(model.model.poles_)), np.zeros(0)
+    return None
+
+
+def _mode_rows(table: pd.DataFrame) -> list[dict]:
+    return [
+        {
+            "frequency_hz": r.natural_frequency_hz,
+            "damping": r.damping,
+            "pole": [r.pole_real, r.pole_imag],
+            **({"reason": r.reason} if "reason" in table.columns else {}),
+        }
+        for r in table.itertuples()
+    ]
+
+
+def _n_poles(model) -> int:
+    pz = _poles_zeros(model)
+    return int(pz[0].size) if pz is not None else 0
+
+
+def _is_stable(model) -> bool:
+    pz = _poles_zeros(model)
+    return pz is None or pz[0].size == 0 or bool(np.max(np.abs(pz[0])) < 1.0)
+
+
+def _alternative(u, y, fs, structure: str, model) -> dict | None:
+    """The best of OE (started from ARX, Steiglitz-McBride) and N4SID with as many
+    poles, when it is stable and fits positively; None if neither does."""
+    from pdmkit.models._ident_pem import oe
+    from pdmkit.models._subspace import n4sid
+
+    n = max(2, min(_n_poles(model), 40))
+    tries = []
+    if structure != "oe":
+        tries.append(("oe", f"nb={n},nf={n},nk=1", lambda: oe(u, y, n, n, 1, fs=fs)))
+    if structure != "n4sid":
+        tries.append(("n4sid", str(n), lambda: n4sid(u, y, n, fs=fs)))
+    best = None
+    for name, order, fit in tries:
+        try:
+            with warnings.catch_warnings(), np.errstate(all="ignore"):
+                warnings.simplefilter("ignore")
+                m = fit()
+        except (DataError, ModelError, np.linalg.LinAlgError, ValueError):
+            continue
+        fp = float(m.fit_percent)
+        if not (np.isfinite(fp) and fp > 0 and m.is_stable):
+            continue
+        if best is None or fp > best["fit_percent"]:
+            best = {
+                "structure": name,
+                "order": order,
+                "fit_percent": fp,
+                "options": f"--structure {name} --order {order}",
+            }
+    return best
+
+
+def _check_model(model, summary: dict, u, y, fs, structure: str) -> list[str]:
+    """Warnings on the identified model (negative fit, unstable, overflow)."""
+    found = []
+    fp = summary.get("fit_percent")
+    fit_bad = fp is None or not np.isfinite(fp) or fp < 1.0  # no better than the mean
+    unstable = not _is_stable(model)
+    if not (fit_bad or unstable) or u is None:
+        if fit_bad:
+            found.append(
+                f"the model's fit is {format_fit(fp, 1)}: no better than the output's "
+                "mean; do not read its modes as the system's."
+            )
+        return found
+    alt = _alternative(u, y, fs, structure, model)
+    if alt is not None:
+        hint = (
+            f"an {alt['structure'].upper()} model ({alt['options']}) is stable and fits "
+            f"{alt['fit_percent']:.1f} %"
+            + (" (OE is started from an ARX estimate)" if alt["structure"] == "oe" else "")
+        )
+    else:
+        hint = (
+            "neither OE (from an ARX start) nor N4SID with as many poles did better; "
+            "try --band to focus on the modes, --decimate, or another order"
+        )
+    what = []
+    if unstable:
+        what.append("is unstable (a pole on or outside the unit circle)")
+    if fit_bad and (fp is None or not np.isfinite(fp)):
+        what.append("has no fit (its simulation diverges), worse than the output's mean")
+    elif fit_bad:
+        than = "worse than" if fp < 0 else "no better than"
+        what.append(f"fits {format_fit(fp, 1)}, {than} the output's mean")
+    found.append(f"the {structure.upper()} model {' and '.join(what)}: {hint}.")
+    summary["alternative"] = alt
+    return found
+
+
+# --------------------------------------------------------------------------- summary
+def identify_summary(model, *, band=None, **sources: Any) -> dict:
     """JSON summary of an identified model (the keys the CLI promises first).
+
+    ``natural_frequencies_hz`` and ``damping`` list the resonances only
+    (:func:`pdmkit.models._ident.physical_modes`): real poles, poles at Nyquist,
+    poles cancelled by a zero and (with ``band``) modes outside the band go to
+    ``not_modes``, each with its ``reason``.
 
     Examples
     --------
@@ -241,8 +647,11 @@ def identify_summary(model, **sources: Any) -> dict:
     >>> rng = np.random.default_rng(0)
     >>> u = rng.normal(size=2000)
     >>> y = signal.lfilter([0, 1.0], [1, -0.9], u)
-    >>> list(identify_summary(arx(u, y, 1, 1)))[:6]
+    >>> s = identify_summary(arx(u, y, 1, 1))
+    >>> list(s)[:6]
     ['structure', 'order', 'poles', 'natural_frequencies_hz', 'damping', 'fit_percent']
+    >>> s["natural_frequencies_hz"], s["not_modes"][0]["reason"]
+    ([], 'real pole (no oscillation)')
     """
     d = model.to_dict()
     keys = (
@@ -255,14 +664,67 @@ def identify_summary(model, **sources: Any) -> dict:
     )
     out = {k: d.get(k) for k in keys}
     out.update({k: v for k, v in d.items() if k not in out})
+    pz = _poles_zeros(model)
+    fs = d.get("fs", getattr(model, "fs", None))
+    if pz is not None and fs:
+        modes, dropped = physical_modes(pz[0], pz[1], fs, band=band)
+        out["natural_frequencies_hz"] = modes["natural_frequency_hz"].tolist()
+        out["damping"] = modes["damping"].tolist()
+        out["modes"] = _mode_rows(modes)
+        out["not_modes"] = _mode_rows(dropped)
+    info = getattr(model, "info", None) or {}
+    if "order_search" in info:
+        out["order_search"] = dict(info["order_search"])
     out["sources"] = {
         k: (os.fspath(v) if v is not None else None) for k, v in sources.items()
     }
     return to_jsonable(out)
 
 
-def build_identify_report(model, summary: dict, u, y, fs: float, title: str) -> Report:
+# --------------------------------------------------------------------------- report
+def _frf_figure(model, u, y, fs: float, band):
+    """Magnitude, phase (model aligned to the data's branch) and coherence, log axis."""
+    import matplotlib.pyplot as plt
+
+    cmp = frf_comparison(u, y, fs, model.frequency_response, band=band)
+    f = cmp["freq"]
+    fig, (a1, a2, a3) = plt.subplots(
+        3, 1, figsize=(7, 6.5), sharex=True, gridspec_kw={"height_ratios": [3, 2, 1.3]}
+    )
+    a1.loglog(f, np.abs(cmp["H"]), color="0.55", lw=0.8, label="H1 estimate (data)")
+    a1.loglog(f, np.abs(cmp["G"]), color="C0", label="model")
+    a1.set_ylabel("|G|")
+    a1.legend(loc="best", fontsize="small")
+    a2.semilogx(f, cmp["phase_data_deg"], color="0.55", lw=0.8)
+    a2.semilogx(f, cmp["phase_model_deg"], color="C0")
+    a2.set_ylabel("phase [deg]")
+    a3.semilogx(f, cmp["coherence"], color="C2", lw=0.8)
+    a3.set_ylim(0, 1.05)
+    a3.set_ylabel("coherence")
+    a3.set_xlabel("frequency [Hz]")
+    a1.set_xlim(f[0], f[-1])
+    from matplotlib.ticker import LogLocator, ScalarFormatter
+
+    for ax in (a1, a2, a3):
+        ax.grid(True, which="both", lw=0.3, alpha=0.5)
+    a3.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    a3.xaxis.set_major_formatter(ScalarFormatter())
+    a3.xaxis.set_minor_formatter(ScalarFormatter() if f[-1] / f[0] < 10 else "")
+    return fig, cmp
+
+
+def build_identify_report(
+    model, summary: dict, u, y, fs: float, title: str, *, band=None, fit_data=None
+) -> Report:
     """HTML report: summary, modes, pole map, FRF vs H1 estimate, simulation vs data.
+
+    The FRF figure shows magnitude, phase and coherence (Welch, as
+    :func:`scipy.signal.coherence`) on a log frequency axis over ``band`` (default
+    the first non-zero line to Nyquist); the model's phase is unwrapped and moved by
+    whole turns onto the data's branch at the first frequency
+    (:func:`pdmkit.models._frf.frf_comparison`). ``fit_data`` is the ``(u, y)`` the
+    model was fitted to (band-filtered with a band; default ``u, y``): the simulation
+    and residual tests use it.
 
     Examples
     --------
@@ -281,13 +743,36 @@ def build_identify_report(model, summary: dict, u, y, fs: float, title: str) -> 
 
     rep = Report(title)
     rep.add_heading("Summary")
-    fn = ", ".join(f"{v:.4g} Hz" for v in summary.get("natural_frequencies_hz") or [])
-    rep.add_text(
+    fn = format_hz(summary.get("natural_frequencies_hz"))
+    text = (
         f"Structure {summary['structure']} with order {summary['order']}: simulation fit "
-        f"{format_fit(summary['fit_percent'])} on the estimation data; modes at "
+        f"{format_fit(summary['fit_percent'])} on the estimation data"
+        f"{' (filtered to the band)' if band is not None else ''}; modes at "
         f"{fn or 'none'}."
     )
-    if hasattr(model, "to_pandas"):
+    for key in ("decimation", "band", "order_search"):
+        note = (summary.get(key) or {}).get("note")
+        if note:
+            text += " " + note[0].upper() + note[1:]
+    rep.add_text(text)
+    for w in summary.get("checks") or []:
+        rep.add_text("Warning: " + w)
+    if summary.get("modes") is not None:
+        modes = pd.DataFrame(summary["modes"])
+        if len(modes):
+            rep.add_table(
+                modes.drop(columns="pole"), caption="Modes", float_format="{:.5g}"
+            )
+        else:
+            rep.add_text("No resonance among the poles (see the table below).")
+        dropped = pd.DataFrame(summary.get("not_modes") or [])
+        if len(dropped):
+            rep.add_table(
+                dropped.drop(columns="pole"),
+                caption="Poles that are not modes, and why",
+                float_format="{:.5g}",
+            )
+    elif hasattr(model, "to_pandas"):
         rep.add_table(model.to_pandas(), caption="Modes", float_format="{:.5g}")
     if hasattr(model, "plot"):
         rep.add_heading("Pole map")
@@ -295,37 +780,31 @@ def build_identify_report(model, summary: dict, u, y, fs: float, title: str) -> 
         rep.add_figure(ax, caption="Poles (x) and zeros (o) in the z-plane")
     if hasattr(model, "frequency_response"):
         rep.add_heading("Frequency response")
-        nper = int(min(4096, max(64, 2 ** int(np.log2(max(len(u) // 8, 64))))))
-        estimate = frf_estimate(u, y, fs, nperseg=min(nper, len(u)))
-        f, h1 = estimate.freq[1:], estimate.H[1:]  # without DC
-        g = model.frequency_response(f)
-        fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
-        a1.semilogy(f, np.abs(h1), color="0.6", lw=0.8, label="H1 estimate (data)")
-        a1.semilogy(f, np.abs(g), color="C0", label="model")
-        a1.set_ylabel("|G|")
-        a1.legend(loc="best", fontsize="small")
-        a2.plot(f, np.degrees(np.unwrap(np.angle(h1))), color="0.6", lw=0.8)
-        a2.plot(f, np.degrees(np.unwrap(np.angle(g))), color="C0")
-        a2.set_ylabel("phase [deg]")
-        a2.set_xlabel("frequency [Hz]")
+        fig, _ = _frf_figure(model, u, y, fs, band)
         rep.add_figure(
             fig,
-            caption="Model frequency response over the H1 estimate "
-            "(scipy.signal.csd / welch)",
+            caption="Model frequency response over the H1 estimate (scipy.signal.csd / "
+            "welch) with the coherence; model phase on the data's branch",
         )
     rep.add_heading("Simulation")
-    y_sim = model.simulate(u)
-    t = np.arange(len(y)) / fs
+    u_ref, y_ref = (u, y) if fit_data is None else fit_data
+    with np.errstate(all="ignore"):
+        y_sim = model.simulate(u_ref)
+        fit_now = fit_percent(y_ref, y_sim)
+    t = np.arange(len(y_ref)) / fs
     fig, ax = plt.subplots(figsize=(7, 3))
-    ax.plot(t, y, color="0.5", lw=0.8, label="measured")
-    ax.plot(
-        t, y_sim, color="C1", lw=0.8, label=f"simulated (fit {fit_percent(y, y_sim):.1f} %)"
-    )
+    ax.plot(t, y_ref, color="0.5", lw=0.8, label="measured")
+    ax.plot(t, y_sim, color="C1", lw=0.8, label=f"simulated (fit {format_fit(fit_now, 1)})")
     ax.set_xlabel("time [s]")
     ax.legend(loc="best", fontsize="small")
-    rep.add_figure(fig, caption="Simulated vs measured output")
+    rep.add_figure(
+        fig,
+        caption="Simulated vs measured output"
+        + (" (both filtered to the band)" if band is not None else ""),
+    )
     if hasattr(model, "residual_test"):
-        res = model.residual_test(u, y)
+        with np.errstate(all="ignore"):
+            res = model.residual_test(u_ref, y_ref)
         rep.add_json(
             to_jsonable(res),
             caption="Residual tests (Ljung-Box whiteness, input cross-correlation)",
@@ -334,6 +813,7 @@ def build_identify_report(model, summary: dict, u, y, fs: float, title: str) -> 
     return rep
 
 
+# --------------------------------------------------------------------------- run
 def run_identify(
     data_path: str | os.PathLike,
     *,
@@ -345,6 +825,8 @@ def run_identify(
     json_path: str | os.PathLike | None = None,
     fs: float | None = None,
     criterion: str = "aic",
+    band: str | tuple[float, float] | None = None,
+    decimate: int | None = None,
 ) -> dict:
     """Identify a model from a recording; write ``summary.json`` and ``report.html``.
 
@@ -352,16 +834,18 @@ def run_identify(
     ----------
     data_path : path
         CSV or Parquet with the ``input`` and ``output`` columns and a ``time`` column
-        (or pass ``fs``).
+        (or pass ``fs``); or a ``.mat``/``.npz`` file (see :func:`read_record`).
     input, output : str
-        Column names.
+        Column (or variable) names.
     structure : str, default "arx"
         A key of :data:`IDENTIFY_STRUCTURES` (``ar``, ``arx``, ``armax``, ``oe``,
         ``bj``, ``n4sid``; ``hw``: a Hammerstein-Wiener model with a dead zone at the
         input, order ``nb,nf,nk``; ``fractional``: ``1/(a s^alpha + b s^beta + c)``
         fitted in the time domain, ``--order alpha=2,beta=1`` fixes the orders).
     order : int, dict, str or None
-        See :func:`parse_order`; None selects it by ``criterion``.
+        See :func:`parse_order`; None selects it by ``criterion`` from 1..10, and
+        searches further while the best order is the largest tried
+        (``summary["order_search"]``).
     out_dir : path
         Receives ``summary.json`` and ``report.html`` (with the run's id and warnings),
         both at once and only when everything succeeded; anything else in the folder
@@ -369,14 +853,25 @@ def run_identify(
     json_path : path, optional
         Also write the summary here.
     fs : float, optional
-        Sampling rate in Hz when the table has no ``time`` column.
+        Sampling rate in Hz when the file does not give one.
     criterion : {"aic", "bic", "mdl"}, default "aic"
+    band : "F1,F2" or (float, float), optional
+        Band of interest in Hz: input and output are band-pass filtered alike (zero
+        phase) before the fit, the fit is measured there, modes outside it are left
+        out of the modes table, and the record is decimated automatically when the
+        band's upper edge lies below ``0.4 x`` Nyquist.
+    decimate : int, optional
+        Decimate by this factor first (anti-aliased, :func:`decimate_record`);
+        ``1`` turns the automatic decimation off.
 
     Returns
     -------
     dict
         The summary: ``structure``, ``order``, ``poles`` (``[re, im]`` pairs),
-        ``natural_frequencies_hz``, ``damping``, ``fit_percent`` and more.
+        ``natural_frequencies_hz``, ``damping`` (resonances only), ``fit_percent``,
+        ``modes``, ``not_modes`` (with ``reason``), ``order_search``,
+        ``decimation``, ``band``, ``checks`` and ``warnings`` (what went wrong, and
+        what to do instead) and more.
 
     Examples
     --------
@@ -400,38 +895,97 @@ def run_identify(
         raise ModelError(
             f"structure must be one of {sorted(IDENTIFY_STRUCTURES)}; got {structure!r}."
         )
+    band = parse_band(band)
     run = OutputRun(out_dir, "identify", inputs=[data_path], json_path=json_path)
     with run:
-        summary, rep = _identify(data_path, input, output, structure, order, fs, criterion)
+        summary, rep = _identify(
+            data_path, input, output, structure, order, fs, criterion, band, decimate
+        )
         run.add_report("report.html", rep)
         run.add_json("summary.json", summary)
         run.commit()
     return summary
 
 
-def _identify(data_path, input, output, structure, order, fs, criterion):
+def _fit_quietly(structure, u, y, rate, order, criterion):
+    """Fit; the order search's own warnings (every candidate's) are not the user's."""
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        if order is None:
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            warnings.simplefilter("ignore", RuntimeWarning)
+        return IDENTIFY_STRUCTURES[structure](u, y, rate, order, criterion)
+
+
+def _identify(data_path, input, output, structure, order, fs, criterion, band, decimate):
     """(summary, report) of :func:`run_identify`."""
-    table = read_table(data_path)
-    if len(table) == 0:
-        raise DataError(f"{data_path}: the table has no rows.")
-    rate = _sampling_rate(table, fs, data_path)
     if structure != "ar" and input == output:
         raise DataError(
             f"{data_path}: --input and --output both name {input!r}; identification "
             "needs the signal that drives the system and the one it responds with."
         )
-    y = _column(table, output, data_path, "output")
-    u = None if structure == "ar" else _column(table, input, data_path, "input")
-    model = IDENTIFY_STRUCTURES[structure](u, y, rate, parse_order(order), criterion)
-    summary = identify_summary(model, data=data_path)
-    summary.update({"input": input, "output": output, "fs": rate})
+    u, y, rate = read_record(data_path, None if structure == "ar" else input, output, fs)
+    u, y, rate, uf, yf, notes = _prepare(u, y, rate, band, decimate)
+    model = _fit_quietly(structure, uf, yf, rate, parse_order(order), criterion)
+    summary = identify_summary(model, band=band, data=data_path)
+    summary.update({"input": input, "output": output, "fs": rate, **notes})
+    checks = []
+    if isinstance(model.__dict__.get("info"), dict):
+        moved = model.info.get("stabilised_poles", 0)
+        if moved:
+            checks.append(
+                f"{moved} unstable pole(s) of the N4SID model were reflected into the "
+                "unit circle; a lower order or an OE model may describe the data better."
+            )
+    search = summary.get("order_search") or {}
+    if search.get("at_edge"):
+        checks.append(search["note"])
+    if structure == "fractional":
+        orders = [summary.get("alpha"), summary.get("beta")]
+        edge = [o for o in orders if o is not None and (o >= 2.99 or o <= 0.011)]
+        if edge:
+            checks.append(
+                f"a fractional order ({', '.join(f'{o:.3g}' for o in edge)}) lies at "
+                "the bound of its range 0.01..3: the structure 1/(a s^alpha + b s^beta "
+                "+ c) does not describe these data well."
+            )
+    checks += _check_model(model, summary, uf, yf, rate, structure)
+    if summary.get("modes") == [] and summary.get("not_modes"):
+        checks.append(
+            "no pole of the model is a resonance"
+            + (" in the band" if band is not None else "")
+            + f" ({len(summary['not_modes'])} left out, see not_modes)."
+        )
+    for text in checks:
+        warnings.warn(text, DataWarning, stacklevel=3)
+    summary["checks"] = checks
+    summary["warnings"] = list(checks)
+    summary = to_jsonable(summary)
     title = f"Identification: {structure} model of {output} from {Path(data_path).name}"
-    u_rep = u if u is not None else np.zeros_like(y)
     if u is None:
         rep = Report(title)
-        rep.add_table(model.to_pandas(), caption="Modes", float_format="{:.5g}")
+        modes = pd.DataFrame(
+            summary.get("modes") or [], columns=["frequency_hz", "damping"]
+        )
+        rep.add_table(
+            modes[["frequency_hz", "damping"]], caption="Modes", float_format="{:.5g}"
+        )
+        if summary.get("not_modes"):
+            rep.add_table(
+                pd.DataFrame(summary["not_modes"]).drop(columns="pole"),
+                caption="Poles that are not modes, and why",
+                float_format="{:.5g}",
+            )
         rep.add_figure(model.plot(), caption="Poles of the AR model")
         rep.add_json(summary, caption="summary.json")
     else:
-        rep = build_identify_report(model, summary, u_rep, y, rate, title)
+        rep = build_identify_report(
+            model,
+            summary,
+            u,
+            y,
+            rate,
+            title,
+            band=band,
+            fit_data=(uf, yf),
+        )
     return summary, rep

@@ -22,7 +22,7 @@ import pandas as pd
 from sklearn.base import BaseEstimator
 
 from pdmkit._outputs import to_jsonable
-from pdmkit._progress import progress
+from pdmkit._progress import progress as progress_bar_over
 from pdmkit.errors import DataError, DataNotFoundError
 from pdmkit.experiments._classify import (
     ClassificationResult,
@@ -553,6 +553,7 @@ def compare_sensors(
     cv: int = 5,
     test_size: float = 0.25,
     random_state: int | None = 0,
+    progress: bool | None = None,
 ) -> SensorComparison:
     """Classify faults with each sensor's indicators alone and set accuracy against cost.
 
@@ -579,6 +580,8 @@ def compare_sensors(
         As for :func:`classify`.
     cv : int, default 5
         Folds; lowered (with a note) when a class has fewer members with the sensor.
+    progress : bool, optional
+        A progress bar over the sensors; default only when stderr is a terminal.
 
     Returns
     -------
@@ -629,7 +632,10 @@ def compare_sensors(
     all_classes = set(y_full.unique())
 
     rows, results = [], {}
-    for sensor, signals in progress(sensors.items(), desc="sensors", total=len(sensors)):
+    bar = progress_bar_over(
+        sensors.items(), desc="sensors", total=len(sensors), enable=progress
+    )
+    for sensor, signals in bar:
         if isinstance(signals, str):
             signals = [signals]
         signals = list(dict.fromkeys(str(s) for s in signals))
@@ -714,7 +720,9 @@ def compare_sensors(
         )
         _fit_to_size(pipe, len(cols), _smallest_fit_size(y, folds), notes, top_k)
         if folds:
-            scores = _cv_scores(pipe, X, _label_values(y, notes), folds, random_state)
+            scores = _cv_scores(
+                pipe, X, _label_values(y, notes), folds, random_state, progress=False
+            )
             row["accuracy"] = float(scores.mean())
             row["accuracy_std"] = float(scores.std())
             row["cv_folds"] = folds

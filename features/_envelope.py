@@ -27,9 +27,11 @@ from pdmkit.errors import DataError
 from pdmkit.features._common import check_finite, check_fs, from_rows, to_rows
 
 __all__ = [
+    "BEARINGS",
     "CWRU_DRIVE_END",
     "CWRU_FAN_END",
     "DEFECT_FREQUENCIES",
+    "IMS_ZA_2115",
     "BearingGeometry",
     "EnvelopeSpectrum",
     "bearing_frequencies",
@@ -155,6 +157,94 @@ class BearingGeometry:
             self.n_balls, self.ball_diameter, self.pitch_diameter, self.contact_angle_deg
         )
 
+    @classmethod
+    def parse(cls, spec: str | BearingGeometry) -> BearingGeometry:
+        """A bearing from text: a catalogue name, or its geometry with units.
+
+        ``spec`` is either a name from :meth:`catalogue` (case, spaces and hyphens do
+        not matter: ``"6205"``, ``"SKF 6205-2RS JEM"``, ``"cwru-de"``, ``"ZA-2115"``,
+        ``"ims"``) or ``KEY=VALUE`` pairs separated by commas:
+
+        - ``n_balls`` (also ``n``, ``balls``, ``n_rollers``): number of rolling
+          elements;
+        - ``ball_d`` (``ball_diameter``, ``d``) and ``pitch_d`` (``pitch_diameter``,
+          ``D``): lengths with a unit, ``mm``, ``cm``, ``m`` or ``in`` (``7.94mm``,
+          ``0.3126in``); a bare number is refused, as it could be any of them;
+        - ``angle`` (``contact_angle``, ``contact_angle_deg``): degrees, default 0
+          (``15.17`` or ``15.17deg``).
+
+        Lengths are converted to metres (SI inside).
+
+        Parameters
+        ----------
+        spec : str or BearingGeometry
+            The text (a BearingGeometry is returned as it is).
+
+        Returns
+        -------
+        BearingGeometry
+
+        Raises
+        ------
+        pdmkit.errors.DataError
+            An unknown name or key, a length without unit, a missing key, or a
+            geometry :class:`BearingGeometry` refuses; the message names the part.
+
+        Examples
+        --------
+        >>> from pdmkit.features import BearingGeometry
+        >>> b = BearingGeometry.parse("n_balls=9,ball_d=7.94mm,pitch_d=39.04mm,angle=0")
+        >>> b.n_balls, round(b.ball_diameter, 5), round(b.pitch_diameter, 5)
+        (9, 0.00794, 0.03904)
+        >>> BearingGeometry.parse("SKF 6205-2RS JEM") == BearingGeometry.parse("6205")
+        True
+        >>> round(BearingGeometry.parse("ZA-2115").frequencies(2000 / 60)["BPFO"], 1)
+        236.4
+        """
+        if isinstance(spec, BearingGeometry):
+            return spec
+        if not isinstance(spec, str) or not spec.strip():
+            raise DataError(
+                f"bearing must be a catalogue name ({', '.join(BEARINGS)}) or "
+                f"n_balls=..,ball_d=..mm,pitch_d=..mm[,angle=..]; got {spec!r}"
+            )
+        if "=" not in spec:
+            return _named_bearing(spec)
+        return _bearing_from_pairs(spec)
+
+    @staticmethod
+    def catalogue():
+        """The named bearings :meth:`parse` knows, as a table (lengths in mm).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per bearing: ``name``, ``n_balls``, ``ball_d_mm``, ``pitch_d_mm``,
+            ``angle_deg``, ``aliases`` and ``source``.
+
+        Examples
+        --------
+        >>> from pdmkit.features import BearingGeometry
+        >>> BearingGeometry.catalogue()[["name", "n_balls"]].to_dict("list")
+        {'name': ['SKF 6205-2RS JEM', 'SKF 6203-2RS JEM', 'Rexnord ZA-2115'], 'n_balls': [9, 8, 16]}
+        """  # noqa: E501
+        import pandas as pd
+
+        return pd.DataFrame(
+            [
+                {
+                    "name": name,
+                    "n_balls": b.n_balls,
+                    "ball_d_mm": round(b.ball_diameter * 1e3, 4),
+                    "pitch_d_mm": round(b.pitch_diameter * 1e3, 4),
+                    "angle_deg": b.contact_angle_deg,
+                    "aliases": ", ".join(aliases),
+                    "source": source,
+                }
+                for name, (b, aliases, source) in BEARINGS.items()
+            ]
+        )
+
     def frequencies(self, shaft_hz: float) -> dict[str, float]:
         """Defect frequencies at a shaft speed (see :func:`bearing_frequencies`).
 
@@ -182,6 +272,147 @@ CWRU_DRIVE_END = BearingGeometry(
 CWRU_FAN_END = BearingGeometry(
     n_balls=8, ball_diameter=0.2656 * _INCH, pitch_diameter=1.122 * _INCH
 )
+#: Rexnord ZA-2115 double-row roller bearing of the IMS run-to-failure rig (16 rollers
+#: per row of 0.331 in on a 2.815 in pitch diameter, contact angle 15.17 deg).
+IMS_ZA_2115 = BearingGeometry(
+    n_balls=16,
+    ball_diameter=0.331 * _INCH,
+    pitch_diameter=2.815 * _INCH,
+    contact_angle_deg=15.17,
+)
+
+#: Named bearings :meth:`BearingGeometry.parse` knows: name -> (geometry, aliases,
+#: source). The CWRU pair: CWRU Bearing Data Center, "Bearing information" (ball and
+#: pitch diameters in inches; its defect frequencies as multiples of the shaft speed,
+#: BPFO 3.5848 drive end and 3.0530 fan end, give 9 and 8 balls). The IMS bearing:
+#: J. Lee, H. Qiu, G. Yu, J. Lin, *Bearing data set*, IMS, University of Cincinnati,
+#: NASA Prognostics Data Repository (2007), and H. Qiu, J. Lee, J. Lin, G. Yu,
+#: *Wavelet filter-based weak signature detection method and its application on
+#: rolling element bearing prognostics*, J. Sound Vib. 289 (2006) 1066-1090, which
+#: gives BPFO 236.4 Hz, BPFI 296.9 Hz at 2000 rpm.
+BEARINGS: dict[str, tuple[BearingGeometry, tuple[str, ...], str]] = {
+    "SKF 6205-2RS JEM": (
+        CWRU_DRIVE_END,
+        ("6205", "6205-2RS", "SKF 6205", "cwru-de", "cwru-drive-end"),
+        "CWRU Bearing Data Center (drive end)",
+    ),
+    "SKF 6203-2RS JEM": (
+        CWRU_FAN_END,
+        ("6203", "6203-2RS", "SKF 6203", "cwru-fe", "cwru-fan-end"),
+        "CWRU Bearing Data Center (fan end)",
+    ),
+    "Rexnord ZA-2115": (
+        IMS_ZA_2115,
+        ("ZA-2115", "ZA2115", "ims"),
+        "IMS bearing data set readme; Qiu et al., J. Sound Vib. 2006",
+    ),
+}
+
+#: Metres per unit of a length in a bearing text.
+_LENGTH_UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "in": _INCH, '"': _INCH}
+_BEARING_KEYS = {
+    "n_balls": "n_balls",
+    "n": "n_balls",
+    "balls": "n_balls",
+    "n_rollers": "n_balls",
+    "ball_d": "ball_diameter",
+    "ball_diameter": "ball_diameter",
+    "d": "ball_diameter",
+    "pitch_d": "pitch_diameter",
+    "pitch_diameter": "pitch_diameter",
+    "D": "pitch_diameter",
+    "angle": "contact_angle_deg",
+    "contact_angle": "contact_angle_deg",
+    "contact_angle_deg": "contact_angle_deg",
+}
+
+
+def _squash(name: str) -> str:
+    return "".join(ch for ch in name.lower() if ch.isalnum())
+
+
+def _named_bearing(spec: str) -> BearingGeometry:
+    wanted = _squash(spec)
+    for name, (geometry, aliases, _) in BEARINGS.items():
+        if wanted in {_squash(a) for a in (name, *aliases)}:
+            return geometry
+    import difflib
+
+    known = [a for name, (_, aliases, _) in BEARINGS.items() for a in (name, *aliases)]
+    close = difflib.get_close_matches(spec, known, n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    raise DataError(
+        f"unknown bearing {spec!r}{hint} (known: {', '.join(BEARINGS)}); or give its "
+        "geometry, e.g. n_balls=9,ball_d=7.94mm,pitch_d=39.04mm,angle=0"
+    )
+
+
+def _bearing_length(key: str, text: str) -> float:
+    import re
+
+    m = re.fullmatch(
+        r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*(mm|cm|m|in|\")?\s*", text
+    )
+    if m is None:
+        raise DataError(
+            f"bearing {key}={text!r}: expected a length with a unit, e.g. 7.94mm, "
+            "0.3126in or 0.00794m"
+        )
+    if m[2] is None:
+        raise DataError(
+            f"bearing {key}={text!r} has no unit; write {text.strip()}mm, "
+            f"{text.strip()}in or {text.strip()}m"
+        )
+    return float(m[1]) * _LENGTH_UNITS[m[2]]
+
+
+def _bearing_from_pairs(spec: str) -> BearingGeometry:
+    values: dict = {}
+    for part in (p.strip() for p in spec.split(",")):
+        if not part:
+            continue
+        key, sep, text = (x.strip() for x in part.partition("="))
+        field = _BEARING_KEYS.get(key) or _BEARING_KEYS.get(key.lower())
+        if not sep or field is None:
+            import difflib
+
+            close = difflib.get_close_matches(key, list(_BEARING_KEYS), n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise DataError(
+                f"bearing: unknown part {part!r}{hint} (expected n_balls=N, "
+                "ball_d=LENGTH, pitch_d=LENGTH and optionally angle=DEGREES)"
+            )
+        if field in values:
+            raise DataError(f"bearing: {key!r} is given twice in {spec!r}")
+        if field == "n_balls":
+            try:
+                values[field] = int(text)
+            except ValueError:
+                raise DataError(
+                    f"bearing {key}={text!r}: expected a whole number of rolling elements"
+                ) from None
+        elif field == "contact_angle_deg":
+            number = text.lower().removesuffix("deg").removesuffix("°").strip()
+            try:
+                values[field] = float(number)
+            except ValueError:
+                raise DataError(
+                    f"bearing {key}={text!r}: expected a contact angle in degrees"
+                ) from None
+        else:
+            values[field] = _bearing_length(key, text)
+    missing = [k for k in ("n_balls", "ball_diameter", "pitch_diameter") if k not in values]
+    if missing:
+        short = {
+            "n_balls": "n_balls",
+            "ball_diameter": "ball_d",
+            "pitch_diameter": "pitch_d",
+        }
+        raise DataError(
+            f"bearing {spec!r} lacks {', '.join(short[k] for k in missing)}; give "
+            "n_balls=N,ball_d=LENGTH,pitch_d=LENGTH[,angle=DEGREES]"
+        )
+    return BearingGeometry(**values)
 
 
 @dataclass(frozen=True)
@@ -398,6 +629,8 @@ def resolve_envelope_options(
             f"{' and '.join(missing)}. Pass bearing=BearingGeometry(...) (e.g. "
             "pdmkit.features.CWRU_DRIVE_END) and shaft_hz=rpm / 60"
         )
+    if isinstance(bearing, str):
+        bearing = BearingGeometry.parse(bearing)
     if not callable(getattr(bearing, "frequencies", None)):
         raise DataError(
             "bearing must be a pdmkit.features.BearingGeometry, got "

@@ -5,15 +5,17 @@ Two kinds of ranking, as in MATLAB's Diagnostic Feature Designer:
 - **Separating classes** (``labels`` given): Kruskal-Wallis H (rank-based one-way
   ANOVA, robust to outliers and skew) or the one-way ANOVA F statistic. Higher is better.
 - **Prognostic quality** (a long run-to-failure table with ``unit`` and ``time``
-  columns), as MATLAB's Predictive Maintenance Toolbox defines them, all in ``[0, 1]``,
-  higher is better:
+  columns), as J. Coble and J. W. Hines define them (*Identifying optimal prognostic
+  parameters from data: a genetic algorithms approach*, Annual Conference of the PHM
+  Society, 2009) and MATLAB's Predictive Maintenance Toolbox computes them, all in
+  ``[0, 1]``, higher is better:
 
   - ``monotonicity``: ``mean_j |#(dx > 0) - #(dx < 0)| / (n_j - 1)`` over units ``j``
     (``dx`` the successive differences of the unit's path, ``n_j`` its length);
   - ``trendability``: ``min_{j != k} |corr(x_j, x_k)|``, the paths resampled (linear
     interpolation over the fraction of life) to the length of the shortest one;
   - ``prognosability``: ``exp(-std_j(x_j(end)) / mean_j |x_j(start) - x_j(end)|)``
-    (``std`` with ``n - 1``; 0 for a single unit).
+    (``std`` with ``n - 1``; undefined, NaN, for a single unit).
 
 Features that cannot be scored (constant, all NaN, too few groups) get a NaN score, are
 ranked last and carry a note saying why.
@@ -284,11 +286,40 @@ def _one_way(X: np.ndarray, codes: np.ndarray, method: str):
     return scores, pvals, notes
 
 
+def _time_values(table: pd.DataFrame, time) -> pd.Series:
+    """The time column as numbers: seconds since the earliest stamp for timestamps.
+
+    Numbers stay as they are; datetimes, and text that reads as timestamps
+    (``2004-02-12 10:32:39``), become seconds since the earliest one. Text that is
+    neither is a DataError naming the column and the first such cell.
+    """
+    column = table[time]
+    if pd.api.types.is_bool_dtype(column):
+        raise DataError(f"time column {time!r} holds true/false values, not times")
+    if pd.api.types.is_numeric_dtype(column):
+        return column.astype(float)
+    from pdmkit._checks import parse_timestamps
+
+    stamps = parse_timestamps(column)
+    bad = stamps.isna() & column.notna()
+    if bad.any():
+        first = column[bad].iloc[0]
+        raise DataError(
+            f"time column {time!r} holds {str(first)!r}, neither a number nor a "
+            "timestamp; name the column that orders the rows with time="
+        )
+    if getattr(stamps.dt, "tz", None) is not None:
+        stamps = stamps.dt.tz_convert("UTC")
+    return (stamps - stamps.min()).dt.total_seconds()
+
+
 def _unit_paths(
     table: pd.DataFrame, cols: list, unit, time
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per unit (in order of appearance): (life fraction in [0, 1], values n_j x p)."""
     frame = table
+    if time is not None:
+        frame = table.assign(**{str(time): _time_values(table, time)})
     if unit is None:
         groups = [(None, frame)]
     else:
@@ -296,14 +327,25 @@ def _unit_paths(
     paths = []
     for _, part in groups:
         if time is not None:
-            part = part.sort_values(time, kind="stable")
-            t = part[time].to_numpy(dtype=float)
+            part = part.sort_values(str(time), kind="stable")
+            t = part[str(time)].to_numpy(dtype=float)
         else:
             t = np.arange(len(part), dtype=float)
         span = t[-1] - t[0] if len(t) else 0.0
         life = (t - t[0]) / span if span > 0 else np.linspace(0.0, 1.0, len(t))
         paths.append((life, part[cols].to_numpy(dtype=float)))
     return paths
+
+
+def _moving_mean(x: np.ndarray, window: int) -> np.ndarray:
+    """Centred moving mean of each column over ``window`` rows, NaN left out, the
+    window shrinking at the ends (MATLAB's ``movmean``)."""
+    return (
+        pd.DataFrame(x)
+        .rolling(window, center=True, min_periods=1)
+        .mean()
+        .to_numpy(dtype=float)
+    )
 
 
 def _monotonicity(paths) -> tuple[np.ndarray, np.ndarray]:
@@ -463,6 +505,7 @@ def rank_features(
     features: Sequence[str] | None = None,
     unit: str | None = None,
     time: str | None = None,
+    window: int | None = None,
 ) -> FeatureRanking:
     """Rank condition indicators by how well they separate classes or track degradation.
 
@@ -486,7 +529,14 @@ def rank_features(
         else all rows form one unit.
     time : str, optional
         Column ordering each unit's rows; default ``"time"`` or ``"cycle"`` when present,
-        else row order.
+        else row order. Numbers, or timestamps (datetimes or text such as
+        ``2004-02-12 10:32:39``, read as seconds since the earliest).
+    window : int, optional
+        Prognostic methods: smooth each unit's path with a centred moving mean of
+        ``window`` rows first (shrinking at the ends, as MATLAB's ``movmean`` and the
+        ``WindowSize`` option of its ``monotonicity`` do). Snapshot indicators are
+        noisy: a rising trend under noise has a monotonicity near 0 unless smoothed.
+        Default: no smoothing.
 
     Returns
     -------
@@ -557,6 +607,14 @@ def rank_features(
     exclude = {c for c in (unit_col, time_col) if c is not None}
     cols = _feature_columns(table, features, exclude)
     paths = _unit_paths(table, cols, unit_col, time_col)
+    if window is not None:
+        if (
+            isinstance(window, bool)
+            or not isinstance(window, int | np.integer)
+            or window < 1
+        ):
+            raise DataError(f"window must be a positive number of rows, got {window!r}")
+        paths = [(life, _moving_mean(x, int(window))) for life, x in paths]
     n_units = len(paths)
     notes = {}
     if method == "monotonicity":
@@ -571,6 +629,9 @@ def rank_features(
             notes = {c: "trendability needs at least two units" for c in cols}
     else:
         scores = _prognosability(paths)
+        if n_units < 2:  # the spread of one failure value says nothing
+            scores = np.full(len(cols), np.nan)
+            notes = {c: "prognosability needs at least two units" for c in cols}
     for c, s in zip(cols, scores, strict=True):
         if np.isnan(s) and c not in notes:
             values = table[c].to_numpy(dtype=float)

@@ -377,14 +377,73 @@ class FractionalFit:
         return ax
 
 
-def _coefs_for_orders(Hinv, s_pow, wgt):
+def _bounded_lstsq(M: np.ndarray, r: np.ndarray, lower: np.ndarray):
+    """Least squares ``M x ~ r`` with ``x >= lower`` (-inf: free); returns (x, cost)."""
+    x, *_ = np.linalg.lstsq(M, r, rcond=None)
+    if np.any(x < lower):
+        x = sopt.lsq_linear(M, r, bounds=(lower, np.inf), method="bvls").x
+    return x, float(np.sum((M @ x - r) ** 2))
+
+
+def _coefs_for_orders(Hinv, s_pow, wgt, lower=None):
     """Least squares of ``1/H ~ sum coef_i s^q_i`` for fixed orders (weighted)."""
     M = s_pow * wgt[:, None]
     r = Hinv * wgt
     Mr = np.vstack([M.real, M.imag])
     rr = np.concatenate([r.real, r.imag])
-    coef, *_ = np.linalg.lstsq(Mr, rr, rcond=None)
-    return coef, np.sum((Mr @ coef - rr) ** 2)
+    if lower is None:
+        lower = np.full(Mr.shape[1], -np.inf)
+    return _bounded_lstsq(Mr, rr, lower)
+
+
+class _Orders:
+    """Denominator orders from free variables, kept apart by ``gap``.
+
+    The free orders are stored as increments, lowest term first: a free order is the
+    next lower order (or ``lo`` for the lowest term) plus ``gap`` plus a
+    non-negative increment, so ``alpha >= beta + gap >= gamma + 2 gap`` by
+    construction. A free order that would pass a fixed order above it (or ``hi``) is
+    infeasible (:meth:`violation`).
+    """
+
+    def __init__(self, names, fixed, lo, hi, gap):
+        self.names, self.fixed = list(names), dict(fixed)
+        self.lo, self.hi, self.gap = float(lo), float(hi), float(gap)
+        self.free = [k for k in self.names if k not in self.fixed]
+
+    def orders(self, x) -> list[float]:
+        inc = dict(zip(self.free, np.asarray(x, dtype=float), strict=True))
+        out: dict[str, float] = {}
+        below = None
+        for k in reversed(self.names):
+            if k in self.fixed:
+                out[k] = float(self.fixed[k])
+            else:
+                base = self.lo if below is None else below + self.gap
+                out[k] = base + inc[k]
+            below = out[k]
+        return [out[k] for k in self.names]
+
+    def increments(self, orders) -> np.ndarray:
+        val = dict(zip(self.names, orders, strict=True))
+        x, below = {}, None
+        for k in reversed(self.names):
+            if k not in self.fixed:
+                base = self.lo if below is None else below + self.gap
+                x[k] = max(0.0, float(val[k]) - base)
+                val[k] = base + x[k]
+            below = val[k]
+        return np.array([x[k] for k in self.free])
+
+    def violation(self, orders) -> float:
+        """How far ``orders`` break ``hi`` or the gap below a fixed order (0: none)."""
+        v = max(0.0, max(orders, default=0.0) - self.hi)
+        for upper, lower in itertools.pairwise(orders):
+            v += max(0.0, lower + self.gap - upper) if self.gap > 0 else 0.0
+        return v
+
+    def bound(self) -> float:
+        return max(self.hi - self.lo, 1e-6)
 
 
 def fit_fractional_frf(
@@ -398,6 +457,8 @@ def fit_fractional_frf(
     grid: int = 12,
     fit_gain: bool = False,
     dt: float | None = None,
+    min_gap: float = 0.05,
+    constrain: bool = True,
 ) -> FractionalFit:
     """Fit ``1 / (a s^alpha + b s^beta + c)`` (seed 004, eq. 8) to frequency-response data.
 
@@ -434,6 +495,14 @@ def fit_fractional_frf(
         continuous model (``s -> (1 - exp(-j omega dt)) / dt``); use it for data that a
         GL simulation produced. Its backward difference lags the continuous operator by
         about half a sample.
+    min_gap : float, default 0.05
+        ``delta``: the orders are kept apart, ``alpha >= beta + delta`` (``>= gamma
+        + 2 delta``). Two equal orders make a degenerate model whose two terms cancel
+        (``a = -b``, both huge).
+    constrain : bool, default True
+        Also keep the fractional coefficients ``a, b`` (and ``d``) of the sign of
+        ``c`` (>= 0 for a positive static gain), as physical (spring, damper,
+        inertia-like) terms are; ``False`` leaves the coefficients free and the gap 0.
 
     Returns
     -------
@@ -475,65 +544,102 @@ def fit_fractional_frf(
     s = 1j * wk if dt is None else (1 - np.exp(-1j * wk * dt)) / dt
     Hinv = 1.0 / Hk
     wgt = np.abs(Hk) * np.sqrt(we)
-    free = [k for k in names if k not in fixed]
     lo, hi = order_bounds
-
-    def orders_of(x):
-        it = iter(x)
-        return [fixed[k] if k in fixed else next(it) for k in names]
-
-    def spow(orders):
-        return np.column_stack([s**q for q in orders] + [np.ones_like(s)])
-
-    def profile(x):
-        _coef, cost = _coefs_for_orders(Hinv, spow(orders_of(x)), wgt)
-        return cost
-
-    if free:
-        g = np.linspace(lo, hi, grid)
-        cands = []
-        for x in itertools.product(g, repeat=len(free)):
-            if any(x[i] <= x[i + 1] for i in range(len(x) - 1)):
-                continue  # orders kept in descending order (alpha > beta > gamma)
-            cands.append((profile(x), x))
-        cands.sort(key=lambda c: c[0])
-        best = None
-        for c0, x0 in cands[:3]:
-            # coarse: the least-squares polish below does the fine work
-            sol = sopt.minimize(
-                profile,
-                x0,
-                method="Nelder-Mead",
-                bounds=[(lo, hi)] * len(free),
-                options={"xatol": 1e-4, "fatol": 1e-8 * c0, "maxiter": 300 * len(free)},
-            )
-            if best is None or sol.fun < best.fun:
-                best = sol
-        x_best = np.clip(best.x, lo, hi)
-    else:
-        x_best = np.array([])
-    orders = orders_of(x_best)
-    coef, _ = _coefs_for_orders(Hinv, spow(orders), wgt)
-    n_free = len(free)
-    theta0 = np.concatenate([x_best, coef, [1.0] if fit_gain else []])
+    gap = float(min_gap) if constrain else 0.0
+    om = _Orders(names, fixed, lo, hi, gap)
+    n_free = len(om.free)
     nc = den_terms + 1
+
+    def fit_sign(sign: float):
+        # constrained: the fractional coefficients share the sign of the gain, which the
+        # data decide (both are tried)
+        lower = np.r_[np.full(den_terms, 0.0 if constrain else -np.inf), -np.inf]
+
+        def spow(orders):
+            return np.column_stack([s**q for q in orders] + [np.ones_like(s)])
+
+        def coefs(orders):
+            cf, cost = _coefs_for_orders(sign * Hinv, spow(orders), wgt, lower)
+            return sign * cf, cost
+
+        def profile(x):
+            if np.any(np.asarray(x) < 0):
+                return np.inf
+            o = om.orders(x)
+            pen = om.violation(o)
+            return coefs(o)[1] * (1.0 + 1e3 * pen) + pen
+
+        if n_free:
+            g = np.linspace(lo, hi, grid)
+            cands = []
+            for x in itertools.product(g, repeat=n_free):
+                o = dict(zip(om.free, x, strict=True))
+                full = [fixed.get(k, o.get(k)) for k in names]
+                if any(a_ < b_ + max(gap, 1e-9) for a_, b_ in itertools.pairwise(full)):
+                    continue  # orders kept in descending order (alpha > beta > gamma)
+                xi = om.increments(full)
+                cands.append((profile(xi), xi))
+            if not cands:
+                raise ModelError(
+                    f"no orders in order_bounds={order_bounds} are {gap} apart around the "
+                    f"fixed orders {fixed}; widen order_bounds or lower min_gap."
+                )
+            cands.sort(key=lambda c: c[0])
+            best = None
+            for c0, x0 in cands[:3]:
+                # coarse: the least-squares polish below does the fine work
+                sol = sopt.minimize(
+                    profile,
+                    x0,
+                    method="Nelder-Mead",
+                    bounds=[(0.0, om.bound())] * n_free,
+                    options={
+                        "xatol": 1e-4,
+                        "fatol": 1e-8 * max(c0, 1e-300),
+                        "maxiter": 300 * n_free,
+                    },
+                )
+                if best is None or sol.fun < best.fun:
+                    best = sol
+            x_best = np.clip(best.x, 0.0, om.bound())
+        else:
+            x_best = np.array([])
+        orders = om.orders(x_best)
+        coef, _ = coefs(orders)
+        theta0 = np.concatenate([x_best, coef, [1.0] if fit_gain else []])
+
+        def unpack(theta):
+            x, cf = theta[:n_free], theta[n_free : n_free + nc]
+            k = theta[n_free + nc] if fit_gain else 1.0
+            return om.orders(x), cf, k
+
+        def resid(theta):
+            o, cf, k = unpack(theta)
+            G = k / (spow(o) @ cf)
+            e = (Hk - G) / np.abs(Hk) * np.sqrt(we)
+            pen = 1e3 * om.violation(o)
+            return np.concatenate([e.real, e.imag, [pen]])
+
+        big = np.inf
+        c_lo = np.where(np.isfinite(lower), 0.0, -big)
+        cf_lb = np.where(sign > 0, c_lo, -big)
+        cf_ub = np.where(sign > 0, big, -c_lo)
+        cf_lb[-1], cf_ub[-1] = -big, big
+        lb = np.concatenate([[0.0] * n_free, cf_lb, [-big] if fit_gain else []])
+        ub = np.concatenate([[om.bound()] * n_free, cf_ub, [big] if fit_gain else []])
+        theta0 = np.clip(theta0, lb + 1e-12 * (lb > -big), ub - 1e-12 * (ub < big))
+        sol = sopt.least_squares(resid, theta0, bounds=(lb, ub), x_scale="jac")
+        theta = sol.x if np.sum(sol.fun**2) <= np.sum(resid(theta0) ** 2) else theta0
+        return theta, float(np.sum(resid(theta) ** 2))
+
+    fits = [fit_sign(sg) for sg in ((1.0, -1.0) if constrain else (1.0,))]
+    theta, _ = min(fits, key=lambda t: t[1] if np.isfinite(t[1]) else np.inf)
 
     def unpack(theta):
         x, cf = theta[:n_free], theta[n_free : n_free + nc]
         k = theta[n_free + nc] if fit_gain else 1.0
-        return orders_of(x), cf, k
+        return om.orders(x), cf, k
 
-    def resid(theta):
-        o, cf, k = unpack(theta)
-        G = k / (spow(o) @ cf)
-        e = (Hk - G) / np.abs(Hk) * np.sqrt(we)
-        return np.concatenate([e.real, e.imag])
-
-    lb = np.concatenate([[lo] * n_free, [-np.inf] * (theta0.size - n_free)])
-    ub = np.concatenate([[hi] * n_free, [np.inf] * (theta0.size - n_free)])
-    theta0 = np.clip(theta0, lb + 1e-12 * (lb > -np.inf), ub - 1e-12 * (ub < np.inf))
-    sol = sopt.least_squares(resid, theta0, bounds=(lb, ub), x_scale="jac")
-    theta = sol.x if np.sum(sol.fun**2) <= np.sum(resid(theta0) ** 2) else theta0
     o, cf, k = unpack(theta)
     # sort terms by order, descending, constant last
     idx = np.argsort(o)[::-1]
@@ -563,6 +669,9 @@ def fit_fractional_tf(
     fmax: float | None = None,
     coherence_min: float = 0.5,
     operator: str = "gl",
+    min_gap: float = 0.05,
+    constrain: bool = True,
+    n_starts: int = 4,
 ) -> FractionalFit:
     """Fit ``1/(a s^alpha + b s^beta + c)`` from input and output records.
 
@@ -593,6 +702,14 @@ def fit_fractional_tf(
         with the time-domain path and with data a GL simulation produced; default), or
         the continuous model (``"s"``; for data of a continuous system sampled much
         faster than its dynamics).
+    min_gap, constrain
+        As in :func:`fit_fractional_frf`: ``alpha >= beta + min_gap`` and ``a, b`` of
+        the sign of ``c``, in both domains.
+    n_starts : int, default 4
+        Time domain: output-error fits started from the frequency fit and from the
+        ``n_starts - 1`` best orders of a grid (step 0.2) scored by the
+        equation error ``a D^alpha y + b D^beta y + c y - u`` (linear in the
+        coefficients); the best is kept.
 
     Returns
     -------
@@ -634,36 +751,101 @@ def fit_fractional_tf(
         fixed_orders=fixed_orders,
         weight=_coherence_weight(frf.coherence[ok]),
         dt=dt_op,
+        min_gap=min_gap,
+        constrain=constrain,
     )
     if domain == "frequency":
         return ffit
+    return _fit_time_domain(u, y, fs, ffit, fixed_orders, min_gap, constrain, n_starts, frf)
+
+
+def _gl_derivative(x: np.ndarray, order: float, dt: float) -> np.ndarray:
+    """Grünwald-Letnikov derivative of ``x`` (from rest) of the given order."""
+    if order == 0:
+        return x.copy()
+    return dt**-order * _causal_conv(x, gl_weights(order, x.size))
+
+
+def _fit_time_domain(u, y, fs, ffit, fixed_orders, min_gap, constrain, n_starts, frf):
+    """Output-error fit of the GL simulation from several starts (constrained)."""
     dt = 1.0 / fs
     m0 = ffit.model
     n_terms = len(m0.den_orders) - 1
     fixed = dict(fixed_orders or {})
     names = ["alpha", "beta", "gamma"][:n_terms]
-    free_idx = [i for i, k in enumerate(names) if k not in fixed]
-    theta0 = np.concatenate(
-        [[m0.den_orders[i] for i in free_idx], np.asarray(m0.den_coefs) / m0.num_coefs[0]]
-    )
+    gap = float(min_gap) if constrain else 0.0
+    om = _Orders(names, fixed, 0.01, 3.0, gap)
+    nf = len(om.free)
     scale = np.std(y) or 1.0
+    gain0 = float(m0.num_coefs[0])
+    sign = (1.0 if m0.den_coefs[-1] >= 0 else -1.0) if constrain else 1.0
 
     def build(theta):
-        orders = list(m0.den_orders[:-1])
-        for j, i in enumerate(free_idx):
-            orders[i] = theta[j]
-        return FractionalTF(tuple(theta[len(free_idx) :]), (*tuple(orders), 0.0))
+        orders = om.orders(theta[:nf])
+        return FractionalTF(tuple(theta[nf:]), (*tuple(orders), 0.0))
 
     def resid(theta):
-        return (build(theta).simulate(u, dt) - y) / scale
+        with np.errstate(all="ignore"):
+            e = (build(theta).simulate(u, dt) - y) / scale
+        if not np.all(np.isfinite(e)):
+            return np.full(y.size + 1, 1e6)
+        pen = 1e3 * om.violation(om.orders(theta[:nf]))
+        return np.r_[e, pen]
 
-    nf = len(free_idx)
-    lb = np.concatenate([[0.01] * nf, [-np.inf] * (theta0.size - nf)])
-    ub = np.concatenate([[3.0] * nf, [np.inf] * (theta0.size - nf)])
-    sol = sopt.least_squares(
-        resid, np.clip(theta0, lb + 1e-9, ub), bounds=(lb, ub), x_scale="jac", max_nfev=200
-    )
-    model = build(sol.x)
+    # starts: the frequency fit, then the best orders of a time-domain equation-error
+    # grid (a D^alpha y + b D^beta y + c y = u is linear in a, b, c for fixed orders)
+    starts = [
+        (
+            np.concatenate(
+                [om.increments(m0.den_orders[:-1]), np.asarray(m0.den_coefs) / gain0]
+            ),
+            sign,
+        )
+    ]
+    lower = np.r_[np.full(n_terms, 0.0 if constrain else -np.inf), -np.inf]
+    if nf and n_starts > 1:
+        grid = np.arange(0.2, 2.81, 0.2)
+        derivs = {}
+
+        def deriv(q):
+            q = round(float(q), 6)
+            if q not in derivs:
+                derivs[q] = _gl_derivative(y, q, dt)
+            return derivs[q]
+
+        cands = []
+        for x in itertools.product(grid, repeat=nf):
+            o = dict(zip(om.free, x, strict=True))
+            full = [fixed.get(k, o.get(k)) for k in names]
+            if any(a_ < b_ + max(gap, 1e-9) for a_, b_ in itertools.pairwise(full)):
+                continue
+            M = np.column_stack([deriv(q) for q in full] + [y])
+            if not np.all(np.isfinite(M)):
+                continue
+            for sg in (1.0, -1.0) if constrain else (1.0,):
+                cf, cost = _bounded_lstsq(sg * M, u, lower)
+                cands.append((cost, full, sg * cf, sg))
+        cands.sort(key=lambda c: c[0])
+        for _cost, full, cf, sg in cands[: n_starts - 1]:
+            starts.append((np.concatenate([om.increments(full), cf]), sg))
+
+    def bounds(sg):
+        c_lo = np.where(np.isfinite(lower), 0.0, -np.inf)
+        cf_lb = c_lo if sg > 0 else np.full(n_terms + 1, -np.inf)
+        cf_ub = np.full(n_terms + 1, np.inf) if sg > 0 else -c_lo
+        cf_lb[-1], cf_ub[-1] = -np.inf, np.inf
+        lb = np.concatenate([[0.0] * nf, cf_lb])
+        ub = np.concatenate([[om.bound()] * nf, cf_ub])
+        return lb, ub
+
+    best = None
+    for theta0, sg in starts:
+        lb, ub = bounds(sg)
+        x0 = np.clip(theta0, lb + 1e-9 * np.isfinite(lb), ub - 1e-9 * np.isfinite(ub))
+        sol = sopt.least_squares(resid, x0, bounds=(lb, ub), x_scale="jac", max_nfev=200)
+        if best is None or sol.cost < best.cost:
+            best = sol
+    model = build(best.x)
     e = model.simulate(u, dt) - y
     rms = float(np.sqrt(np.mean(e**2)))
     fitp = 100 * (1 - np.linalg.norm(e) / np.linalg.norm(y - y.mean()))

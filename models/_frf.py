@@ -46,10 +46,12 @@ __all__ = [
     "GreyBoxFit",
     "ReducedModel",
     "TFFit",
+    "align_phase",
     "amplitude_dependence",
     "balanced_truncation",
     "fit_frf_params",
     "fit_tf",
+    "frf_comparison",
     "frf_estimate",
     "hankel_singular_values",
 ]
@@ -270,6 +272,119 @@ def frf_estimate(
                 f"{int(np.prod(u.shape[:-1]))} rows; give one amplitude per row."
             )
     return FRF(f[keep], H[..., keep], coh[..., keep], amps, int(n_avg))
+
+
+def align_phase(model_deg, data_deg) -> np.ndarray:
+    """Unwrapped model phase moved by whole turns onto the data phase's branch.
+
+    Both phases are unwrapped along frequency; the model's is then shifted by the
+    multiple of 360 degrees that brings it nearest the data's at the first frequency,
+    so that the two curves are compared on the same branch (an unwrapped phase is
+    defined only up to whole turns, and two unwrappings from different starts can lie
+    hundreds of degrees apart).
+
+    Parameters
+    ----------
+    model_deg, data_deg : array_like
+        Phases in degrees at the same ascending frequencies.
+
+    Returns
+    -------
+    ndarray
+        The model phase (degrees).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> data = np.array([-170.0, -190.0, -210.0])       # already unwrapped
+    >>> model = np.array([185.0, 165.0, 150.0])          # wrapped, other branch
+    >>> align_phase(model, data)
+    array([-175., -195., -210.])
+    """
+    m = np.degrees(np.unwrap(np.radians(np.asarray(model_deg, dtype=float))))
+    d = np.degrees(np.unwrap(np.radians(np.asarray(data_deg, dtype=float))))
+    if m.size == 0:
+        return m
+    return m + 360.0 * np.round((d[0] - m[0]) / 360.0)
+
+
+def frf_comparison(
+    u,
+    y,
+    fs: float,
+    response: Callable,
+    *,
+    band: tuple[float, float] | None = None,
+    nperseg: int | None = None,
+) -> dict:
+    """A model's frequency response beside the H1 estimate and the coherence.
+
+    The H1 estimate and the coherence come from :func:`frf_estimate` (Welch:
+    ``scipy.signal.csd`` / ``welch``; its coherence is that of
+    :func:`scipy.signal.coherence`). Over ``band`` (Hz; default the first non-zero
+    line to Nyquist) both phases are unwrapped and the model's is put on the data's
+    branch (:func:`align_phase`). The segment length (default) resolves the band:
+    about ``fs / (band width / 200)`` samples, at most a quarter of the record.
+
+    Parameters
+    ----------
+    u, y : array_like, shape (n,)
+    fs : float
+    response : callable
+        ``response(freq_hz) -> complex array`` (e.g. a model's
+        ``frequency_response``).
+    band : (float, float), optional
+    nperseg : int, optional
+
+    Returns
+    -------
+    dict
+        ``freq``, ``H`` (data), ``G`` (model), ``coherence``, ``phase_data_deg``,
+        ``phase_model_deg``, ``nperseg``.
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.signal as ss
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.normal(size=20000)
+    >>> b, a = [0.0, 0.05], [1.0, -1.6, 0.9]
+    >>> y = ss.lfilter(b, a, u)
+    >>> G = lambda f: ss.freqz(b, a, worN=f, fs=100.0)[1]
+    >>> c = frf_comparison(u, y, 100.0, G, band=(2.0, 20.0))
+    >>> bool(np.max(np.abs(c["phase_model_deg"] - c["phase_data_deg"])) < 5)
+    True
+    """
+    fs = _check_fs(fs)
+    u = _as_float_array(u, "u (input)").reshape(-1)
+    y = _as_float_array(y, "y (output)").reshape(-1)
+    n = u.size
+    lo, hi = (0.0, fs / 2) if band is None else (float(band[0]), float(band[1]))
+    if nperseg is None:
+        width = max(hi - lo, fs / n)
+        target = fs / (width / 200.0)
+        nperseg = int(2 ** np.ceil(np.log2(max(target, 64))))
+        nperseg = int(max(min(nperseg, n // 4 if n >= 256 else n), min(64, n)))
+    frf = frf_estimate(u, y, fs, nperseg=nperseg)
+    keep = (frf.freq > 0) & (frf.freq >= lo) & (frf.freq <= hi)
+    if keep.sum() < 2:
+        raise DataError(
+            f"the band {lo:g}-{hi:g} Hz holds {int(keep.sum())} frequency line(s) of "
+            f"the estimate (resolution {fs / nperseg:.3g} Hz); widen it or give a "
+            "longer record."
+        )
+    f, H, coh = frf.freq[keep], frf.H[keep], frf.coherence[keep]
+    G = np.asarray(response(f), dtype=complex).reshape(-1)
+    ph_d = np.degrees(np.unwrap(np.angle(H)))
+    ph_m = align_phase(np.degrees(np.angle(G)), ph_d)
+    return {
+        "freq": f,
+        "H": H,
+        "G": G,
+        "coherence": coh,
+        "phase_data_deg": ph_d,
+        "phase_model_deg": ph_m,
+        "nperseg": int(nperseg),
+    }
 
 
 @dataclass

@@ -8,6 +8,12 @@ computed with one RQ factorisation of the block-Hankel data matrix. ``A`` and ``
 follow by the shift invariance of that matrix; ``B``, ``D`` and the initial state by
 linear least squares on the simulated output; the Kalman gain ``K`` (optional) by
 minimising the one-step prediction error.
+
+Long noisy records can give an ``A`` with poles outside the unit circle at orders above
+the true one (noise directions of the subspace); their simulation overflows. Such poles
+are reflected into the unit circle (``z -> 1 / conj(z)``, the same magnitude response
+shape) before ``B`` and ``D`` are estimated, and the model says so in
+``info["stabilised_poles"]`` and a :class:`~pdmkit.errors.ConvergenceWarning`.
 """
 
 from __future__ import annotations
@@ -17,10 +23,10 @@ import warnings
 import numpy as np
 from scipy import linalg, optimize, signal
 
-from pdmkit.errors import ConvergenceWarning, DataError
+from pdmkit.errors import ConvergenceWarning, DataError, ModelError
 from pdmkit.models._ident import IdentifiedModel, _as_signal, _check_fs, _check_order
 
-__all__ = ["n4sid", "ss_predict", "ss_simulate"]
+__all__ = ["n4sid", "ss_predict", "ss_simulate", "stabilise_matrix"]
 
 
 def _states(A: np.ndarray, B: np.ndarray, u: np.ndarray, x0=None) -> np.ndarray:
@@ -107,6 +113,46 @@ def _hankel(x: np.ndarray, rows: int, cols: int) -> np.ndarray:
     return np.vstack([x[r : r + cols].T for r in range(rows)])
 
 
+def _svd(M: np.ndarray):
+    """Thin SVD; LAPACK's divide-and-conquer first, the QR-iteration driver if it fails."""
+    try:
+        return linalg.svd(M, full_matrices=False)
+    except (np.linalg.LinAlgError, ValueError):
+        return linalg.svd(M, full_matrices=False, lapack_driver="gesvd")
+
+
+def stabilise_matrix(A: np.ndarray) -> tuple[np.ndarray, int]:
+    """``A`` with its eigenvalues outside the unit circle reflected to ``1 / conj``.
+
+    Conjugate pairs stay pairs, so the result is real. Returns ``(A_stable, count)``
+    with the number of eigenvalues moved. A defective (non-diagonalisable) ``A`` is
+    scaled into the circle instead.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A = np.array([[1.2, 0.0], [0.0, 0.5]])
+    >>> As, k = stabilise_matrix(A)
+    >>> np.round(np.sort(np.linalg.eigvals(As)), 4), k
+    (array([0.5   , 0.8333]), 1)
+    """
+    A = np.asarray(A, dtype=float)
+    if A.size == 0:
+        return A, 0
+    lam, V = linalg.eig(A)
+    out = np.abs(lam) >= 1.0
+    if not out.any():
+        return A, 0
+    if np.linalg.cond(V) < 1e10:
+        lam = lam.copy()
+        lam[out] = 1.0 / np.conj(lam[out])
+        lam[out] *= np.minimum(1.0, 0.9999 / np.abs(lam[out]))
+        As = np.real(V @ np.diag(lam) @ np.linalg.inv(V))
+    else:
+        As = A * (0.9999 / np.max(np.abs(lam)))
+    return As, int(out.sum())
+
+
 def _bd_x0(A, C, u, y):
     """Least squares for B, D, x0 given A, C (output linear in them)."""
     n, l, m = A.shape[0], C.shape[0], u.shape[1]
@@ -125,7 +171,15 @@ def _bd_x0(A, C, u, y):
             c[:, i] = u[:, k]
             cols.append(c)
     phi = np.stack([c.reshape(-1) for c in cols], axis=1)  # (N*l, p), row-major (t, out)
-    theta = np.linalg.lstsq(phi, y.reshape(-1), rcond=None)[0]
+    if not np.all(np.isfinite(phi)):
+        raise ModelError(
+            "n4sid: the state sequence overflowed (an unstable A); lower nx or pass "
+            "stabilize=True."
+        )
+    try:
+        theta = np.linalg.lstsq(phi, y.reshape(-1), rcond=None)[0]
+    except np.linalg.LinAlgError:  # badly conditioned: solve through the QR route
+        theta = linalg.lstsq(phi, y.reshape(-1), lapack_driver="gelsy")[0]
     x0 = theta[:n]
     B = theta[n : n + n * m].reshape(m, n).T
     D = theta[n + n * m :].reshape(m, l).T
@@ -142,6 +196,7 @@ def n4sid(
     noise_model: bool = True,
     max_nfev: int = 20,
     max_samples_k: int = 20_000,
+    stabilize: bool = True,
 ) -> IdentifiedModel:
     """State-space model of order ``nx`` by subspace identification (PO-MOESP).
 
@@ -165,6 +220,11 @@ def n4sid(
         evaluations).
     max_samples_k : int, default 20000
         ``K`` is fitted on the last this many samples.
+    stabilize : bool, default True
+        Reflect poles of ``A`` that lie on or outside the unit circle into it (with a
+        :class:`~pdmkit.errors.ConvergenceWarning`; their number in
+        ``info["stabilised_poles"]``). Without it an unstable ``A`` is kept, and a
+        record long enough to overflow its simulation is a ``ModelError``.
 
     Returns
     -------
@@ -215,14 +275,29 @@ def n4sid(
     L = R[: H.shape[0]].T
     r1, r2 = s * m, s * (m + l)
     L32 = L[r1 + r2 :, r1 : r1 + r2]
-    Uo, S, _ = linalg.svd(L32, full_matrices=False)
+    if not np.all(np.isfinite(L32)):
+        raise DataError(
+            "n4sid: the data matrix has non-finite entries; check u and y for overflow."
+        )
+    Uo, S, _ = _svd(L32)
     gamma = Uo[:, :nx] * np.sqrt(S[:nx])
     C = gamma[:l]
-    A = np.linalg.lstsq(gamma[:-l], gamma[l:], rcond=None)[0]
+    A = linalg.lstsq(gamma[:-l], gamma[l:], lapack_driver="gelsy")[0]
+    n_moved = 0
+    if stabilize:
+        A, n_moved = stabilise_matrix(A)
+        if n_moved:
+            warnings.warn(
+                f"n4sid: {n_moved} of the {nx} poles of the nx={nx} model lay on or "
+                "outside the unit circle and were reflected into it; a lower nx (or "
+                "an OE model) likely describes the data better.",
+                ConvergenceWarning,
+                stacklevel=2,
+            )
     B, D, _ = _bd_x0(A, C, us, ys)
 
     K = None
-    info = {"singular_values": S.tolist(), "horizon": s}
+    info = {"singular_values": S.tolist(), "horizon": s, "stabilised_poles": n_moved}
     if noise_model:
         # the gain is fitted on at most the last `max_samples_k` samples: plenty for
         # n * l numbers, and it keeps long records fast
