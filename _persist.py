@@ -80,6 +80,7 @@ PDMKIT_CLASSES = (
     "pdmkit.features._ranking.FeatureRanking",
     "pdmkit.features._ranking.SelectTopRanked",
     "pdmkit.rul._base.Unit",
+    "pdmkit.rul._boosting.BoostingRULModel",
     "pdmkit.rul._conformal.ConformalRUL",
     "pdmkit.rul._degradation.ExponentialDegradationModel",
     "pdmkit.rul._degradation.LinearDegradationModel",

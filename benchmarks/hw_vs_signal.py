@@ -14,7 +14,7 @@ and the same held-out split:
 * HW model: no input nonlinearity (a two-level input makes any static input map affine),
   linear block ``nb=2, nf=2, nk=10`` (0.1 s dead time: the chamber fills before the
   piston moves), output saturation (the end stops), fitted by
-  :class:`pdmkit.models._hammerstein.HammersteinWiener`; indicators: the 6 coefficients
+  :class:`pdmkit.models.ident.HammersteinWiener`; indicators: the 6 coefficients
   plus the fit percentage (``hw`` group of ``features._model_features``);
 * signal indicators: ``stats`` + ``spectral`` of the position (``extract_ensemble``);
 * classifiers: the seed's kNN on the top-5 Kruskal-Wallis indicators, and 30 bagged

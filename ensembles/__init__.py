@@ -21,6 +21,7 @@ Examples
 """
 
 from pdmkit.ensembles._datasets import (
+    BATTERY_EOL_AH,
     DATASETS,
     load_cascaded_tanks,
     load_cmapss,
@@ -41,7 +42,7 @@ from pdmkit.ensembles._distributed import (
     simulate_sweep,
 )
 from pdmkit.ensembles._ensemble import Ensemble
-from pdmkit.ensembles._parquet import iter_parquet, write_parquet_batches
+from pdmkit.ensembles._parquet import iter_parquet, url_filesystem, write_parquet_batches
 from pdmkit.ensembles._pneumatic import (
     PNEUMATIC_FAULTS,
     PNEUMATIC_SENSORS,
@@ -62,6 +63,7 @@ from pdmkit.ensembles._readers import read_mat, read_members, read_npz, read_tab
 from pdmkit.ensembles._tables import from_frame
 
 __all__ = [
+    "BATTERY_EOL_AH",
     "DATASETS",
     "PNEUMATIC_FAULTS",
     "PNEUMATIC_SENSORS",
@@ -99,5 +101,6 @@ __all__ = [
     "simulate_seed_single_fault_ensemble",
     "simulate_sensor_fault_ensemble",
     "simulate_sweep",
+    "url_filesystem",
     "write_parquet_batches",
 ]

@@ -28,6 +28,7 @@ from pdmkit.ensembles._readers import read_mat, read_npz, read_table
 from pdmkit.errors import DataError, DataNotFoundError
 
 __all__ = [
+    "BATTERY_EOL_AH",
     "DATASETS",
     "load_cascaded_tanks",
     "load_cmapss",

@@ -523,7 +523,7 @@ def _read_rows(url: str, columns: list[str], first: int, last: int) -> Any:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from pdmkit.ensembles._parquet import check_declared_sizes
+    from pdmkit.ensembles._limits import check_declared_sizes
 
     with _open(url) as source:
         reader = pq.ParquetFile(source, buffer_size=1 << 20, pre_buffer=False)

@@ -37,7 +37,8 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._checks import npy_declared, parse_timestamps
-from pdmkit._config import _LIMIT_ENV, max_bytes
+from pdmkit._config import max_bytes
+from pdmkit.ensembles._limits import _one_line, _size, _too_big, _why, check_declared_sizes
 from pdmkit.errors import DataError, DataNotFoundError, DataWarning, did_you_mean
 
 __all__ = ["read_mat", "read_members", "read_npz", "read_table"]
@@ -55,34 +56,6 @@ _DECOMPRESS_ERRORS = (
     ValueError,
     struct.error,
 )
-
-
-# --------------------------------------------------------------------------- sizes
-def _size(n: int) -> str:
-    """``n`` bytes for a message: ``'2 GiB'``, ``'3.5 MiB'``, ``'512 bytes'``."""
-    for unit, scale in (("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
-        if n >= scale:
-            return f"{n / scale:.3g} {unit}"
-    return f"{n} bytes"
-
-
-def _one_line(exc: BaseException) -> str:
-    """An exception's text on one line (pandas' parser errors end in a newline)."""
-    return " ".join(str(exc).split())
-
-
-def _why(exc: BaseException) -> str:
-    """``'Type: text'`` of an exception, on one line."""
-    return f"{type(exc).__name__}: {_one_line(exc)}"
-
-
-def _too_big(what: str, found: int, limit: int, verb: str = "declares") -> DataError:
-    """The one-line refusal of an array (or file) larger than the member ceiling."""
-    return DataError(
-        f"{what} {verb} {_size(found)} decompressed, more than the {_size(limit)} pdmkit "
-        "reads from one member file; refused before reading it. If the file is genuine, "
-        f"raise the ceiling: {_LIMIT_ENV['member']}={found}"
-    )
 
 
 def _existing_file(path: str | os.PathLike, what: str) -> Path:
@@ -541,8 +514,6 @@ def _check_parquet_table(path: Path, columns: Any) -> None:
     """Refuse a Parquet table whose declared (or decoded text) size is over the ceiling."""
     import pyarrow as pa
     import pyarrow.parquet as pq
-
-    from pdmkit.ensembles._parquet import check_declared_sizes
 
     limit = max_bytes("member")
     with pq.ParquetFile(path) as reader:

@@ -233,7 +233,7 @@ def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
         return ensemble, groups, options, label, sensors, profile, None
     groups = _envelope_group(groups, extra, args)
     if members:
-        from pdmkit.ensembles._readers import read_members
+        from pdmkit.ensembles import read_members
 
         written = getattr(args, "json", None)
         if args.labels is not None and written is not None:
@@ -262,7 +262,7 @@ def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
         return ensemble, groups, extra, label, None, None, errors
     # a path or fsspec URL: streamed in batches, never loaded whole
     if "://" in str(args.ensemble):  # a missing backend: one line naming its package
-        from pdmkit.ensembles._parquet import url_filesystem
+        from pdmkit.ensembles import url_filesystem
 
         url_filesystem(str(args.ensemble))
     return str(args.ensemble), groups, extra, args.label, None, None, None
@@ -832,6 +832,7 @@ def _sensors(args: argparse.Namespace, run: OutputRun) -> int:
 
 def _cmd_rul(args: argparse.Namespace) -> int:
     from pdmkit.experiments._rul import predict_rul, run_rul
+    from pdmkit.experiments._rul_checks import cap_text
 
     if (args.trained is None) != (args.history is None):
         raise DataError("--trained MODEL and --history TABLE go together")
@@ -843,24 +844,26 @@ def _cmd_rul(args: argparse.Namespace) -> int:
             args.history,
             json_path=args.json,
             expect_sha256=args.expect_sha256,
+            unit=args.unit,
+            time=args.time,
+            time_unit=args.time_unit,
         )
-        level = 100 * answer["level"]
         for row in answer["units"]:
-            print(
-                f"unit {row['unit']} at time {row['time']:g}: RUL {row['rul']:.1f} "
-                f"({level:g} % interval {row['lower']:.1f} to {row['upper']:.1f})"
-            )
+            print(row["text"])
         return 0
     if args.test is not None and args.train is None:
         raise DataError("--test needs --train (the training units)")
+    if args.train is None and (args.unit or args.time):
+        raise DataError("--unit and --time name columns of --train/--test/--history")
     # before reading anything: --out must not overwrite --train / --test
     check_output_folder(args.out, "rul", inputs=_input_paths(args), json_path=args.json)
     dataset = args.dataset
+    time_unit = args.time_unit
     if args.train is not None:
-        from pdmkit.ensembles._readers import read_table
         from pdmkit.experiments._rul import split_run_to_failure
 
-        train = _seconds(read_table(args.train), args.train)
+        train, guessed = _rul_table(args, args.train)
+        time_unit = time_unit or guessed
         if args.test is None:  # hold out a quarter of the units, cut at random
             dataset = split_run_to_failure(train, seed=args.seed)
             _say(
@@ -869,7 +872,7 @@ def _cmd_rul(args: argparse.Namespace) -> int:
                 "as test histories, each cut at 10-90 % of its life"
             )
         else:
-            dataset = (train, _seconds(read_table(args.test), args.test))
+            dataset = (train, _rul_table(args, args.test)[0])
     summary = run_rul(
         dataset,
         args.model,
@@ -884,16 +887,92 @@ def _cmd_rul(args: argparse.Namespace) -> int:
         )
         or None,
         calibrate=args.calibrate,
+        time_unit=time_unit,
     )
+    u = summary.get("time_unit", "")
+    capped = cap_text(summary.get("rul_cap"), u, summary.get("rul_cap_source", ""))
+    n_warn = len(summary.get("warnings", []))
     _say(
-        f"{summary['model']}: RMSE {summary['rmse']:.2f}, MAE {summary['mae']:.2f}, "
-        f"PHM08 score {_readable_float(summary['phm08_score'])} on "
-        f"{summary['n_units']} units; "
-        f"see {args.out}/report.html; trained model {summary['model_file']} "
+        f"{summary['model']}: RMSE {summary['rmse']:.2f} {u}, MAE {summary['mae']:.2f} "
+        f"{u}, PHM08 score {_readable_float(summary['phm08_score'])}, "
+        f"{100 * summary['level']:g} % interval coverage {summary['coverage']:.2f} on "
+        f"{summary['n_units']} units; {capped}; time unit {u}"
+        + (f"; {n_warn} warning(s), listed in rul.json" if n_warn else "")
+        + f"; see {args.out}/report.html; trained model {summary['model_file']} "
         f"(sha256 {summary['model_sha256']}: keep it to check the file later with "
         "--expect-sha256)"
     )
     return 0
+
+
+_RUL_TIME_UNITS = {
+    "cycle": "cycles",
+    "cycles": "cycles",
+    "s": "s",
+    "sec": "s",
+    "second": "s",
+    "seconds": "s",
+    "min": "min",
+    "minute": "min",
+    "minutes": "min",
+    "h": "h",
+    "hour": "h",
+    "hours": "h",
+    "d": "d",
+    "day": "d",
+    "days": "d",
+}
+
+
+def _rul_table(args: argparse.Namespace, path) -> tuple[pd.DataFrame, str]:
+    """A --train/--test table with its --unit/--time columns renamed to unit/time,
+    timestamps in seconds; and the time unit it implies (said when guessed)."""
+    import re
+
+    from pdmkit.ensembles import read_table
+    from pdmkit.experiments._rul import units_in_seconds
+    from pdmkit.experiments._rul_checks import rename_keys
+
+    table = read_table(path)
+    if args.time is not None and args.time not in table.columns:
+        raise DataError(
+            f"{path}: --time {args.time!r} is not a column (columns: "
+            f"{list(table.columns)[:12]})"
+        )
+    table, origin = units_in_seconds(table, path, args.time)
+    name = args.time or ("time" if "time" in table.columns else "cycle")
+    if origin is not None:
+        _say(f"{path}: time column {name!r} holds timestamps: seconds since {origin}")
+        guessed = "s"
+    else:
+        words = [w for w in re.split(r"[^a-z]+", str(name).lower()) if w]
+        guessed = next((_RUL_TIME_UNITS[w] for w in words if w in _RUL_TIME_UNITS), "s")
+        if args.time_unit is None and args.time is not None and path == args.train:
+            _say(
+                f"{path}: time column {name!r} read as {guessed} (from its name); "
+                "--time-unit says otherwise"
+            )
+    table = rename_keys(
+        table, path, [(args.unit, "unit", "--unit"), (args.time, "time", "--time")]
+    )
+    return table, guessed
+
+
+def _rul_cap(text: str) -> float | str | None:
+    """``--rul-cap N`` (a positive number), ``none``, or ``convention`` (default)."""
+    if text.strip().lower() in ("none", "no", "off"):
+        return None
+    if text.strip().lower() == "convention":
+        return "convention"
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a positive number or none, got {text!r}"
+        ) from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
 
 
 def _cmd_mismatch(args: argparse.Namespace) -> int:
@@ -1130,10 +1209,39 @@ def build_parser() -> argparse.ArgumentParser:
             "gamma-process",
             "survival",
             "covariate",
+            "boosting",
             "neural",
         ],
+        help="RUL model (boosting: gradient-boosted trees on windowed sensors, the "
+        "strong learned model; default similarity)",
     )
-    p.add_argument("--rul-cap", type=float, default=125.0, help="cap of RUL targets")
+    p.add_argument(
+        "--rul-cap",
+        type=_rul_cap,
+        default="convention",
+        metavar="N|none",
+        help="cap RUL targets, predictions and the true RULs of the headline scores at "
+        "N (default: none for --train/--test tables; the named dataset's convention, "
+        "125 cycles for cmapss-fd001, said in the output)",
+    )
+    p.add_argument(
+        "--time-unit",
+        metavar="UNIT",
+        help="unit of the time column, shown on every score, axis and line, e.g. "
+        "cycles, s, min, h (default: cycles for a cycle column, s for a time column "
+        "or timestamps)",
+    )
+    p.add_argument(
+        "--unit",
+        metavar="COL",
+        help="column telling the units apart in --train/--test/--history (default unit)",
+    )
+    p.add_argument(
+        "--time",
+        metavar="COL",
+        help="time column of --train/--test/--history (default time, else cycle; "
+        "timestamps become seconds)",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the estimators' draws")
     p.add_argument(
         "--train",

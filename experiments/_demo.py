@@ -784,7 +784,8 @@ _RUL_MAX_CYCLES = 40
 
 def _air_leak_rul(sink, seed: int, recording_s: float):
     """The demo's RUL step: (summary, trajectory figure); its files go to ``sink``."""
-    from pdmkit.experiments._rul import _rul, _trajectory_plot
+    from pdmkit.experiments._rul import _rul
+    from pdmkit.experiments._rul_models import _trajectory_plot
 
     full = _rul(
         sink,

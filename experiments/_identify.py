@@ -40,8 +40,8 @@ from pdmkit._outputs import OutputRun, to_jsonable
 from pdmkit.ensembles import read_mat, read_npz, read_table
 from pdmkit.errors import ConvergenceWarning, DataError, DataWarning, ModelError
 from pdmkit.experiments._report import Report
-from pdmkit.models._frf import frf_comparison
-from pdmkit.models._ident import STRUCTURES, fit_percent, identify, physical_modes
+from pdmkit.models.frequency import frf_comparison
+from pdmkit.models.ident import STRUCTURES, fit_percent, identify, physical_modes
 
 __all__ = [
     "IDENTIFY_STRUCTURES",
@@ -65,7 +65,7 @@ def _linear(structure: str) -> Callable[..., Any]:
 
 def _modes(poles: np.ndarray, fs: float) -> tuple[list[float], list[float]]:
     """Natural frequencies (Hz) and damping ratios of discrete poles (upper half-plane)."""
-    from pdmkit.models._ident import modes_from_poles
+    from pdmkit.models.ident import modes_from_poles
 
     fn, zeta, _ = modes_from_poles(poles, fs)
     return [float(v) for v in fn], [float(v) for v in zeta]
@@ -147,14 +147,14 @@ def _order_dict(order, keys: tuple[str, ...], structure: str) -> dict:
 
 
 def _fit_hw(u, y, fs, order, criterion):
-    from pdmkit.models._hammerstein import HammersteinWiener
+    from pdmkit.models.ident import HammersteinWiener
 
     opts = _order_dict(order, ("nb", "nf", "nk"), "hw")
     return _HammersteinWienerResult(HammersteinWiener(**opts).fit(u, y), fs)
 
 
 def _fit_fractional(u, y, fs, order, criterion):
-    from pdmkit.models._fractional import fit_fractional_tf
+    from pdmkit.models.frequency import fit_fractional_tf
 
     fixed = _order_dict(order, ("alpha", "beta"), "fractional") or None
     fit = fit_fractional_tf(u, y, fs, domain="time", fixed_orders=fixed)
@@ -562,8 +562,7 @@ def _is_stable(model) -> bool:
 def _alternative(u, y, fs, structure: str, model) -> dict | None:
     """The best of OE (started from ARX, Steiglitz-McBride) and N4SID with as many
     poles, when it is stable and fits positively; None if neither does."""
-    from pdmkit.models._ident_pem import oe
-    from pdmkit.models._subspace import n4sid
+    from pdmkit.models.ident import n4sid, oe
 
     n = max(2, min(_n_poles(model), 40))
     tries = []
@@ -635,7 +634,7 @@ def identify_summary(model, *, band=None, **sources: Any) -> dict:
     """JSON summary of an identified model (the keys the CLI promises first).
 
     ``natural_frequencies_hz`` and ``damping`` list the resonances only
-    (:func:`pdmkit.models._ident.physical_modes`): real poles, poles at Nyquist,
+    (:func:`pdmkit.models.ident._model.physical_modes`): real poles, poles at Nyquist,
     poles cancelled by a zero and (with ``band``) modes outside the band go to
     ``not_modes``, each with its ``reason``.
 
@@ -643,7 +642,7 @@ def identify_summary(model, *, band=None, **sources: Any) -> dict:
     --------
     >>> import numpy as np
     >>> from scipy import signal
-    >>> from pdmkit.models._ident import arx
+    >>> from pdmkit.models.ident import arx
     >>> rng = np.random.default_rng(0)
     >>> u = rng.normal(size=2000)
     >>> y = signal.lfilter([0, 1.0], [1, -0.9], u)
@@ -722,7 +721,7 @@ def build_identify_report(
     :func:`scipy.signal.coherence`) on a log frequency axis over ``band`` (default
     the first non-zero line to Nyquist); the model's phase is unwrapped and moved by
     whole turns onto the data's branch at the first frequency
-    (:func:`pdmkit.models._frf.frf_comparison`). ``fit_data`` is the ``(u, y)`` the
+    (:func:`pdmkit.models.frequency.frf_comparison`). ``fit_data`` is the ``(u, y)`` the
     model was fitted to (band-filtered with a band; default ``u, y``): the simulation
     and residual tests use it.
 
@@ -730,7 +729,7 @@ def build_identify_report(
     --------
     >>> import numpy as np
     >>> from scipy import signal
-    >>> from pdmkit.models._ident import arx
+    >>> from pdmkit.models.ident import arx
     >>> rng = np.random.default_rng(0)
     >>> u = rng.normal(size=1000)
     >>> y = signal.lfilter([0, 0.1], [1, -1.6, 0.9], u)

@@ -32,8 +32,8 @@ BATTERY_MODELS = (
 
 
 def _battery_estimator(model, seed, rul_cap, options, calibrate):
-    from pdmkit.ensembles._datasets import BATTERY_EOL_AH
-    from pdmkit.experiments._rul import make_rul_model
+    from pdmkit.ensembles import BATTERY_EOL_AH
+    from pdmkit.experiments._rul_models import make_rul_model
     from pdmkit.rul import ConformalRUL, RULPipeline
 
     if model not in BATTERY_MODELS:
@@ -64,7 +64,7 @@ def _capacity_plot(data: pd.DataFrame, threshold: float, ax=None):
         state = "fails" if part["failed"].any() else "censored"
         ax.plot(part["cycle"], part["capacity"], label=f"{name} ({state})")
     ax.axhline(threshold, color="k", linestyle="--", linewidth=0.8, label="end of life")
-    ax.set_xlabel("discharge")
+    ax.set_xlabel("discharge (cycles)")
     ax.set_ylabel("capacity (Ah)")
     ax.legend(fontsize="small")
     return ax
@@ -78,16 +78,16 @@ def run_battery(
     rul_cap,
     options,
     calibrate,
+    time_unit: str = "cycles",
 ) -> dict[str, Any]:
     """Leave-one-cell-out RUL on the NASA cells (see the module notes).
 
     The files are registered with ``sink`` (a :class:`pdmkit._outputs.OutputRun` or a
     sub-folder of one) and written when the caller commits it.
     """
-    from pdmkit.ensembles import load_nasa_battery
-    from pdmkit.ensembles._datasets import BATTERY_EOL_AH
+    from pdmkit.ensembles import BATTERY_EOL_AH, load_nasa_battery
     from pdmkit.experiments._report import Report
-    from pdmkit.experiments._rul import (
+    from pdmkit.experiments._rul_models import (
         RUL_MODELS,
         _calibration,
         _finish,
@@ -122,6 +122,7 @@ def run_battery(
             if k in part.index
         }
     final = _battery_estimator(model, seed, rul_cap, options, calibrate).fit(data)
+    final.time_unit_ = time_unit
     summary: dict[str, Any] = {
         "model": model,
         "dataset": "nasa-battery",
@@ -133,6 +134,9 @@ def run_battery(
         "n_predictions": metrics["n"],
         "bias": metrics["bias"],
         "mean_interval_width": metrics["mean_width"],
+        "level": float(
+            getattr(final.model, "level_", None) or getattr(final.model, "level", 0.9)
+        ),
         "within_10pct": fractions,
         "per_cell": {
             str(u): {
@@ -145,6 +149,7 @@ def run_battery(
         "eol_capacity_ah": BATTERY_EOL_AH,
         "censored_cells": sorted(set(data["unit"]) - set(failed)),
         "rul_cap": rul_cap,
+        "time_unit": time_unit,
         "seed": seed,
         "fit_seconds": round(fit_seconds, 2),
         "estimator": repr(final.model),
@@ -165,7 +170,7 @@ def run_battery(
         _capacity_plot(data, BATTERY_EOL_AH), caption="Capacity fade of the four cells"
     )
     report.add_figure(
-        _trajectory_plot(table, failed),
+        _trajectory_plot(table, failed, time_unit=time_unit),
         caption="RUL against discharge for each held-out cell (true RUL dashed; "
         "dotted: the model's interval; shaded: within 10 % of the cell's life over its "
         "last half)",

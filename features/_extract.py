@@ -687,7 +687,7 @@ def _batch_table(
 
 def _extract_task(item, signals, groups, options, shaft_column, on_error):
     """One unit of work (a batch or a Parquet partition): (table, errors, signals)."""
-    from pdmkit.ensembles._distributed import Partition, read_partition
+    from pdmkit.ensembles import Partition, read_partition
 
     errors: list = []
     source = None
@@ -825,7 +825,7 @@ def extract_ensemble(
 
     total = None
     if isinstance(ensemble, str | os.PathLike):
-        from pdmkit.ensembles._distributed import parquet_partitions
+        from pdmkit.ensembles import parquet_partitions
 
         items: Iterable = parquet_partitions(ensemble, batch_size=batch_size)
         total = len(items)
@@ -861,7 +861,7 @@ def extract_ensemble(
             )
         )
     else:
-        from pdmkit.ensembles._distributed import dask_map
+        from pdmkit.ensembles import dask_map
 
         results = dask_map(
             _extract_task,

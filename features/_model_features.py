@@ -3,13 +3,13 @@
 Each group fits a model from the member's *input* and *output* records and reports
 its parameters as indicators:
 
-- ``frf`` - H1 frequency response with coherence (:func:`pdmkit.models._frf.frf_estimate`)
-  and a rational fit (:func:`~pdmkit.models._frf.fit_tf`): resonance and gains (seeds
-  002, 003);
+- ``frf`` - H1 frequency response with coherence
+  (:func:`pdmkit.models.frequency.frf_estimate`) and a rational fit
+  (:func:`~pdmkit.models.frequency.fit_tf`): resonance and gains (seeds 002, 003);
 - ``hw`` - Hammerstein-Wiener coefficients
-  (:class:`~pdmkit.models._hammerstein.HammersteinWiener`; seed 001 section 8.2.1);
+  (:class:`~pdmkit.models.ident._hammerstein.HammersteinWiener`; seed 001 section 8.2.1);
 - ``fractional`` - ``1/(a s^alpha + b s^beta + c)`` fitted to the empirical transfer
-  function (:func:`~pdmkit.models._fractional.fit_fractional_tf`; seed 004).
+  function (:func:`~pdmkit.models.frequency.fit_fractional_tf`; seed 004).
 
 Public functions take ``u, y`` (1-D for one member or 2-D ``(members, samples)``; a
 1-D ``u`` is shared by all members) and return a DataFrame with columns
@@ -142,7 +142,7 @@ def frf_features(
     ``PeakFreq`` (Hz) and ``PeakGainDb``: the largest H1 magnitude in the band;
     ``LowGainDb`` / ``HighGainDb``: magnitude at the lowest / highest frequency;
     ``MeanCoherence``; ``Wn`` (rad/s) and ``Zeta``: the least damped pole pair of a
-    rational fit with ``order`` poles (:func:`~pdmkit.models._frf.fit_tf`, weighted by
+    rational fit with ``order`` poles (:func:`~pdmkit.models.frequency.fit_tf`, weighted by
     coherence), ``FitPercent`` of that fit.
 
     Examples
@@ -227,7 +227,7 @@ def hw_features(
 ) -> pd.DataFrame:
     """Hammerstein-Wiener coefficients per member (group ``"hw"``; seed 001, 8.2.1).
 
-    One :class:`~pdmkit.models._hammerstein.HammersteinWiener` per member; the
+    One :class:`~pdmkit.models.ident._hammerstein.HammersteinWiener` per member; the
     indicators are its coefficients (input nonlinearity, ``B``, ``F``, output
     nonlinearity) and ``FitPercent``. The default structure suits a two-level command
     and a bounded stroke: no input nonlinearity, output saturation, records starting at
@@ -274,13 +274,13 @@ def fractional_features(
     """Fractional-model parameters per member (group ``"fractional"``; seed 004).
 
     ``A, Alpha, B, Beta, C`` of ``1/(a s^alpha + b s^beta + c)`` fitted to the member's
-    empirical transfer function (:func:`~pdmkit.models._fractional.fit_fractional_tf`,
+    empirical transfer function (:func:`~pdmkit.models.frequency.fit_fractional_tf`,
     frequency domain), and the relative fit ``Error``.
 
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._fractional import FractionalTF
+    >>> from pdmkit.models.frequency import FractionalTF
     >>> from pdmkit.features._model_features import fractional_features
     >>> u = np.random.default_rng(0).normal(size=4000)
     >>> y = FractionalTF.seed004(0.05, 1.5, 0.2, 0.5, 1.0).simulate(u, 0.01)

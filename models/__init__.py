@@ -9,23 +9,18 @@ subpackage                what it holds
                           added terms), linearisation, the built-in showcase models
 ``models.mismatch``       mismatch discovery: fit, locate, candidate physics, sparse
                           terms, verdict
+``models.ident``          system identification: ARX/PEM/subspace models, order
+                          selection, recursive pole tracking, Hammerstein-Wiener
+``models.frequency``      FRF estimation, rational and grey-box fits, balanced
+                          reduction, fractional-order models
 ``models.diagnosis``      diagnostic masks and matrices (seed ``000``), symbolic dynamics
                           (seed ``002``)
 ``models.rigs``           simulated rigs of the source studies (the mass-beam rig)
 ========================  ==============================================================
 
-System identification (``docs/identification.md``): :func:`identify` dispatches to
-:func:`ar`, :func:`arx`, :func:`armax`, :func:`oe`, :func:`bj` (prediction-error
-methods) and :func:`n4sid` (subspace), with :func:`select_order` by AIC/BIC/MDL; an
-:class:`IdentifiedModel` gives poles, natural frequencies, damping and simulation.
-:class:`RecursiveARX` and :func:`track_poles` follow poles over time.
-
-Frequency domain and nonlinear structures (``docs/model_indicators.md``):
-:func:`frf_estimate` (H1 with coherence), :func:`fit_tf` (Sanathanan-Koerner rational
-fits in s or z), :func:`fit_frf_params` (coherence-weighted grey-box fits),
-:func:`balanced_truncation`; :func:`linearize` (Jacobians by autograd);
-:class:`HammersteinWiener`; fractional-order models (:func:`fit_fractional_tf`,
-:func:`gl_simulate`, :func:`oustaloup`).
+Residual tests shared by all of them live in ``models/_residuals.py``
+(:func:`whiteness_test`, :func:`dm_test`); ``docs/identification.md`` and
+``docs/model_indicators.md`` show the identification and frequency-domain paths.
 
 The public names of every subpackage are also importable from ``pdmkit.models``
 directly.
@@ -38,53 +33,6 @@ Examples
 0.16
 """
 
-from pdmkit.models._fractional import (
-    FractionalConditionClassifier,
-    FractionalFit,
-    FractionalTF,
-    fit_fractional_frf,
-    fit_fractional_tf,
-    gl_simulate,
-    gl_weights,
-    model_distance,
-    oustaloup,
-)
-from pdmkit.models._frf import (
-    FRF,
-    AmplitudeDependence,
-    GreyBoxFit,
-    ReducedModel,
-    TFFit,
-    amplitude_dependence,
-    balanced_truncation,
-    fit_frf_params,
-    fit_tf,
-    frf_estimate,
-    hankel_singular_values,
-)
-from pdmkit.models._hammerstein import (
-    DeadZone,
-    HammersteinWiener,
-    PiecewiseLinear,
-    Polynomial,
-    Saturation,
-    nonlinearity,
-)
-from pdmkit.models._ident import (
-    CRITERIA,
-    STRUCTURES,
-    IdentifiedModel,
-    OrderSelection,
-    ar,
-    arx,
-    fit_percent,
-    identify,
-    modes_from_poles,
-    select_order,
-)
-from pdmkit.models._ident_pem import armax, bj, oe
-from pdmkit.models._recursive import PoleTracks, RecursiveARX, smooth_tracks, track_poles
-from pdmkit.models._subspace import n4sid, ss_predict, ss_simulate
 from pdmkit.models.diagnosis import (
     DiagnosticMask,
     DiagnosticMatrix,
@@ -93,6 +41,56 @@ from pdmkit.models.diagnosis import (
     max_entropy_partition,
     state_probabilities,
     symbolize,
+)
+from pdmkit.models.frequency import (
+    FRF,
+    AmplitudeDependence,
+    FractionalConditionClassifier,
+    FractionalFit,
+    FractionalTF,
+    GreyBoxFit,
+    ReducedModel,
+    TFFit,
+    amplitude_dependence,
+    balanced_truncation,
+    fit_fractional_frf,
+    fit_fractional_tf,
+    fit_frf_params,
+    fit_tf,
+    frf_estimate,
+    gl_simulate,
+    gl_weights,
+    hankel_singular_values,
+    model_distance,
+    oustaloup,
+)
+from pdmkit.models.ident import (
+    CRITERIA,
+    STRUCTURES,
+    DeadZone,
+    HammersteinWiener,
+    IdentifiedModel,
+    OrderSelection,
+    PiecewiseLinear,
+    PoleTracks,
+    Polynomial,
+    RecursiveARX,
+    Saturation,
+    ar,
+    armax,
+    arx,
+    bj,
+    fit_percent,
+    identify,
+    modes_from_poles,
+    n4sid,
+    nonlinearity,
+    oe,
+    select_order,
+    smooth_tracks,
+    ss_predict,
+    ss_simulate,
+    track_poles,
 )
 from pdmkit.models.mismatch import (
     CANDIDATE_IDS,

@@ -18,11 +18,15 @@ every point of each unit's history.
   :class:`HashSimilarityModel`.
 - Survival models: :class:`ReliabilitySurvivalModel` (Weibull and friends, censoring),
   :class:`CovariateSurvivalModel` (proportional hazards with time-varying covariates).
-- A learned model: :class:`NeuralRULModel` (small torch LSTM / 1-D CNN over windows).
+- Learned models: :class:`BoostingRULModel` (gradient-boosted trees on windowed
+  indicators, cross-conformal intervals), :class:`NeuralRULModel` (small torch LSTM /
+  1-D CNN over windows).
 - :class:`ConformalRUL`: any model's intervals rescaled, on held-out training units,
   to hold their level.
 - :class:`RULPipeline`: a health indicator and a model in one object (what
   ``pdmkit rul`` saves and ``pdmkit rul --trained`` loads).
+- Input checks: :func:`ood_scores` (test units outside the training rows),
+  :func:`shutdown_endings` (units whose last rows look switched off).
 - Metrics: :func:`rmse`, :func:`mae`, :func:`phm08_score`, :func:`interval_coverage`,
   :func:`alpha_lambda_accuracy`, :func:`relative_accuracy`, :func:`prognostic_horizon`,
   :func:`rul_metrics`.
@@ -41,9 +45,11 @@ Examples
 0  new  29.0  40.0
 """
 
-from pdmkit.rul._base import timestamps_to_seconds
+from pdmkit.rul._base import resolve_keys, timestamps_to_seconds
+from pdmkit.rul._boosting import BoostingRULModel
 from pdmkit.rul._conformal import ConformalRUL
 from pdmkit.rul._degradation import ExponentialDegradationModel, LinearDegradationModel
+from pdmkit.rul._diagnostics import OOD_THRESHOLD, ood_scores, shutdown_endings
 from pdmkit.rul._indicators import (
     HealthIndicator,
     RegimeNormalizer,
@@ -73,6 +79,8 @@ from pdmkit.rul._wiener import GammaProcessDegradationModel, WienerDegradationMo
 from pdmkit.rul._wiener_noise import NoisyWienerDegradationModel
 
 __all__ = [
+    "OOD_THRESHOLD",
+    "BoostingRULModel",
     "ConformalRUL",
     "CovariateSurvivalModel",
     "ExponentialDegradationModel",
@@ -92,12 +100,15 @@ __all__ = [
     "alpha_lambda_accuracy",
     "interval_coverage",
     "mae",
+    "ood_scores",
     "phm08_score",
     "prognostic_horizon",
     "prognostic_ranking",
     "relative_accuracy",
+    "resolve_keys",
     "rmse",
     "rul_metrics",
+    "shutdown_endings",
     "smooth_indicators",
     "timestamps_to_seconds",
 ]

@@ -115,7 +115,18 @@ def timestamps_to_seconds(
 
 
 def resolve_keys(table: pd.DataFrame, unit: str, time: str | None) -> tuple[str, str]:
-    """Return the unit and time column names, checking that they exist."""
+    """The unit and time column names of a run-to-failure table, checked.
+
+    ``time=None`` takes ``time``, else ``cycle``; a missing column is a one-line
+    :class:`~pdmkit.errors.DataError` that lists the table's columns.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from pdmkit.rul import resolve_keys
+    >>> resolve_keys(pd.DataFrame({"unit": [1], "cycle": [1], "s1": [0.0]}), "unit", None)
+    ('unit', 'cycle')
+    """
     if unit not in table.columns:
         raise DataError(
             f"unit column {unit!r} is not in the table (columns: "

@@ -1,4 +1,4 @@
-"""A learned RUL model: a small torch LSTM or 1-D CNN over windows of indicators.
+"""A learned RUL model: a small torch LSTM, 1-D CNN or MLP over windows of indicators.
 
 The network reads the last ``window`` samples of the standardised indicators (and,
 by default, the unit's age) and regresses the RUL, capped at ``max_rul`` as is usual
@@ -73,7 +73,54 @@ def _network(arch: str, n_inputs: int, window: int, hidden: int):
         def forward(self, x):
             return self.head(self.conv(torch.transpose(x, 1, 2))).squeeze(-1)
 
-    return LSTMNet() if arch == "lstm" else CNNNet()
+    class MLPNet(nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.body = nn.Sequential(
+                nn.Flatten(),
+                nn.Linear(n_inputs * window, hidden),
+                nn.ReLU(),
+                nn.Dropout(0.1),
+                nn.Linear(hidden, hidden // 2 or 1),
+                nn.ReLU(),
+                nn.Linear(hidden // 2 or 1, 1),
+            )
+
+        def forward(self, x):
+            return self.body(x).squeeze(-1)
+
+    return {"lstm": LSTMNet, "cnn": CNNNet, "mlp": MLPNet}[arch]()
+
+
+_MALLOC_TUNED = False
+
+
+def _keep_buffers() -> None:
+    """Let glibc's malloc keep freed memory for the next batch (once per process).
+
+    Each training batch allocates and frees the same few-hundred-kB tensors; with
+    glibc's defaults the heap's top grows for them and is trimmed back (or they are
+    mapped and unmapped) every time, and every batch faults its pages in again: 35-40 %
+    of an LSTM training's CPU time was in the kernel. Raising the top pad and the trim
+    threshold to 256 MiB and the mmap threshold to 32 MiB (the most glibc allows) keeps
+    the memory in the heap: on FD001 the kernel time of a 7 s fit went from 2.8 s to
+    0.2 s (glibc's ``MALLOC_TOP_PAD_`` alone did it). The process keeps up to 256 MiB
+    of freed heap. Elsewhere than glibc, nothing happens.
+    """
+    global _MALLOC_TUNED
+    if _MALLOC_TUNED:
+        return
+    _MALLOC_TUNED = True
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6")
+        m_trim_threshold, m_top_pad, m_mmap_threshold = -1, -2, -3
+        libc.mallopt(m_mmap_threshold, 32 << 20)
+        libc.mallopt(m_trim_threshold, 256 << 20)
+        libc.mallopt(m_top_pad, 256 << 20)
+    except (OSError, AttributeError):  # not glibc
+        pass
 
 
 class _Threads:
@@ -85,6 +132,7 @@ class _Threads:
     def __enter__(self):
         import torch
 
+        _keep_buffers()
         self.old = torch.get_num_threads()
         torch.set_num_threads(self.n)
 
@@ -104,9 +152,13 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         (``rul``, ``rul_true_final``, ``failed``), constant ones dropped.
     window : int, default 30
         Samples per input window.
-    arch : {"lstm", "cnn"}, default "lstm"
+    arch : {"lstm", "cnn", "mlp"}, default "lstm"
+        ``"mlp"``: the flattened window through two ReLU layers (``hidden`` and
+        ``hidden / 2`` units, dropout 0.1): on C-MAPSS FD001 (window 40, hidden 128,
+        30 epochs, 5 folds) RMSE 11.5-11.9 over seeds in about 14 s of CPU, where the
+        LSTM gave 12.4-13.8 in 40 s.
     hidden : int, default 64
-        LSTM hidden size / CNN channels.
+        LSTM hidden size / CNN channels / MLP first layer.
     epochs : int, default 15
     batch_size : int, default 256
     lr : float, default 1e-3
@@ -224,7 +276,7 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         return wins, np.minimum(rul, self._cap) / self._cap
 
     # ------------------------------------------------------------------ training
-    def _train(self, X, y, seed):
+    def _train(self, X, y, seed, bar=None):
         import torch
 
         torch.manual_seed(seed)
@@ -250,6 +302,8 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
                 total += float(loss.detach()) * len(idx)
             sched.step()
             losses.append(total / len(Xt))
+            if bar is not None:
+                bar.update(1)
         net.eval()
         return net, losses
 
@@ -291,8 +345,8 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         table = check_table(table)
         self._keys = resolve_keys(table, self.unit, self.time)
         self._failed = failed_column(table, self.failed)
-        if self.arch not in ("lstm", "cnn"):
-            raise ValueError(f"arch must be 'lstm' or 'cnn', got {self.arch!r}")
+        if self.arch not in ("lstm", "cnn", "mlp"):
+            raise ValueError(f"arch must be 'lstm', 'cnn' or 'mlp', got {self.arch!r}")
         if self.pad not in ("error", "edge"):
             raise ValueError(f"pad must be 'error' or 'edge', got {self.pad!r}")
         for name, low in (
@@ -321,7 +375,10 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         check_columns(table, cols, "features")
         self.dropped_ = {}
         spread = table[cols].std() if cols else pd.Series(dtype=float)
-        self.features_ = [c for c in cols if spread[c] > 0]
+        magnitude = table[cols].abs().mean() if cols else pd.Series(dtype=float)
+        # constant up to rounding (C-MAPSS stores two sensors with a 1e-15 spread):
+        # standardised, such a column would be pure noise
+        self.features_ = [c for c in cols if spread[c] > 1e-9 * max(magnitude[c], 1.0)]
         self.dropped_ = {
             c: "constant over the training table" for c in cols if c not in self.features_
         }
@@ -351,6 +408,9 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         fold_of = rng.permutation(len(units)) % n_folds
         models, history = [], []
         oof_pred, oof_true = [], []
+        from pdmkit._progress import progress_bar
+
+        bar = progress_bar(n_folds * int(self.epochs), desc="neural epochs")
         with _Threads(int(self.n_threads)):
             for f in range(n_folds):
                 train_idx = [
@@ -358,7 +418,7 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
                 ]
                 X = np.concatenate([per_unit[i][0] for i in train_idx])
                 y = np.concatenate([per_unit[i][1] for i in train_idx])
-                net, losses = self._train(X, y, int(self.random_state) * 1000 + f)
+                net, losses = self._train(X, y, int(self.random_state) * 1000 + f, bar)
                 models.append(net)
                 history.extend(
                     {"fold": f, "epoch": e + 1, "loss": v} for e, v in enumerate(losses)
@@ -367,6 +427,8 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
                 Xh = np.concatenate([per_unit[i][0] for i in held])
                 oof_pred.append(self._run([net], Xh))
                 oof_true.append(np.concatenate([per_unit[i][1] for i in held]))
+        if bar is not None:
+            bar.close()
         self.models_ = models
         self.history_ = pd.DataFrame(history)
         pred = np.clip(np.concatenate(oof_pred), 0, 1) * self._cap

@@ -32,6 +32,9 @@ class RULPrediction:
         Name of the model that made the prediction.
     extra : dict of str -> array_like, optional
         Further per-row columns (for example the nearest training units).
+    time_unit : str, optional
+        Unit of the time column and the RULs (``"cycles"``, ``"h"``, ...), shown on
+        the plots' axes.
 
     Attributes
     ----------
@@ -39,6 +42,7 @@ class RULPrediction:
     level : float
     model : str
     extra : dict
+    time_unit : str
 
     Examples
     --------
@@ -63,6 +67,7 @@ class RULPrediction:
         level: float = 0.9,
         model: str = "",
         extra: dict | None = None,
+        time_unit: str = "",
     ) -> None:
         self.unit = np.asarray(unit)
         self.time = np.asarray(time)
@@ -78,6 +83,7 @@ class RULPrediction:
                 )
         self.level = float(level)
         self.model = str(model)
+        self.time_unit = str(time_unit)
         self.extra = {}
         for key, values in (extra or {}).items():
             values = list(values) if not isinstance(values, np.ndarray) else values
@@ -150,7 +156,15 @@ class RULPrediction:
             rul_true = [mapping[u] for u in self.unit]
         return rul_metrics(rul_true, self.estimate, self.lower, self.upper)
 
-    def plot(self, ax=None, *, true=None, units=None, max_units: int = 6):
+    def plot(
+        self,
+        ax=None,
+        *,
+        true=None,
+        units=None,
+        max_units: int = 6,
+        time_unit: str | None = None,
+    ):
         """Plot the predictions with their intervals.
 
         With several rows per unit (a trajectory), RUL against time, one line and
@@ -167,6 +181,8 @@ class RULPrediction:
         units : sequence, optional
             Units to show in the trajectory plot (default: the first ``max_units``).
         max_units : int, default 6
+        time_unit : str, optional
+            Unit on the axes (default :attr:`time_unit`; none shown when empty).
 
         Returns
         -------
@@ -177,9 +193,9 @@ class RULPrediction:
         >>> from pdmkit.rul import RULPrediction
         >>> p = RULPrediction([1, 1, 1], [10, 20, 30], [28.0, 21.0, 9.0],
         ...                   [20.0, 15.0, 5.0], [35.0, 27.0, 14.0])
-        >>> ax = p.plot(true=[30.0, 20.0, 10.0])
-        >>> ax.get_xlabel()
-        'time'
+        >>> ax = p.plot(true=[30.0, 20.0, 10.0], time_unit="h")
+        >>> ax.get_xlabel(), ax.get_ylabel()
+        ('time (h)', 'RUL (h)')
         """
         import matplotlib.pyplot as plt
 
@@ -190,6 +206,8 @@ class RULPrediction:
             raise DataError(f"true has shape {true.shape}; expected {self.estimate.shape}")
         names = list(pd.unique(self.unit))
         trajectory = len(names) < len(self)
+        tu = getattr(self, "time_unit", "") if time_unit is None else str(time_unit)
+        suffix = f" ({tu})" if tu else ""
         pct = f"{100 * self.level:g} %"
         # infinite RULs (no failure expected) are drawn at the top of the plot
         cap = _finite_cap(np.r_[self.upper, self.estimate])
@@ -206,8 +224,8 @@ class RULPrediction:
                 ax.fill_between(t, lo[rows], up[rows], color=colour, alpha=0.2, linewidth=0)
                 if true is not None:
                     ax.plot(t, true[rows], color=colour, linestyle="--", linewidth=1)
-            ax.set_xlabel("time")
-            ax.set_ylabel("RUL")
+            ax.set_xlabel("time" + suffix)
+            ax.set_ylabel("RUL" + suffix)
             title = f"RUL with {pct} intervals"
             ax.set_title(title + (" (true dashed)" if true is not None else ""))
             ax.legend(fontsize="small")
@@ -224,10 +242,10 @@ class RULPrediction:
                 elinewidth=0.6,
                 label=f"estimate, {pct} interval",
             )
-            top = float(max(np.max(true), np.max(est)))
+            top = float(np.nanmax(np.r_[true, est]))
             ax.plot([0, top], [0, top], "k--", linewidth=1, label="ideal")
-            ax.set_xlabel("true RUL")
-            ax.set_ylabel("predicted RUL")
+            ax.set_xlabel("true RUL" + suffix)
+            ax.set_ylabel("predicted RUL" + suffix)
             ax.set_title("Predicted against true RUL")
             ax.legend(fontsize="small")
         else:
@@ -236,7 +254,7 @@ class RULPrediction:
             if len(self) <= 30:
                 ax.set_xticks(x, labels=[str(u) for u in self.unit], rotation=90)
             ax.set_xlabel("unit")
-            ax.set_ylabel("RUL")
+            ax.set_ylabel("RUL" + suffix)
             ax.set_title(f"RUL per unit with {pct} intervals")
         return ax
 

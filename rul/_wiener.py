@@ -405,7 +405,9 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
         if m0 <= 0:
             warnings.warn(
                 f"the mean drift of {self.indicator!r} towards the threshold is {m0:g} "
-                "(not positive); most RULs will be inf - check direction=",
+                "(not positive): the training units do not move towards the threshold "
+                "on average, so units short of it get RULs beyond the horizon (inf) "
+                "and units past it RUL 0 - check direction= and threshold=",
                 UserWarning,
                 stacklevel=6,
             )
@@ -512,13 +514,23 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
         dist = self._w - z_now
         past = dist <= 0
         d = np.where(past, 1.0, dist)
+        # a unit beyond the threshold from its first row never crossed it: the model
+        # cannot time a crossing it did not see (not "RUL 0 (0 to 0)")
+        unknown = past & (self._w - z0 <= 0)
         return self._first_passage_summary(
-            names, t_now, past, lambda t: self._rul_cdf(t, d, post), self._extra(post)
+            names,
+            t_now,
+            past,
+            lambda t: self._rul_cdf(t, d, post),
+            self._extra(post),
+            unknown=unknown,
         )
 
-    def _first_passage_summary(self, names, t_now, past, cdf, extra):
+    def _first_passage_summary(self, names, t_now, past, cdf, extra, unknown=None):
         """Median and interval of each unit's RUL from its distribution function
-        ``cdf`` (vectorised over the units); RUL 0 where ``past``."""
+        ``cdf`` (vectorised over the units); RUL 0 where ``past``; where ``unknown``
+        (beyond the threshold since the first row) no estimate (NaN) and the interval
+        0 to inf."""
         level = self._level
         out = []
         for q in ((1 - level) / 2, 0.5, (1 + level) / 2):
@@ -526,8 +538,22 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
             out.append(np.where(past, 0.0, value))
         lo, est, hi = out
         p_fail = np.where(past, 1.0, reach)
+        note = np.full(past.shape, "", dtype=object)
+        note[past] = "past the threshold"
+        if unknown is not None and unknown.any():
+            est = np.where(unknown, np.nan, est)
+            hi = np.where(unknown, np.inf, hi)
+            p_fail = np.where(unknown, np.nan, p_fail)
+            note[unknown] = "indicator beyond the threshold since its first row"
+        note[~past & ~np.isfinite(hi)] = "upper bound beyond the horizon"
         return self._prediction(
-            names, t_now, est, lo, hi, level=level, extra={"p_fail": p_fail, **extra}
+            names,
+            t_now,
+            est,
+            lo,
+            hi,
+            level=level,
+            extra={"p_fail": p_fail, **extra, "note": note},
         )
 
     def _rul_cdf(self, t, d, post):

@@ -32,6 +32,7 @@ Examples
 ('sensor_offset', True)
 """
 
+from pdmkit.models._residuals import dm_test, whiteness_test
 from pdmkit.models.mismatch._candidates import (
     CANDIDATE_IDS,
     Candidate,
@@ -51,7 +52,6 @@ from pdmkit.models.mismatch._discover import (
     MismatchResult,
     choose_input_hold,
     discover_mismatch,
-    dm_test,
 )
 from pdmkit.models.mismatch._fit import (
     FitResult,
@@ -67,7 +67,6 @@ from pdmkit.models.mismatch._locate import (
     region_statistics,
     residual_spectrum,
     residual_windows,
-    whiteness_test,
 )
 from pdmkit.models.mismatch._sparse import (
     SparseTerms,

@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from pdmkit.errors import ConvergenceWarning, ModelError
+from pdmkit.models._residuals import dm_test
 from pdmkit.models.mismatch._candidates import SPARSE_ID, Scales, attach_candidates
 from pdmkit.models.mismatch._fit import (
     DEADLINE,
@@ -75,7 +76,6 @@ from pdmkit.models.mismatch._select import (
     _simpler_rival,
     _white,
     _within_reach,
-    dm_test,
 )
 from pdmkit.models.mismatch._verdict import (
     MismatchResult,
@@ -85,7 +85,7 @@ from pdmkit.models.mismatch._verdict import (
     candidate_table,
 )
 
-__all__ = ["MismatchResult", "choose_input_hold", "discover_mismatch", "dm_test"]
+__all__ = ["MismatchResult", "choose_input_hold", "discover_mismatch"]
 
 
 # ---------------------------------------------------------------------------- public

@@ -11,12 +11,12 @@ auto- and input cross-correlation against the +-2.58/sqrt(N) band, Ljung 1999).
 from __future__ import annotations
 
 import itertools
-import math
 from collections.abc import Mapping
 
 import numpy as np
 
 from pdmkit.errors import DataError
+from pdmkit.models._residuals import whiteness_test
 
 __all__ = ["region_statistics", "residual_spectrum", "residual_windows", "whiteness_test"]
 
@@ -216,99 +216,6 @@ def region_statistics(model, x, u, residual):
     if len(df):
         df = df.sort_values("enrichment", ascending=False, ignore_index=True)
     return df
-
-
-def _acf(r: np.ndarray, max_lag: int) -> np.ndarray:
-    r = r - r.mean()
-    d = float(np.dot(r, r)) or 1.0
-    return np.array([np.dot(r[k:], r[: r.size - k]) / d for k in range(1, max_lag + 1)])
-
-
-def _xcf(r: np.ndarray, u: np.ndarray, max_lag: int) -> np.ndarray:
-    """Cross-correlation rho_ru(k) = corr(r[t], u[t-k]) for k in -max_lag..max_lag."""
-    r = r - r.mean()
-    u = u - u.mean()
-    d = math.sqrt(float(np.dot(r, r)) * float(np.dot(u, u))) or 1.0
-    out = []
-    n = r.size
-    for k in range(-max_lag, max_lag + 1):
-        if k >= 0:
-            out.append(np.dot(r[k:], u[: n - k]) / d)
-        else:
-            out.append(np.dot(r[: n + k], u[-k:]) / d)
-    return np.array(out)
-
-
-def whiteness_test(
-    residual, inputs: Mapping[str, np.ndarray] | None = None, max_lag: int | None = None
-) -> dict:
-    """Is anything systematic left in the residual? (Ljung-Box, correlation bands.)
-
-    Parameters
-    ----------
-    residual : array_like, shape (N,)
-    inputs : dict of str to array_like (N,), optional
-        Inputs for the cross-correlation test.
-    max_lag : int, optional
-        Lags tested (default ``min(25, N // 5)``).
-
-    Returns
-    -------
-    dict
-        ``ljung_box_q``, ``p_value`` (chi-square with ``max_lag`` degrees of freedom),
-        ``bound`` (2.58/sqrt(N)), ``acf_outside`` (fraction of autocorrelations outside
-        the bound), ``acf_max``, ``white`` (p_value > 0.01), and per input
-        ``xcorr_max``, ``xcorr_lag`` (samples; positive: the residual follows the
-        input), ``xcorr_outside``, ``uncorrelated``.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from pdmkit.models.mismatch._locate import whiteness_test
-    >>> rng = np.random.default_rng(0)
-    >>> whiteness_test(rng.normal(size=2000))["white"]
-    True
-    >>> u = rng.normal(size=2000)
-    >>> res = whiteness_test(np.roll(u, 3) + 0.1 * rng.normal(size=2000), {"u": u})
-    >>> res["white"], res["inputs"]["u"]["xcorr_lag"]
-    (True, 3)
-    """
-    from scipy import stats
-
-    r = np.asarray(residual, dtype=float).ravel()
-    n = r.size
-    max_lag = int(min(25, max(1, n // 5)) if max_lag is None else max_lag)
-    rho = _acf(r, max_lag)
-    bound = 2.58 / math.sqrt(n)
-    k = np.arange(1, max_lag + 1)
-    q = float(n * (n + 2) * np.sum(rho**2 / (n - k)))
-    p = float(stats.chi2.sf(q, max_lag))
-    out = {
-        "n": n,
-        "max_lag": max_lag,
-        "ljung_box_q": q,
-        "p_value": p,
-        "bound": bound,
-        "acf_outside": float(np.mean(np.abs(rho) > bound)),
-        "acf_max": float(np.max(np.abs(rho))),
-        "white": bool(p > 0.01),
-        "inputs": {},
-    }
-    for name, u in (inputs or {}).items():
-        u = np.asarray(u, dtype=float).ravel()
-        if u.size != n:
-            raise DataError(f"input {name!r} has {u.size} samples, the residual {n}.")
-        if np.std(u) == 0:
-            continue
-        x = _xcf(r, u, max_lag)
-        i = int(np.argmax(np.abs(x)))
-        out["inputs"][name] = {
-            "xcorr_max": float(abs(x[i])),
-            "xcorr_lag": i - max_lag,
-            "xcorr_outside": float(np.mean(np.abs(x) > bound)),
-            "uncorrelated": bool(np.all(np.abs(x) <= bound)),
-        }
-    return out
 
 
 def residual_spectrum(residual, inputs: Mapping[str, np.ndarray], fs: float):

@@ -20,6 +20,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from pdmkit.models._residuals import dm_test, whiteness_test
 from pdmkit.models.mismatch._fit import (
     Recording,
     _cost,
@@ -29,59 +30,9 @@ from pdmkit.models.mismatch._fit import (
     _Problem,
     data_states,
 )
-from pdmkit.models.mismatch._locate import whiteness_test
 from pdmkit.models.ode import DERIVATIVE_ATTACH
 
 __all__ = ["dm_test"]
-
-
-def dm_test(e_ref: np.ndarray, e_new: np.ndarray) -> tuple[float, float]:
-    """One-sided Diebold-Mariano test that ``e_new`` has smaller squared errors.
-
-    ``d_t = sum(e_ref**2) - sum(e_new**2)`` (over outputs); the variance of its mean is
-    a Bartlett (Newey-West) HAC estimate with the plug-in bandwidth
-    ``floor(4 (N/100)^(2/9))``.
-
-    Returns
-    -------
-    (statistic, p_value)
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from pdmkit.models.mismatch import dm_test
-    >>> rng = np.random.default_rng(0)
-    >>> noise = rng.normal(size=500)
-    >>> round(dm_test(noise + 1.0, noise)[1], 6)
-    0.0
-    >>> bool(dm_test(noise, noise + 0.01 * rng.normal(size=500))[1] > 0.01)
-    True
-    """
-    from scipy import stats
-
-    a = np.asarray(e_ref, dtype=float)
-    b = np.asarray(e_new, dtype=float)
-    a = a[:, None] if a.ndim == 1 else a
-    b = b[:, None] if b.ndim == 1 else b
-    with np.errstate(over="ignore", invalid="ignore"):
-        d = np.sum(a**2, axis=1) - np.sum(b**2, axis=1)
-    if not np.all(np.isfinite(d)):  # a diverged simulation: infinitely worse
-        worse = bool(np.any(np.isnan(d)) or np.any(d == -np.inf))
-        return (-math.inf, 1.0) if worse else (math.inf, 0.0)
-    n = d.size
-    dc = d - d.mean()
-    g0 = float(np.dot(dc, dc) / n)
-    if g0 <= 0:
-        return (math.inf if d.mean() > 0 else 0.0), (0.0 if d.mean() > 0 else 1.0)
-    var = g0
-    # Newey-West (1994) plug-in bandwidth
-    L = int(min(max(1, math.floor(4.0 * (n / 100.0) ** (2.0 / 9.0))), n - 1))
-    for k in range(1, L + 1):
-        gk = float(np.dot(dc[k:], dc[: n - k]) / n)
-        var += 2.0 * (1.0 - k / (L + 1)) * gk
-    var = max(var, g0 / n)
-    stat = float(d.mean() / math.sqrt(var / n))
-    return stat, float(stats.norm.sf(stat))
 
 
 @dataclasses.dataclass

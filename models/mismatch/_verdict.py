@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from pdmkit.errors import ModelError
+from pdmkit.models._residuals import dm_test
 from pdmkit.models.mismatch._candidates import SPARSE_ID, Effect, _position_partner
 from pdmkit.models.mismatch._fit import _Job, simulate_states
 from pdmkit.models.mismatch._locate import (
@@ -24,7 +25,7 @@ from pdmkit.models.mismatch._locate import (
     residual_windows,
     whiteness_test,
 )
-from pdmkit.models.mismatch._select import _rmse, _Scored, _structured, dm_test
+from pdmkit.models.mismatch._select import _rmse, _Scored, _structured
 
 __all__ = ["MismatchResult", "add_warnings", "build_verdict", "candidate_table"]
 

@@ -19,7 +19,7 @@ from scipy import signal
 
 from pdmkit.experiments._cli import main
 from pdmkit.experiments._identify import IDENTIFY_STRUCTURES, run_identify
-from pdmkit.models._ident import IdentifiedModel
+from pdmkit.models.ident import IdentifiedModel
 
 
 def zoh_modes(modes, fs):
@@ -233,7 +233,7 @@ def test_unstable_model_warns_with_a_stable_alternative():
 # ------------------------------------------------------------------ FRF figure
 def test_frf_figure_log_axis_coherence_and_one_phase_branch(fast_record):
     from pdmkit.experiments._identify import _frf_figure
-    from pdmkit.models._ident_pem import oe
+    from pdmkit.models.ident import oe
 
     u, y, fs = fast_record
     num, den = zoh_modes([*MODES, (120.0, 0.02)], fs)

@@ -16,7 +16,7 @@ from pdmkit.features._model_features import (
     model_feature_names,
     resolve_model_options,
 )
-from pdmkit.models._fractional import FractionalTF
+from pdmkit.models.frequency import FractionalTF
 
 
 def test_frf_features_find_resonance_of_known_systems():

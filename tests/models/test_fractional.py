@@ -6,7 +6,7 @@ import scipy.signal as ss
 from scipy.special import erfcx
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
-from pdmkit.models._fractional import (
+from pdmkit.models.frequency import (
     FractionalConditionClassifier,
     FractionalTF,
     fit_fractional_frf,

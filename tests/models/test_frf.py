@@ -5,7 +5,7 @@ import pytest
 import scipy.signal as ss
 
 from pdmkit.errors import DataError, ModelError
-from pdmkit.models._frf import (
+from pdmkit.models.frequency import (
     FRF,
     amplitude_dependence,
     balanced_truncation,

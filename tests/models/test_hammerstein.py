@@ -5,7 +5,7 @@ import pytest
 import scipy.signal as ss
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
-from pdmkit.models._hammerstein import (
+from pdmkit.models.ident import (
     DeadZone,
     HammersteinWiener,
     PiecewiseLinear,

@@ -8,16 +8,18 @@ import pytest
 from scipy import signal
 
 from pdmkit.errors import DataError, ModelError
-from pdmkit.models._ident import (
+from pdmkit.models.ident import (
     IdentifiedModel,
     ar,
+    armax,
     arx,
+    bj,
     fit_percent,
     identify,
+    n4sid,
+    oe,
     select_order,
 )
-from pdmkit.models._ident_pem import armax, bj, oe
-from pdmkit.models._subspace import n4sid
 
 FS = 1000.0
 MODES = [(50.0, 0.02), (120.0, 0.05)]  # (natural frequency Hz, damping ratio)

@@ -16,9 +16,8 @@ import pytest
 from scipy import signal, special
 
 from pdmkit.errors import ConvergenceWarning
-from pdmkit.models._fractional import fit_fractional_tf
-from pdmkit.models._ident import IdentifiedModel, identify
-from pdmkit.models._subspace import n4sid
+from pdmkit.models.frequency import fit_fractional_tf
+from pdmkit.models.ident import IdentifiedModel, identify, n4sid
 
 
 def zoh_modes(modes, fs):
@@ -72,7 +71,7 @@ def test_order_search_inside_the_range_is_not_extended():
 
 # ------------------------------------------------------------------ modes table
 def test_physical_modes_drops_cancelled_real_and_nyquist_poles():
-    from pdmkit.models._ident import physical_modes
+    from pdmkit.models.ident import physical_modes
 
     fs = 100.0
     p5, p20, p30 = z_pole(5.0, 0.05, fs), z_pole(20.0, 0.02, fs), z_pole(30.0, 0.01, fs)
@@ -144,7 +143,7 @@ def test_n4sid_order_search_on_a_long_noisy_record():
 
 
 def test_n4sid_reflects_unstable_poles_and_says_so():
-    from pdmkit.models._subspace import stabilise_matrix
+    from pdmkit.models.ident import stabilise_matrix
 
     A = np.array([[1.2, 0.3, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, -1.1]])
     As, moved = stabilise_matrix(A)
@@ -207,7 +206,7 @@ def test_fractional_fit_keeps_the_orders_apart_unless_told():
 
 # ------------------------------------------------------------------ FRF comparison
 def test_align_phase_puts_the_model_on_the_data_branch():
-    from pdmkit.models._frf import align_phase
+    from pdmkit.models.frequency import align_phase
 
     f = np.linspace(1, 10, 50)
     data = -200.0 - 10 * f  # an unwrapped phase on the branch below -180
@@ -217,7 +216,7 @@ def test_align_phase_puts_the_model_on_the_data_branch():
 
 
 def test_frf_comparison_coherence_and_phase_over_a_band():
-    from pdmkit.models._frf import frf_comparison
+    from pdmkit.models.frequency import frf_comparison
 
     fs = 100.0
     num, den = zoh_modes([(8.0, 0.02), (15.0, 0.03)], fs)

@@ -16,7 +16,7 @@ import pytest
 from scipy import signal
 
 from pdmkit.ensembles import load_silverbox
-from pdmkit.models._ident import select_order
+from pdmkit.models.ident import select_order
 
 PUBLISHED_LINEAR_RMSE_V = 14.4e-3
 

@@ -97,7 +97,7 @@ def test_errors():
 
 def test_seed_003_loop_linearise_then_fit_physical_parameters_to_frf():
     """Linearise the nonlinear model with free parameters, fit them to a measured FRF."""
-    from pdmkit.models._frf import FRF, fit_frf_params
+    from pdmkit.models.frequency import FRF, fit_frf_params
 
     model = _pendulum(b=0.8)
     x0, u0 = {"th": 0.0, "w": 0.0}, {"T": 0.0}

@@ -89,7 +89,7 @@ def test_identified_frf_recovers_physical_resonances_seed_002_section_4():
     2 ms sampling), poles compared with the physical model's resonances."""
     import scipy.signal as ss
 
-    from pdmkit.models._frf import balanced_truncation, fit_tf, frf_estimate
+    from pdmkit.models.frequency import balanced_truncation, fit_tf, frf_estimate
 
     rig = MassBeamRig()
     A, B, C, D = rig.system2()

@@ -7,7 +7,7 @@ import pytest
 from scipy import signal
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
-from pdmkit.models._recursive import RecursiveARX, smooth_tracks, track_poles
+from pdmkit.models.ident import RecursiveARX, smooth_tracks, track_poles
 
 FS = 1000.0
 

@@ -116,7 +116,10 @@ def test_small_neural_model_learns_on_cmapss(require_data):
     pytest.importorskip("torch")
     train, test, _ = _data()
     units = train["unit"].unique()[::2]  # half the engines, a few epochs: a smoke test
-    model = NeuralRULModel(SENSORS, hidden=32, epochs=4, n_folds=2, n_threads=1)
+    # 8 epochs: with 4 the RMSE spread 22.7-28.7 over seeds 0-3 once the two sensors
+    # constant up to rounding (1e-15 spread) stopped entering as standardised noise;
+    # with 8, 18.8-19.6
+    model = NeuralRULModel(SENSORS, hidden=32, epochs=8, n_folds=2, n_threads=1)
     pred = model.fit(train[train["unit"].isin(units)]).predict(test)
     assert _score(pred)["rmse"] < 25
 

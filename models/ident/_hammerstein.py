@@ -44,7 +44,7 @@ class Identity:
 
     Examples
     --------
-    >>> from pdmkit.models._hammerstein import Identity
+    >>> from pdmkit.models.ident import Identity
     >>> Identity()(2.0, [])
     2.0
     """
@@ -71,7 +71,7 @@ class DeadZone(Identity):
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._hammerstein import DeadZone
+    >>> from pdmkit.models.ident import DeadZone
     >>> DeadZone()(np.array([-1.0, 0.1, 1.0]), [-0.2, 0.3]).tolist()
     [-0.8, 0.0, 0.7]
     """
@@ -102,7 +102,7 @@ class Saturation(Identity):
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._hammerstein import Saturation
+    >>> from pdmkit.models.ident import Saturation
     >>> Saturation()(np.array([-2.0, 0.5, 2.0]), [-1.0, 1.0]).tolist()
     [-1.0, 0.5, 1.0]
     """
@@ -135,7 +135,7 @@ class Polynomial(Identity):
 
     Examples
     --------
-    >>> from pdmkit.models._hammerstein import Polynomial
+    >>> from pdmkit.models.ident import Polynomial
     >>> Polynomial(3)(2.0, [0.5, 0.1])
     4.8
     """
@@ -174,7 +174,7 @@ class PiecewiseLinear(Identity):
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._hammerstein import PiecewiseLinear
+    >>> from pdmkit.models.ident import PiecewiseLinear
     >>> pwl = PiecewiseLinear(3)
     >>> pwl.knots_ = np.array([-1.0, 0.0, 1.0])
     >>> pwl(np.array([-2.0, 0.5]), [-1.0, 0.0, 2.0]).tolist()
@@ -338,7 +338,7 @@ class HammersteinWiener:
     Examples
     --------
     >>> import numpy as np, scipy.signal as ss
-    >>> from pdmkit.models._hammerstein import HammersteinWiener, DeadZone
+    >>> from pdmkit.models.ident import HammersteinWiener, DeadZone
     >>> rng = np.random.default_rng(0)
     >>> u = np.repeat(rng.uniform(-1, 1, 200), 10)        # random steps
     >>> y = ss.lfilter([0, 0.3], [1, -0.7], DeadZone()(u, [-0.25, 0.25]))

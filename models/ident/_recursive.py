@@ -22,7 +22,7 @@ import pandas as pd
 from scipy import ndimage, optimize, signal
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
-from pdmkit.models._ident import _as_signal, _check_fs, _check_order, modes_from_poles
+from pdmkit.models.ident._model import _as_signal, _check_fs, _check_order, modes_from_poles
 
 __all__ = ["PoleTracks", "RecursiveARX", "smooth_tracks", "track_poles"]
 

@@ -20,9 +20,9 @@ import numpy as np
 from scipy import optimize, signal
 
 from pdmkit.errors import ConvergenceWarning, DataError
-from pdmkit.models._ident import (
+from pdmkit.models.ident._arx import _arx_theta
+from pdmkit.models.ident._model import (
     IdentifiedModel,
-    _arx_theta,
     _as_signal,
     _check_fs,
     _check_order,

@@ -34,7 +34,7 @@ import scipy.optimize as sopt
 import scipy.signal as ss
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
-from pdmkit.models._frf import _as_float_array, _check_fs, frf_estimate
+from pdmkit.models.frequency._frf import _as_float_array, _check_fs, frf_estimate
 
 __all__ = [
     "FractionalConditionClassifier",
@@ -59,7 +59,7 @@ def gl_weights(alpha: float, n: int) -> np.ndarray:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._fractional import gl_weights
+    >>> from pdmkit.models.frequency import gl_weights
     >>> bool(np.all(gl_weights(1.0, 4) == [1, -1, 0, 0]))  # first difference
     True
     >>> bool(np.all(gl_weights(2.0, 4) == [1, -2, 1, 0]))  # second difference
@@ -109,7 +109,7 @@ def gl_simulate(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._fractional import gl_simulate
+    >>> from pdmkit.models.frequency import gl_simulate
     >>> t = np.arange(0, 5, 1e-3)
     >>> y = gl_simulate(np.ones_like(t), 1e-3, [1.0, 1.0], [1.0, 0.0])  # 1/(s + 1)
     >>> bool(abs(y[-1] - (1 - np.exp(-t[-1]))) < 1e-3)
@@ -170,7 +170,7 @@ class FractionalTF:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._fractional import FractionalTF
+    >>> from pdmkit.models.frequency import FractionalTF
     >>> g = FractionalTF((2.0, 0.5, 1.0), (1.6, 0.7, 0.0))   # seed 004's structure
     >>> complex(np.round(g.frequency_response([0.0])[0], 6))
     (1+0j)
@@ -266,7 +266,7 @@ def oustaloup(alpha: float, wb: float, wh: float, order: int = 5):
     Examples
     --------
     >>> import numpy as np, scipy.signal as ss
-    >>> from pdmkit.models._fractional import oustaloup
+    >>> from pdmkit.models.frequency import oustaloup
     >>> z, p, k = oustaloup(0.5, 1e-3, 1e3, order=6)
     >>> _, H = ss.freqs_zpk(z, p, k, worN=[1.0])   # s^0.5 at 1 rad/s: 1 at 45 degrees
     >>> round(float(abs(H[0])), 2), round(float(np.degrees(np.angle(H[0]))))
@@ -511,7 +511,7 @@ def fit_fractional_frf(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._fractional import FractionalTF, fit_fractional_frf
+    >>> from pdmkit.models.frequency import FractionalTF, fit_fractional_frf
     >>> true = FractionalTF.seed004(a=0.02, alpha=1.7, b=0.3, beta=0.6, c=1.0)
     >>> f = np.logspace(-1, 2, 60)
     >>> fit = fit_fractional_frf(f, true.frequency_response(2 * np.pi * f))
@@ -675,10 +675,11 @@ def fit_fractional_tf(
 ) -> FractionalFit:
     """Fit ``1/(a s^alpha + b s^beta + c)`` from input and output records.
 
-    ``domain="frequency"`` estimates the FRF (H1, :func:`~pdmkit.models._frf.frf_estimate`;
-    seed 004's empirical transfer function) and fits it (:func:`fit_fractional_frf`),
-    weighting each frequency by its coherence (frequencies below ``coherence_min``
-    dropped) by the inverse variance of the H1 estimate, ``g2 / (1 - g2)``.
+    ``domain="frequency"`` estimates the FRF (H1,
+    :func:`~pdmkit.models.frequency.frf_estimate`; seed 004's empirical transfer
+    function) and fits it (:func:`fit_fractional_frf`), weighting each frequency by
+    its coherence (frequencies below ``coherence_min`` dropped) by the inverse variance
+    of the H1 estimate, ``g2 / (1 - g2)``.
     ``domain="time"`` starts there and then minimises the output error of the
     Grünwald-Letnikov simulation (:func:`gl_simulate`) over all parameters.
 
@@ -718,7 +719,7 @@ def fit_fractional_tf(
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._fractional import FractionalTF, fit_fractional_tf
+    >>> from pdmkit.models.frequency import FractionalTF, fit_fractional_tf
     >>> g = FractionalTF.seed004(a=0.05, alpha=1.5, b=0.2, beta=0.5, c=1.0)
     >>> u = np.random.default_rng(0).normal(size=4000)
     >>> y = g.simulate(u, dt=0.01)
@@ -880,7 +881,7 @@ def model_distance(H, model: FractionalTF, freq, *, relative: bool = False) -> n
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._fractional import FractionalTF, model_distance
+    >>> from pdmkit.models.frequency import FractionalTF, model_distance
     >>> g = FractionalTF.seed004(1.0, 1.5, 0.5, 0.5, 1.0)
     >>> f = np.linspace(0.1, 5, 20)
     >>> float(model_distance(g.frequency_response(2 * np.pi * f), g, f))
@@ -919,7 +920,7 @@ class FractionalConditionClassifier:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models._fractional import FractionalTF, FractionalConditionClassifier
+    >>> from pdmkit.models.frequency import FractionalTF, FractionalConditionClassifier
     >>> f = np.logspace(-1, 1, 30)
     >>> rng = np.random.default_rng(0)
     >>> H, y = [], []
