@@ -934,6 +934,8 @@ def _rul_table(args: argparse.Namespace, path) -> tuple[pd.DataFrame, str]:
     from pdmkit.experiments._rul_checks import rename_keys
 
     table = read_table(path)
+    if getattr(args, "wide", None):
+        table = _long_from_wide(table, path, args.time, args.wide, args.unit)
     if args.time is not None and args.time not in table.columns:
         raise DataError(
             f"{path}: --time {args.time!r} is not a column (columns: "
@@ -956,6 +958,35 @@ def _rul_table(args: argparse.Namespace, path) -> tuple[pd.DataFrame, str]:
         table, path, [(args.unit, "unit", "--unit"), (args.time, "time", "--time")]
     )
     return table, guessed
+
+
+def _long_from_wide(
+    table: pd.DataFrame, path, time: str | None, name: str, unit
+) -> pd.DataFrame:
+    """A wide run-to-failure table (a time column, one column per unit) as the long one
+    ``rul`` reads: ``unit`` (the column's name), the time column, ``name``."""
+    if unit is not None:
+        raise DataError(f"{path}: --wide takes the units from the columns; drop --unit")
+    given = time
+    time = table.columns[0] if time is None else time
+    if time not in table.columns:
+        raise DataError(
+            f"{path}: --time {time!r} is not a column (columns: {list(table.columns)[:12]})"
+        )
+    units = [c for c in table.columns if c != time]
+    if not units:
+        raise DataError(f"{path}: --wide needs a time column and one column per unit")
+    if name in (time, "unit"):
+        raise DataError(f"{path}: --wide {name!r} clashes with the time or unit column")
+    long = table.melt(id_vars=[time], value_vars=units, var_name="unit", value_name=name)
+    if given is None:  # the first column, whatever its header: the time
+        long = long.rename(columns={time: "time"})
+        time = "time"
+    _say(
+        f"{path}: wide table read as {len(units)} units ({', '.join(map(str, units[:6]))}"
+        f"{', ...' if len(units) > 6 else ''}), indicator {name!r} over {time!r}"
+    )
+    return long.dropna(subset=[name]).sort_values(["unit", time], kind="stable")
 
 
 def _rul_cap(text: str) -> float | str | None:
@@ -1241,6 +1272,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="COL",
         help="time column of --train/--test/--history (default time, else cycle; "
         "timestamps become seconds)",
+    )
+    p.add_argument(
+        "--wide",
+        metavar="NAME",
+        help="--train/--test/--history are wide tables: a time column (--time, else "
+        "the first column) and one column per unit holding its indicator NAME (e.g. "
+        "the IMS bearing files: a timestamp and one column per bearing)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the estimators' draws")
     p.add_argument(

@@ -350,6 +350,38 @@ def units_in_seconds(
         raise DataError(f"{where}: {exc}") from None
 
 
+def _training_sample(train: pd.DataFrame, cols, n: int = 5000) -> pd.DataFrame:
+    """Up to ``n`` training rows (unit, time and the model's columns), kept in the model
+    file so that ``--trained`` can score how far new histories lie from them."""
+    keys = [c for c in ("unit", "time", "cycle") if c in train.columns][:2]
+    usable = [c for c in cols if c in train.columns and c not in keys]
+    sample = train[[*keys, *usable]]
+    if len(sample) > n:
+        sample = sample.iloc[np.linspace(0, len(sample) - 1, n).astype(int)]
+    return sample.rename(columns={keys[-1]: "time"}).reset_index(drop=True)
+
+
+def _names_of_training(table: pd.DataFrame, pipeline, where: str) -> pd.DataFrame:
+    """A header-less history (generated names ``column_0 ...``) as wide as the model's
+    training table gets the training table's column names, by position, said."""
+    import warnings
+
+    names = getattr(pipeline, "table_columns_", None)
+    generated = [f"column_{k}" for k in range(table.shape[1])]
+    if (
+        not names
+        or list(map(str, table.columns)) != generated
+        or len(names) != len(generated)
+    ):
+        return table
+    warnings.warn(
+        f"{where}: no header; its {len(names)} columns are read as the model's training "
+        f"table's, by position ({', '.join(names[:4])}, ...)",
+        stacklevel=3,
+    )
+    return table.set_axis(names, axis=1)
+
+
 def _predict_rul(
     model_file, history, expect_sha256=None, unit=None, time=None, time_unit=None
 ) -> dict[str, Any]:
@@ -365,6 +397,7 @@ def _predict_rul(
         )
     table = history if isinstance(history, pd.DataFrame) else read_table(history)
     where = "history" if isinstance(history, pd.DataFrame) else str(history)
+    table = _names_of_training(table, pipeline, where)
     model_unit, model_time = model_keys(pipeline)
     if time is not None and time not in table.columns:
         raise DataError(
@@ -398,9 +431,16 @@ def _predict_rul(
         unit_label = "cycles" if model_time == "cycle" and origin is None else "s"
     cap = getattr(getattr(inner, "model_", inner), "max_rul", None)
     cap = float(cap) if cap is not None else None
-    notes, _ = interval_checks(prediction, cap, unit_label, [])
+    found: list[str] = []
+    notes, _ = interval_checks(prediction, cap, unit_label, found)
     rows = prediction.to_pandas()[["unit", "time", "rul", "lower", "upper"]]
     rows["note"] = notes
+    reference = getattr(pipeline, "training_sample_", None)
+    if reference is not None:  # how far each history lies from the training rows
+        keyed = table.rename(columns={model_unit: "unit", model_time or "time": "time"})
+        cols = [c for c in reference.columns if c not in ("unit", "time")]
+        ood, _ = input_checks(reference, keyed, cols, unit_label, found)
+        rows["ood_score"] = ood.reindex(rows["unit"]).to_numpy(dtype=float)
     records = rows.to_dict(orient="records")
     for record in records:
         record["text"] = describe_rul(record, prediction.level, unit_label)
@@ -411,6 +451,7 @@ def _predict_rul(
         "time_unit": unit_label,
         "rul_cap": cap,
         "units": records,
+        "warnings": found,
     }
     return answer
 
@@ -602,6 +643,10 @@ def _rul(
         model, cols, train, seed=seed, rul_cap=cap, options=options, calibrate=calibrate
     )
     pipeline.time_unit_ = unit_label
+    # the training table's columns, in order: a header-less history of the same width
+    # (the raw C-MAPSS text files) gets these names by position (see _predict_rul)
+    pipeline.table_columns_ = [str(c) for c in train.columns if c != "rul_true_final"]
+    pipeline.training_sample_ = _training_sample(train, cols)
     indicator, estimator = pipeline.indicator, pipeline.model
     test_in = pipeline.transform(test)
     start = time.perf_counter()
