@@ -48,7 +48,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     base = _command()
     ok = True
-    for extra, target in ((["--version"], 1.0), (["--help"], None)):
+    for extra, target in ((["--version"], 1.0), (["--help"], 1.0)):
         walls, cpu = _time([*base, *extra], a.repeats)
         median = statistics.median(walls)
         verdict = ""

@@ -20,61 +20,7 @@ Examples
 ['acc/stats/RMS']
 """
 
-from pdmkit.experiments._classify import (
-    MODELS,
-    SELECTIONS,
-    ClassificationResult,
-    classify,
-    compare_models,
-    make_classifier,
-)
-from pdmkit.experiments._identify import IDENTIFY_STRUCTURES, run_identify
-from pdmkit.experiments._mismatch import run_mismatch
-from pdmkit.experiments._report import Report
-from pdmkit.experiments._rul import (
-    LEAK_DEFAULTS,
-    leak_accuracy,
-    leak_indicators,
-    make_rul_model,
-    predict_rul,
-    run_rul,
-    simulate_leak_dataset,
-    split_run_to_failure,
-)
-from pdmkit.experiments._runs import (
-    RunDirectory,
-    extract_features_run,
-    fingerprint_ensemble,
-    fingerprint_path,
-    package_versions,
-    predict_members,
-)
-from pdmkit.experiments._seed_indicators import (
-    SEED_NUMBERS,
-    SEED_SENSOR_ACCURACY,
-    SEED_SENSOR_RECIPES,
-    SeedResult,
-    SeedSensorRecipe,
-    seed_feature_table,
-    seed_indicators,
-    seed_rank,
-)
-from pdmkit.experiments._seed_recipes import (
-    seed_air_leak_rul,
-    seed_flow_bagged_trees,
-    seed_flow_knn,
-    seed_flow_pca_bagged_trees,
-    seed_residual_classification,
-    seed_sensor_faults,
-    seed_sensor_table,
-)
-from pdmkit.experiments._seed_study import run_seed_study, seed_comparison
-from pdmkit.experiments._sensors import (
-    SensorComparison,
-    SensorCosts,
-    compare_sensors,
-    load_sensor_costs,
-)
+import importlib
 
 __all__ = [
     "IDENTIFY_STRUCTURES",
@@ -123,3 +69,72 @@ __all__ = [
     "simulate_leak_dataset",
     "split_run_to_failure",
 ]
+
+#: public name -> the module that defines it; imported on first use, so that the
+#: command line (``pdmkit.experiments._cli``) starts without loading every workflow
+_LAZY = {
+    "ClassificationResult": "_classify",
+    "MODELS": "_classify",
+    "SELECTIONS": "_classify",
+    "classify": "_classify",
+    "compare_models": "_classify",
+    "make_classifier": "_classify",
+    "IDENTIFY_STRUCTURES": "_identify",
+    "run_identify": "_identify",
+    "run_mismatch": "_mismatch",
+    "Report": "_report",
+    "LEAK_DEFAULTS": "_rul",
+    "leak_accuracy": "_rul",
+    "leak_indicators": "_rul",
+    "make_rul_model": "_rul",
+    "predict_rul": "_rul",
+    "run_rul": "_rul",
+    "simulate_leak_dataset": "_rul",
+    "split_run_to_failure": "_rul",
+    "RunDirectory": "_runs",
+    "extract_features_run": "_runs",
+    "fingerprint_ensemble": "_runs",
+    "fingerprint_path": "_runs",
+    "package_versions": "_runs",
+    "predict_members": "_runs",
+    "SEED_NUMBERS": "_seed_indicators",
+    "SEED_SENSOR_ACCURACY": "_seed_indicators",
+    "SEED_SENSOR_RECIPES": "_seed_indicators",
+    "SeedResult": "_seed_indicators",
+    "SeedSensorRecipe": "_seed_indicators",
+    "seed_feature_table": "_seed_indicators",
+    "seed_indicators": "_seed_indicators",
+    "seed_rank": "_seed_indicators",
+    "seed_air_leak_rul": "_seed_recipes",
+    "seed_flow_bagged_trees": "_seed_recipes",
+    "seed_flow_knn": "_seed_recipes",
+    "seed_flow_pca_bagged_trees": "_seed_recipes",
+    "seed_residual_classification": "_seed_recipes",
+    "seed_sensor_faults": "_seed_recipes",
+    "seed_sensor_table": "_seed_recipes",
+    "run_seed_study": "_seed_study",
+    "seed_comparison": "_seed_study",
+    "SensorComparison": "_sensors",
+    "SensorCosts": "_sensors",
+    "compare_sensors": "_sensors",
+    "load_sensor_costs": "_sensors",
+}
+
+
+def __getattr__(name: str):
+    """Import the workflow module that defines ``name`` on first access.
+
+    Examples
+    --------
+    >>> import pdmkit.experiments as experiments
+    >>> experiments.run_rul.__module__
+    'pdmkit.experiments._rul'
+    """
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'pdmkit.experiments' has no attribute {name!r}")
+    return getattr(importlib.import_module(f"pdmkit.experiments.{module}"), name)
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_LAZY])

@@ -31,6 +31,12 @@ __all__ = ["main"]
 
 
 # --------------------------------------------------------------------------- helpers
+
+#: ``identify --structure`` choices shown by ``--help``, named here so that the help
+#: does not import the models (a test checks they are ``IDENTIFY_STRUCTURES``' keys)
+IDENTIFY_CHOICES = ("ar", "arx", "armax", "oe", "bj", "n4sid", "hw", "fractional")
+
+
 def _seconds(table, path):
     """The table with a timestamp time column in seconds (said once, with its origin)."""
     from pdmkit.experiments._rul import units_in_seconds
@@ -1345,8 +1351,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", type=Path, help="also write the JSON summary here")
     p.set_defaults(func=_cmd_rul)
 
-    from pdmkit.experiments._identify import IDENTIFY_STRUCTURES
-
     p = sub.add_parser(
         "identify",
         help="identify a model (poles, resonances, damping) from an input/output record",
@@ -1365,7 +1369,13 @@ def build_parser() -> argparse.ArgumentParser:
         required=True,
         help="output column (.mat/.npz: variable; Acceleration2 = 2nd row of a 2-D one)",
     )
-    p.add_argument("--structure", default="arx", choices=list(IDENTIFY_STRUCTURES))
+    p.add_argument(
+        "--structure",
+        default="arx",
+        metavar="{" + ",".join(IDENTIFY_CHOICES) + "}",
+        help="model structure (default arx); checked by the workflow, which also "
+        "knows structures added to pdmkit.experiments._identify.IDENTIFY_STRUCTURES",
+    )
     p.add_argument(
         "--order", default=None, help="4, or na=4,nb=3,nk=1 (default: by --criterion)"
     )

@@ -45,7 +45,16 @@ CASES = {
     "pdmkit.models": ("torch", "matplotlib", "tqdm", "dask", *_above("models")),
     "pdmkit.features": ("torch", "matplotlib", "tqdm", "dask", *_above("features")),
     "pdmkit.rul": ("torch", "matplotlib", "tqdm", "dask", *_above("rul")),
-    "pdmkit.experiments._cli": ("torch", "matplotlib", "tqdm", "dask", "distributed"),
+    "pdmkit.experiments._cli": (
+        "torch",
+        "matplotlib",
+        "tqdm",
+        "dask",
+        "distributed",
+        "sklearn",
+        "scipy",
+        "pdmkit.models",
+    ),
 }
 
 
@@ -84,7 +93,8 @@ def test_import_pulls_in_only_what_its_layer_needs(module: str) -> None:
 
 
 def test_version_and_help_answer_without_torch_or_plots() -> None:
-    """``pdmkit --help`` builds the whole parser: still no torch, matplotlib, tqdm."""
+    """``pdmkit --help`` builds the whole parser: still no torch, matplotlib, tqdm,
+    scikit-learn, scipy or pdmkit's models (they made it take 1.2 s)."""
     code = (
         "import sys, contextlib, io\n"
         "from pdmkit._entry import main\n"
@@ -94,8 +104,8 @@ def test_version_and_help_answer_without_torch_or_plots() -> None:
         "    except SystemExit as stop:\n"
         "        assert stop.code == 0\n"
         "assert 'rank' in out.getvalue()\n"
-        "print(sorted(m for m in ('torch', 'matplotlib', 'tqdm', 'dask') "
-        "if m in sys.modules))\n"
+        "print(sorted(m for m in ('torch', 'matplotlib', 'tqdm', 'dask', 'sklearn', "
+        "'scipy', 'pdmkit.models') if m in sys.modules))\n"
     )
     done = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, timeout=120
@@ -114,3 +124,12 @@ def test_version_and_help_answer_without_torch_or_plots() -> None:
 def test_features_import_without_sklearn_or_the_models_layer() -> None:
     imported = _imported("pdmkit.features")
     assert not {"sklearn", "pdmkit.models"} & set(imported)
+
+
+def test_the_help_lists_every_identify_structure() -> None:
+    """``--structure``'s choices are written out for a light ``--help``; they must be
+    the structures ``run_identify`` knows."""
+    from pdmkit.experiments._cli import IDENTIFY_CHOICES
+    from pdmkit.experiments._identify import IDENTIFY_STRUCTURES
+
+    assert list(IDENTIFY_CHOICES) == list(IDENTIFY_STRUCTURES)
