@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._checks import check_fs as _check_fs
+from pdmkit._progress import progress
 from pdmkit.errors import DataError, ModelError
 from pdmkit.models.ident._arx import ar, arx
 from pdmkit.models.ident._model import CRITERIA, IdentifiedModel
@@ -168,7 +169,8 @@ def select_order(
     if not cands:
         raise ModelError("orders is empty; give at least one candidate order.")
     rows, models = [], []
-    for o in cands:
+    # a bar on a terminal: PEM and subspace fits of long records take seconds each
+    for o in progress(cands, desc=f"{structure} orders"):
         m = _fit_structure(structure, u, y, fs, o, **kwargs)
         models.append(m)
         rows.append(

@@ -271,3 +271,26 @@ def test_ar_prediction_fit_leaves_out_the_start_up_transient():
     )
     assert m.fit_percent == pytest.approx(ref, rel=1e-9)
     assert m.fit_percent > 90
+
+
+def test_the_order_search_shows_a_bar_on_a_terminal(monkeypatch) -> None:
+    """A long identify said nothing while it searched (issue 15): a bar on a terminal,
+    none in a pipe."""
+    import io
+    import sys
+
+    from pdmkit.models.ident import select_order
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    rng = np.random.default_rng(0)
+    y = signal.lfilter([1.0], [1, -1.5, 0.7], rng.normal(size=400))
+    monkeypatch.setattr(sys, "stderr", Terminal())
+    select_order(None, y, "ar", orders=range(1, 5))
+    assert "ar orders" in sys.stderr.getvalue()
+    pipe = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", pipe)
+    select_order(None, y, "ar", orders=range(1, 5))
+    assert pipe.getvalue() == ""
