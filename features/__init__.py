@@ -29,35 +29,7 @@ Examples
 np.True_
 """
 
-from pdmkit.features._ar import ar_feature_names, ar_features
-from pdmkit.features._cycle import (
-    CYCLE_LEVELS,
-    EVENT_WINDOWS,
-    cycle_average,
-    cycle_feature_names,
-    cycle_features,
-)
-from pdmkit.features._envelope import (
-    CWRU_DRIVE_END,
-    CWRU_FAN_END,
-    BearingGeometry,
-    EnvelopeSpectrum,
-    bearing_frequencies,
-    envelope_features,
-    envelope_spectrum,
-)
-from pdmkit.features._extract import GROUPS, extract, extract_ensemble
-from pdmkit.features._model_features import (
-    FRACTIONAL_FEATURES,
-    FRF_FEATURES,
-    fractional_features,
-    frf_features,
-    hw_feature_names,
-    hw_features,
-)
-from pdmkit.features._ranking import METHODS, FeatureRanking, SelectTopRanked, rank_features
-from pdmkit.features._spectral import spectral
-from pdmkit.features._stats import harmonic, stats
+import importlib
 
 __all__ = [
     "CWRU_DRIVE_END",
@@ -91,3 +63,58 @@ __all__ = [
     "spectral",
     "stats",
 ]
+
+#: public name -> the module that defines it, imported on first use: ``import
+#: pdmkit.features`` stays light (no scikit-learn, no pdmkit.models) until a ranking
+#: or a model-based group is asked for
+_LAZY = {
+    "ar_feature_names": "_ar",
+    "ar_features": "_ar",
+    "CYCLE_LEVELS": "_cycle",
+    "EVENT_WINDOWS": "_cycle",
+    "cycle_average": "_cycle",
+    "cycle_feature_names": "_cycle",
+    "cycle_features": "_cycle",
+    "BearingGeometry": "_envelope",
+    "CWRU_DRIVE_END": "_envelope",
+    "CWRU_FAN_END": "_envelope",
+    "EnvelopeSpectrum": "_envelope",
+    "bearing_frequencies": "_envelope",
+    "envelope_features": "_envelope",
+    "envelope_spectrum": "_envelope",
+    "GROUPS": "_extract",
+    "extract": "_extract",
+    "extract_ensemble": "_extract",
+    "FRACTIONAL_FEATURES": "_model_features",
+    "FRF_FEATURES": "_model_features",
+    "fractional_features": "_model_features",
+    "frf_features": "_model_features",
+    "hw_feature_names": "_model_features",
+    "hw_features": "_model_features",
+    "FeatureRanking": "_ranking",
+    "METHODS": "_ranking",
+    "SelectTopRanked": "_ranking",
+    "rank_features": "_ranking",
+    "spectral": "_spectral",
+    "harmonic": "_stats",
+    "stats": "_stats",
+}
+
+
+def __getattr__(name: str):
+    """Import the module that defines ``name`` on first access.
+
+    Examples
+    --------
+    >>> import pdmkit.features as pf
+    >>> pf.rank_features.__module__
+    'pdmkit.features._ranking'
+    """
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'pdmkit.features' has no attribute {name!r}")
+    return getattr(importlib.import_module(f"pdmkit.features.{module}"), name)
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_LAZY])

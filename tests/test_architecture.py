@@ -215,11 +215,24 @@ def test_no_import_cycles(include_packages: bool) -> None:
     assert not new, "import cycles:\n" + "\n".join(" <-> ".join(c) for c in new)
 
 
+def _lazy_map(package: str) -> dict[str, str]:
+    """A package's ``_LAZY = {name: "module"}`` (names imported on first use)."""
+    tree = ast.parse(SOURCES[package].read_text(encoding="utf-8"))
+    for node in tree.body:
+        target = (
+            getattr(node, "target", None) or (getattr(node, "targets", None) or [None])[0]
+        )
+        if isinstance(target, ast.Name) and target.id == "_LAZY":
+            return {k: f"{package}.{v}" for k, v in ast.literal_eval(node.value).items()}
+    return {}
+
+
 def _defining_module(package: str, name: str) -> str:
-    """The module a package's ``__init__`` takes ``name`` from (the package if none)."""
+    """The module a package's ``__init__`` takes ``name`` from, directly or through its
+    lazy map (the package itself if neither)."""
     for target, imported, _ in _imports(package):
         if imported == name:
             if SOURCES.get(target) is not None and SOURCES[target].name == "__init__.py":
                 return _defining_module(target, name)
             return target
-    return package
+    return _lazy_map(package).get(name, package)

@@ -114,14 +114,9 @@ def test_version_and_help_answer_without_torch_or_plots() -> None:
     assert done.stdout.strip() == "[]"
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="issue 15: importing pdmkit.features still pulls scikit-learn (the "
-    "SelectTopRanked selector class in features/_ranking.py) and pdmkit.models (the "
-    "model-based groups in features/_model_features.py); making them lazy needs "
-    "features/__init__.py to export those names on first use",
-)
 def test_features_import_without_sklearn_or_the_models_layer() -> None:
+    """The layer's names load on first use (a ranking pulls scikit-learn, a model-based
+    group pulls pdmkit.models); importing the layer does neither."""
     imported = _imported("pdmkit.features")
     assert not {"sklearn", "pdmkit.models"} & set(imported)
 
