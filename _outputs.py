@@ -238,7 +238,7 @@ def check_output_folder(
     inputs: Iterable[Any] = (),
     json_path: str | os.PathLike | None = None,
 ) -> None:
-    """Refuse, before any work, an output that would damage the user's files.
+    r"""Refuse, before any work, an output that would damage the user's files.
 
     Refused with a one-line :class:`~pdmkit.errors.DataError`: ``out`` is an existing
     file (or lies below one); one of the command's files (:data:`OUTPUTS`) exists there
@@ -264,7 +264,7 @@ def check_output_folder(
     --------
     >>> import pathlib, tempfile
     >>> out = pathlib.Path(tempfile.mkdtemp())
-    >>> _ = (out / "report.html").write_text("time,x\\n0,1\\n")
+    >>> _ = (out / "report.html").write_text("time,x\n0,1\n")
     >>> check_output_folder(out, "identify", inputs=[out / "report.html"])
     Traceback (most recent call last):
     ...
@@ -342,7 +342,7 @@ def write_json_file(
     inputs: Iterable[Any] = (),
     command: str = "rul",
 ) -> Path:
-    """Write ``data`` as JSON to ``path`` atomically, after the checks of ``--json``.
+    r"""Write ``data`` as JSON to ``path`` atomically, after the checks of ``--json``.
 
     For answers that have no output folder (``pdmkit rul --trained``): ``path`` must
     not be a folder or one of the ``inputs``.
@@ -353,7 +353,7 @@ def write_json_file(
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.json"
     >>> p = write_json_file({"x": float("nan")}, path)
     >>> p.read_text()
-    '{\\n  "x": null\\n}\\n'
+    '{\n  "x": null\n}\n'
     """
     check_output_folder(None, command, inputs=inputs, json_path=path)
     text = _dumps(data)

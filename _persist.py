@@ -394,8 +394,10 @@ class _Encoder:
 
 
 def _check_parquet_sizes(blob: bytes, where: str) -> None:
-    """Refuse a table whose Parquet footer declares more than the model ceiling
-    (rows x columns at 8 bytes, or the row groups' uncompressed bytes)."""
+    """Refuse a table whose Parquet footer declares more than the model ceiling.
+
+    The ceiling counts rows x columns at 8 bytes, or the row groups' uncompressed bytes.
+    """
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -419,8 +421,10 @@ def _check_parquet_sizes(blob: bytes, where: str) -> None:
 
 
 def _tree_args_ok(args: Any) -> bool:
-    """``Tree(n_features, n_classes, n_outputs)`` with sizes that agree (its C code
-    trusts them)."""
+    """``Tree(n_features, n_classes, n_outputs)`` with sizes that agree.
+
+    Its C code trusts them.
+    """
     if not (isinstance(args, list) and len(args) == 3):
         return False
     n_features, n_classes, n_outputs = args

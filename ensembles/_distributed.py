@@ -195,10 +195,12 @@ _PLAIN_LOSSES = ("already forgotten", "lost dependencies", "unknown")
 
 
 class _QuietLostTasks(logging.Filter):
-    """Drop the scheduler's errors about :func:`dask_stream`'s tasks and inputs lost
-    with a worker ("... lose scattered data, which can't be recovered", "Couldn't
-    gather keys"): they are computed again. Only a scheduler in this process (a
-    ``LocalCluster``) logs here."""
+    """Drop the scheduler's errors about :func:`dask_stream`'s lost tasks and inputs.
+
+    Tasks and inputs lost with a worker ("... lose scattered data, which can't be
+    recovered", "Couldn't gather keys") are computed again. Only a scheduler in this process
+    (a ``LocalCluster``) logs here.
+    """
 
     MESSAGES = ("scattered data", "Couldn't gather keys")
 

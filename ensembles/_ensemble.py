@@ -905,8 +905,9 @@ class Ensemble:
         return table
 
     def to_parquet(self, path: str | os.PathLike, *, members_per_file: int = 256) -> Path:
-        """Write the ensemble as a pdmkit Parquet dataset (a directory); see
-        :func:`pdmkit.ensembles.iter_parquet` for the layout.
+        """Write the ensemble as a pdmkit Parquet dataset (a directory).
+
+        See :func:`pdmkit.ensembles.iter_parquet` for the layout.
 
         The directory is written beside ``path`` under a temporary name and swapped in
         when complete: a crash never leaves a half-written dataset, and an existing

@@ -265,8 +265,10 @@ def write_parquet_batches(batches: Iterable[Ensemble], path: str | os.PathLike) 
 
 
 def _quiet_stderr() -> Any:
-    """Silence file descriptor 2 (C libraries print there: libhdfs lists every
-    libjvm it did not find) for the duration of a ``with`` block."""
+    """Silence file descriptor 2 for the duration of a ``with`` block.
+
+    C libraries print there: libhdfs lists every libjvm it did not find.
+    """
     import contextlib
     import sys
     import tempfile

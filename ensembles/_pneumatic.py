@@ -772,8 +772,9 @@ def simulate_sensor_fault_ensemble(
 
 
 def _leak_path(rng, max_cycles, leak_start, leak_failure, shape) -> np.ndarray:
-    """One unit's ``C_al`` per cycle, from ``leak_start`` to the first value at or above
-    ``leak_failure`` (the failing cycle).
+    """One unit's ``C_al`` per cycle, from ``leak_start`` to the failing cycle.
+
+    The failing cycle is the first whose value is at or above ``leak_failure``.
 
     ``log C_al`` drifts to the threshold in about ``target`` cycles (drawn uniformly in
     ``[0.4 max_cycles, max_cycles]``) with gamma-distributed steps of shape ``shape``:
@@ -1141,7 +1142,6 @@ def simulate_seed_single_fault_ensemble(
     >>> len(ens), sorted(set(ens.conditions["fault"]))[:2]
     (10, ['damper_bottom', 'damper_upper'])
     """
-
     jitter = SEED_JITTER if jitter is None else float(jitter)
     n = int(n_members)
     if n < len(SEED_SINGLE_FAULTS):

@@ -579,7 +579,7 @@ def _read_table(
 
 
 def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
-    """Read a CSV or Parquet table into a DataFrame.
+    r"""Read a CSV or Parquet table into a DataFrame.
 
     CSV (``.csv``, ``.tsv`` tab-separated, ``.txt``; optionally ``.gz``/``.bz2``/...
     compressed) goes through :func:`pandas.read_csv`, Parquet (``.parquet``, ``.pq``)
@@ -591,7 +591,7 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
 
     A text table whose lines are split by runs of spaces (or tabs) instead of commas,
     as raw C-MAPSS files (``train_FD001.txt``) and many rig loggers write them, is read
-    with ``sep=r"\\s+"``: told from the first lines (no comma or semicolon, the same
+    with ``sep=r"\s+"``: told from the first lines (no comma or semicolon, the same
     number of fields, at least two, on every data line). When its header line names
     more columns than the rows hold, the empty columns at the end are dropped with a
     :class:`pdmkit.errors.DataWarning` naming them. Pass ``sep=`` to decide yourself.
@@ -648,12 +648,12 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
     --------
     >>> import tempfile, pathlib
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "run.csv"
-    >>> _ = path.write_text("time,flow,\\n0.0,1.5,\\n0.1,1.7,\\n")
+    >>> _ = path.write_text("time,flow,\n0.0,1.5,\n0.1,1.7,\n")
     >>> read_table(path)
        time  flow
     0   0.0   1.5
     1   0.1   1.7
-    >>> _ = path.write_text("time,flow\\n0.0,1.5\\n0.1,err\\n0.2,1.6\\n")
+    >>> _ = path.write_text("time,flow\n0.0,1.5\n0.1,err\n0.2,1.6\n")
     >>> read_table(path)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
@@ -663,7 +663,7 @@ def read_table(path: str | os.PathLike, **options: Any) -> pd.DataFrame:
 
     >>> import warnings
     >>> raw = path.with_name("train.txt")
-    >>> _ = raw.write_text("1 1 -0.0007  518.67 \\n1 2  0.0019  518.67 \\n")
+    >>> _ = raw.write_text("1 1 -0.0007  518.67 \n1 2  0.0019  518.67 \n")
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
     ...     table = read_table(raw)
@@ -1312,8 +1312,11 @@ def _member_contents(
 
 
 def _without_clashes(kept: list, fail) -> list:
-    """Skip the members where a name is a signal while most members hold it as a
-    label (or the reverse): one odd file must not stop the others being read."""
+    """Skip the members where a name is a signal while most members hold it as a label.
+
+    Or the reverse (a label where most members hold a signal): one odd file must not stop
+    the others being read.
+    """
     from collections import Counter
 
     as_signal = Counter(s for _, _, a, _ in kept for s in a)
@@ -1348,8 +1351,11 @@ def _without_clashes(kept: list, fail) -> list:
 
 
 class _NameConditions:
-    """Condition values a member gets from its file name: a regular expression's
-    groups (``label_from_name``) and a labels table's row (``labels``)."""
+    """Condition values a member gets from its file name.
+
+    A regular expression's groups (``label_from_name``) and a labels table's row
+    (``labels``).
+    """
 
     _KEYS = ("file", "member", "name", "filename", "path")
 
@@ -1482,7 +1488,7 @@ def read_members(
     return_errors: bool = False,
     progress: bool | None = None,
 ):
-    """Build an ensemble from member files: one recording per file.
+    r"""Build an ensemble from member files: one recording per file.
 
     A member file is a CSV / Parquet table (numeric columns are signals, a ``time``
     column gives the sampling rate, constant text columns are condition variables such
@@ -1573,7 +1579,7 @@ def read_members(
     ...     d / "a.csv", index=False)
     >>> pd.DataFrame({"time": t / 2, "vib": np.cos(t), "fault": "ok"}).to_csv(
     ...     d / "b.csv", index=False)
-    >>> _ = (d / "c.csv").write_bytes(b"\\x00\\x01garbage")
+    >>> _ = (d / "c.csv").write_bytes(b"\x00\x01garbage")
     >>> ens, errors = read_members(d, fs=50.0, on_error="skip", return_errors=True)
     >>> ens.member_ids.tolist(), ens.conditions["fault"].tolist()
     (['a'], ['ir'])

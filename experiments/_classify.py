@@ -394,10 +394,12 @@ def _cv_scores(
     in_time: bool = False,
     notes: list[str] | None = None,
 ) -> np.ndarray:
-    """Accuracy on each fold: of a shuffled stratified k-fold split, or (``in_time``)
-    of forward-chaining folds over rows in time order (``TimeSeriesSplit``: each fold
-    trains on the rows before the ones it tests). A forward fold whose training rows
-    hold a single class is skipped, with a note.
+    """Accuracy on each fold of a cross-validation split.
+
+    The split is a shuffled stratified k-fold one, or (``in_time``) forward-chaining folds
+    over rows in time order (``TimeSeriesSplit``: each fold trains on the rows before the
+    ones it tests). A forward fold whose training rows hold a single class is skipped, with
+    a note.
 
     Each fold is ``clone(pipe).fit`` and the accuracy of its predictions, as
     ``cross_val_score(..., scoring="accuracy")`` computes it, with a progress bar
@@ -431,8 +433,10 @@ SPLITS = ("stratified", "time")
 
 
 def _order_key(table: pd.DataFrame, order: str | None) -> tuple[np.ndarray, Any]:
-    """Sort key of the members in time (numbers, or seconds for timestamps), and a
-    function that shows one member's time for messages."""
+    """Sort key of the members in time (numbers, or seconds for timestamps).
+
+    Returned with a function that shows one member's time for messages.
+    """
     if order is None:
         return np.arange(len(table), dtype=float), lambda i: f"member {table.index[i]!r}"
     if order not in table.columns:

@@ -931,8 +931,11 @@ _RUL_TIME_UNITS = {
 
 
 def _rul_table(args: argparse.Namespace, path) -> tuple[pd.DataFrame, str]:
-    """A --train/--test table with its --unit/--time columns renamed to unit/time,
-    timestamps in seconds; and the time unit it implies (said when guessed)."""
+    """A --train/--test table with its --unit/--time columns renamed to unit/time.
+
+    Timestamps are in seconds. Returned with the time unit the table implies (said when
+    guessed).
+    """
     import re
 
     from pdmkit.ensembles import read_table
@@ -969,8 +972,11 @@ def _rul_table(args: argparse.Namespace, path) -> tuple[pd.DataFrame, str]:
 def _long_from_wide(
     table: pd.DataFrame, path, time: str | None, name: str, unit
 ) -> pd.DataFrame:
-    """A wide run-to-failure table (a time column, one column per unit) as the long one
-    ``rul`` reads: ``unit`` (the column's name), the time column, ``name``."""
+    """A wide run-to-failure table as the long one ``rul`` reads.
+
+    The wide table has a time column and one column per unit; the long one has ``unit`` (the
+    column's name), the time column and ``name``.
+    """
     if unit is not None:
         raise DataError(f"{path}: --wide takes the units from the columns; drop --unit")
     given = time

@@ -308,8 +308,11 @@ def _signals(data: dict) -> dict[str, tuple]:
 
 
 def _variable(data: dict, name: str, path, role: str) -> np.ndarray:
-    """One signal of a ``.mat``/``.npz`` file: ``Name``, ``Name2`` (1-based) or
-    ``Name[1]`` (0-based) for a row/column of a 2-D variable."""
+    """One signal of a ``.mat``/``.npz`` file.
+
+    Named ``Name``, or ``Name2`` (1-based) or ``Name[1]`` (0-based) for a row/column of a
+    2-D variable.
+    """
     names = _signals(data)
     if name not in names:
         shown = [k for k in names if "[" not in k]
@@ -560,8 +563,10 @@ def _is_stable(model) -> bool:
 
 
 def _alternative(u, y, fs, structure: str, model) -> dict | None:
-    """The best of OE (started from ARX, Steiglitz-McBride) and N4SID with as many
-    poles, when it is stable and fits positively; None if neither does."""
+    """The best of OE (started from ARX, Steiglitz-McBride) and N4SID with as many poles.
+
+    Kept when it is stable and fits positively; None if neither does.
+    """
     from pdmkit.models.ident import n4sid, oe
 
     n = max(2, min(_n_poles(model), 40))

@@ -332,7 +332,8 @@ def predict_rul(
 def units_in_seconds(
     table: pd.DataFrame, where, time: str | None = None
 ) -> tuple[pd.DataFrame, str | None]:
-    """:func:`pdmkit.rul.timestamps_to_seconds` with errors naming ``where`` (a file);
+    """:func:`pdmkit.rul.timestamps_to_seconds` with errors naming ``where`` (a file).
+
     ``time`` names the time column (default ``time``, else ``cycle``).
 
     Examples
@@ -351,8 +352,11 @@ def units_in_seconds(
 
 
 def _training_sample(train: pd.DataFrame, cols, n: int = 5000) -> pd.DataFrame:
-    """Up to ``n`` training rows (unit, time and the model's columns), kept in the model
-    file so that ``--trained`` can score how far new histories lie from them."""
+    """Up to ``n`` training rows, kept in the model file.
+
+    The rows hold the unit, the time and the model's columns, so that ``--trained`` can
+    score how far new histories lie from them.
+    """
     keys = [c for c in ("unit", "time", "cycle") if c in train.columns][:2]
     usable = [c for c in cols if c in train.columns and c not in keys]
     sample = train[[*keys, *usable]]
@@ -362,8 +366,11 @@ def _training_sample(train: pd.DataFrame, cols, n: int = 5000) -> pd.DataFrame:
 
 
 def _names_of_training(table: pd.DataFrame, pipeline, where: str) -> pd.DataFrame:
-    """A header-less history (generated names ``column_0 ...``) as wide as the model's
-    training table gets the training table's column names, by position, said."""
+    """A header-less history, given the training table's column names by position.
+
+    A history with generated names (``column_0 ...``) as wide as the model's training table
+    gets that table's column names, by position, said.
+    """
     import warnings
 
     names = getattr(pipeline, "table_columns_", None)

@@ -39,8 +39,10 @@ FEW_TEST_UNITS = 5
 
 
 def resolve_cap(rul_cap, key) -> tuple[float | None, str]:
-    """The cap to use and where it comes from (``"asked"``, the dataset's convention,
-    or ``"none"``)."""
+    """The cap to use and where it comes from.
+
+    Where: ``"asked"``, the dataset's convention, or ``"none"``.
+    """
     if isinstance(rul_cap, str):
         if rul_cap.lower() not in ("convention", "auto"):
             raise DataError(

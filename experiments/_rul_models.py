@@ -1,5 +1,8 @@
-"""The RUL models the workflows train: their names, construction, calibration, saving,
-and the report parts every RUL workflow shares (trajectory scores and plots)."""
+"""The RUL models the workflows train, and the report parts every RUL workflow shares.
+
+The models: their names, construction, calibration and saving; the report parts: trajectory
+scores and plots.
+"""
 
 from __future__ import annotations
 
@@ -141,8 +144,10 @@ def make_rul_model(
 def _fit_pipeline(
     model, features, train, *, seed, rul_cap, options, smoothing=10, calibrate=False
 ):
-    """A fitted :class:`pdmkit.rul.RULPipeline` for a workflow model, and its fit time;
-    ``calibrate`` wraps the estimator in :class:`pdmkit.rul.ConformalRUL`."""
+    """A fitted :class:`pdmkit.rul.RULPipeline` for a workflow model, and its fit time.
+
+    ``calibrate`` wraps the estimator in :class:`pdmkit.rul.ConformalRUL`.
+    """
     from pdmkit.rul import ConformalRUL, RULPipeline
 
     indicator, estimator = make_rul_model(
@@ -198,8 +203,11 @@ def _finish(report, summary: dict, sink) -> dict:
 
 
 def _trajectory_scores(path, life: pd.Series, rul_cap: float | None):
-    """(table of every prediction, headline metrics, per-unit accuracy, fractions) of a
-    trajectory prediction (a RULPrediction or its table), over each unit's last half."""
+    """The scores of a trajectory prediction, over each unit's last half.
+
+    The prediction is a RULPrediction or its table; returns (table of every prediction,
+    headline metrics, per-unit accuracy, fractions).
+    """
     from pdmkit.rul import rul_metrics
 
     table = path.to_pandas() if hasattr(path, "to_pandas") else path.copy()

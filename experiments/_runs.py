@@ -82,7 +82,7 @@ def package_versions() -> dict[str, str]:
 
 
 def fingerprint_path(path: str | os.PathLike) -> str:
-    """A fingerprint of a file or directory tree: names, sizes and modification times.
+    r"""A fingerprint of a file or directory tree: names, sizes and modification times.
 
     Cheap for large datasets (no content is read): rewriting a file changes its
     fingerprint; merely reading it does not. An fsspec URL is fingerprinted by its
@@ -92,9 +92,9 @@ def fingerprint_path(path: str | os.PathLike) -> str:
     --------
     >>> import tempfile, pathlib
     >>> d = pathlib.Path(tempfile.mkdtemp())
-    >>> _ = (d / "a.csv").write_text("x\\n1\\n")
+    >>> _ = (d / "a.csv").write_text("x\n1\n")
     >>> before = fingerprint_path(d)
-    >>> _ = (d / "a.csv").write_text("x\\n12\\n")
+    >>> _ = (d / "a.csv").write_text("x\n12\n")
     >>> before == fingerprint_path(d)
     False
     """
@@ -249,8 +249,11 @@ class RunDirectory:
         remove_stale_temporaries(self.parts, legacy_names=["*"])
 
     def set_state(self, state: str, **info: Any) -> None:
-        """Record the run's state in its manifest (``running``, ``failed``,
-        ``complete`` or ``saved``) with ``info`` (e.g. the output run that saved it)."""
+        """Record the run's state in its manifest, with ``info``.
+
+        The state is ``running``, ``failed``, ``complete`` or ``saved``; ``info`` is e.g.
+        the output run that saved it.
+        """
         self.state = state
         data = {**self.manifest, "state": state, **_canonical(info)}
         with atomic_path(self.path / "manifest.json") as tmp:
@@ -273,9 +276,10 @@ class RunDirectory:
         manifest.unlink(missing_ok=True)
 
     def _discard_parts(self) -> None:
-        """Delete the partitions pdmkit committed (their ``*.parquet`` and
-        ``meta.json``), nothing else: a file someone put there stays, as does any
-        link (never followed)."""
+        """Delete the partitions pdmkit committed (their ``*.parquet`` and ``meta.json``).
+
+        Nothing else: a file someone put there stays, as does any link (never followed).
+        """
         if not self.parts.is_dir() or self.parts.is_symlink():
             return
         for part in self.parts.iterdir():

@@ -190,7 +190,7 @@ class SeedResult:
 
     @property
     def difference(self) -> float:
-        """pdmkit's number minus the seed's (points)."""
+        """The difference, pdmkit's number minus the seed's (points)."""
         return round(float(self.pdmkit) - float(self.seed), 2)
 
     def to_dict(self) -> dict[str, Any]:

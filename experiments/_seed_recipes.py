@@ -705,8 +705,11 @@ def seed_air_leak_rul(
 
 
 def _leak_threshold(table: pd.DataFrame) -> tuple[float, bool]:
-    """Threshold (median indicator where the schedule's ``C_al`` reaches 1e-6) and
-    whether the indicator grows towards it (it starts below it)."""
+    """Threshold of the indicator, and whether the indicator grows towards it.
+
+    The threshold is the median indicator where the schedule's ``C_al`` reaches 1e-6; the
+    indicator grows towards it when it starts below it.
+    """
     at_top = []
     for _, g in table.sort_values("time").groupby("unit"):
         reached = g.loc[g["c_leak"] >= 1e-6, "hi"]

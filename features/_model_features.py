@@ -86,8 +86,11 @@ MODEL_GROUP_OPTIONS: dict[str, dict[str, object]] = {
 
 
 def _member_inputs(u, n_members: int, n_samples: int, option: str) -> np.ndarray:
-    """The input signal as ``(n_members, n_samples)``: one row per member, or one array
-    shared by all (broadcast). ``option`` names the argument in the errors."""
+    """The input signal as ``(n_members, n_samples)``.
+
+    One row per member, or one array shared by all (broadcast). ``option`` names the
+    argument in the errors.
+    """
     if u is None:
         raise DataError(
             f"model-based indicators need the input signal; pass {option}= (one array "

@@ -338,8 +338,10 @@ def _unit_paths(
 
 
 def _moving_mean(x: np.ndarray, window: int) -> np.ndarray:
-    """Centred moving mean of each column over ``window`` rows, NaN left out, the
-    window shrinking at the ends (MATLAB's ``movmean``)."""
+    """Centred moving mean of each column over ``window`` rows (MATLAB's ``movmean``).
+
+    NaN values are left out; the window shrinks at the ends.
+    """
     return (
         pd.DataFrame(x)
         .rolling(window, center=True, min_periods=1)

@@ -43,7 +43,7 @@ def _xcf(r: np.ndarray, u: np.ndarray, max_lag: int) -> np.ndarray:
 def whiteness_test(
     residual, inputs: Mapping[str, np.ndarray] | None = None, max_lag: int | None = None
 ) -> dict:
-    """Is anything systematic left in the residual? (Ljung-Box, correlation bands.)
+    """Whether anything systematic is left in the residual (Ljung-Box, correlation bands).
 
     Parameters
     ----------

@@ -290,8 +290,10 @@ def check_max_rul(value) -> float | None:
 
 
 def keep_init_args(estimator, args: dict) -> None:
-    """Store an ``__init__``'s arguments (its ``locals()``) as attributes of the same
-    names, as scikit-learn's ``get_params`` expects."""
+    """Store an ``__init__``'s arguments (its ``locals()``) as attributes of the same names.
+
+    scikit-learn's ``get_params`` expects them there.
+    """
     for name, value in args.items():
         if name not in ("self", "__class__"):
             setattr(estimator, name, value)
@@ -319,8 +321,10 @@ class TrajectoryMixin:
         return []
 
     def _prediction(self, names, times, est, lo, hi, *, level, extra=None):
-        """A :class:`RULPrediction` of the estimates and intervals, capped at
-        ``max_rul``."""
+        """The estimates and intervals as a :class:`RULPrediction`, capped at ``max_rul``.
+
+        With ``max_rul`` set, no estimate or interval bound is above it.
+        """
         est, lo, hi = (np.asarray(v, dtype=float) for v in (est, lo, hi))
         cap = check_max_rul(self.max_rul)
         if cap is not None:
@@ -430,9 +434,10 @@ class TrajectoryMixin:
 
 
 class DegradationMixin(TrajectoryMixin, abc.ABC):
-    """Shared plumbing of the one-indicator degradation models (linear, exponential,
-    Wiener and gamma process): the fit-time checks, the threshold, the horizon and the
-    sequential updates predicted without a table.
+    """Shared plumbing of the one-indicator degradation models.
+
+    The models: linear, exponential, Wiener and gamma process. The plumbing: the fit-time
+    checks, the threshold, the horizon and the sequential updates predicted without a table.
     """
 
     _min_history = 1
@@ -473,8 +478,10 @@ class DegradationMixin(TrajectoryMixin, abc.ABC):
 
     @staticmethod
     def _require_failed_for_threshold(units: Sequence[Unit], takes: str) -> None:
-        """Raise when ``threshold=None`` (it ``takes`` a value at failure) and a
-        training unit is censored."""
+        """Raise when ``threshold=None`` and a training unit is censored.
+
+        With ``threshold=None`` the model ``takes`` a value at failure.
+        """
         censored = [u.name for u in units if not u.failed]
         if censored:
             raise DataError(
@@ -489,8 +496,7 @@ class DegradationMixin(TrajectoryMixin, abc.ABC):
         return threshold
 
     def _warn_unreached(self, values: np.ndarray, threshold: float, then: str) -> None:
-        """Warn (at the caller of :meth:`fit`) that no training unit reaches the
-        threshold."""
+        """Warn (at :meth:`fit`'s caller) that no training unit reaches the threshold."""
         warnings.warn(
             f"no training unit's {self.indicator!r} reaches threshold={threshold:g} "
             f"(training range {values.min():g} .. {values.max():g}); {then}",
@@ -499,8 +505,10 @@ class DegradationMixin(TrajectoryMixin, abc.ABC):
         )
 
     def _finish_fit(self, units: Sequence[Unit], *, positive_horizon: bool = False):
-        """Set ``horizon_`` (default 10 times the longest training life),
-        ``n_units_`` and empty ``states_``."""
+        """Set ``horizon_``, ``n_units_`` and empty ``states_``.
+
+        ``horizon_`` defaults to 10 times the longest training life.
+        """
         lives = [u.t[-1] - u.t[0] for u in units]
         self.horizon_ = (
             float(self.horizon) if self.horizon is not None else 10.0 * max(max(lives), 1.0)

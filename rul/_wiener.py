@@ -96,8 +96,9 @@ def wiener_first_passage_cdf(t, distance, drift_mean, drift_var, diffusion_var):
 
 
 def _quantiles(cdf, q, shape, horizon):
-    """Quantile ``q`` of each row of a vectorised distribution function (bisection in
-    log t between ``horizon * exp(-60)`` and ``horizon``); ``inf`` where
+    """Quantile ``q`` of each row of a vectorised distribution function.
+
+    By bisection in log t between ``horizon * exp(-60)`` and ``horizon``; ``inf`` where
     ``cdf(horizon) < q``. Returns the quantiles and ``cdf(horizon)``.
     """
     reach = cdf(np.full(shape, float(horizon)))
@@ -379,10 +380,12 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
         return s2
 
     def _set_drift_prior(self, estimation_var) -> None:
-        """``drift_mean_``, ``drift_var_``: given, or the mean and the variance of the
-        training units' drifts (:attr:`unit_params_`) less ``estimation_var``, the
-        variance of each unit's drift estimate (floored at 1e-3 of the sample
-        variance)."""
+        """``drift_mean_``, ``drift_var_``: given, or from the training units' drifts.
+
+        Otherwise the mean and the variance of the training units' drifts
+        (:attr:`unit_params_`) less ``estimation_var``, the variance of each unit's drift
+        estimate (floored at 1e-3 of the sample variance).
+        """
         if self.prior is not None:
             m0, v0 = self._check_prior(self.prior)
         else:
@@ -527,10 +530,12 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
         )
 
     def _first_passage_summary(self, names, t_now, past, cdf, extra, unknown=None):
-        """Median and interval of each unit's RUL from its distribution function
-        ``cdf`` (vectorised over the units); RUL 0 where ``past``; where ``unknown``
-        (beyond the threshold since the first row) no estimate (NaN) and the interval
-        0 to inf."""
+        """Median and interval of each unit's RUL from its distribution function ``cdf``.
+
+        ``cdf`` is vectorised over the units. RUL 0 where ``past``; where ``unknown``
+        (beyond the threshold since the first row) no estimate (NaN) and the interval 0 to
+        inf.
+        """
         level = self._level
         out = []
         for q in ((1 - level) / 2, 0.5, (1 + level) / 2):
@@ -614,9 +619,10 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
 
 
 def _gamma_marginal_nll(params, alpha_t, total):
-    """Negative log marginal likelihood of each unit's total increment ``D`` over
-    ``T`` (``alpha_t = alpha T``) when ``D | beta ~ Gamma(alpha T, rate beta)`` and
-    ``beta ~ Gamma(a, rate b)``, ``params = (log a, log b)``.
+    """Negative log marginal likelihood of each unit's total increment ``D`` over ``T``.
+
+    With ``alpha_t = alpha T``, when ``D | beta ~ Gamma(alpha T, rate beta)`` and
+    ``beta ~ Gamma(a, rate b)``; ``params = (log a, log b)``.
     """
     a, b = np.exp(params)
     ll = (

@@ -97,8 +97,11 @@ def _kalman_step(state, dt, y, sigma2, tau2):
 
 
 def _run_filter(state, dts, ys, lengths, sigma2, tau2):
-    """Filter from ``state`` (after column 0) over columns ``1 .. lengths - 1`` of
-    ``ys`` / ``dts`` (``(n_units, width)``, padded past each unit's length)."""
+    """Filter from ``state`` (after column 0) over the later columns of ``ys`` / ``dts``.
+
+    Columns ``1 .. lengths - 1``; the arrays are ``(n_units, width)``, padded past each
+    unit's length.
+    """
     state = tuple(np.asarray(v, dtype=float) for v in state)
     for k in range(1, ys.shape[1]):
         live = k < lengths

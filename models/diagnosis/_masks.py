@@ -332,8 +332,10 @@ class DiagnosticMatrix:
             seen[key] = fault
 
     def diagnose(self, symptoms) -> np.ndarray:
-        """Fault name of each symptom vector: the exact match, ``"normal"`` for no
-        symptom, ``"unknown"`` for a pattern no fault explains.
+        """Fault name of each symptom vector.
+
+        The exact match, ``"normal"`` for no symptom, ``"unknown"`` for a pattern no fault
+        explains.
 
         Parameters
         ----------

@@ -1,5 +1,6 @@
-"""pdmkit.models.frequency: frequency responses, rational and grey-box fits, reduction,
-fractional-order models.
+"""pdmkit.models.frequency: frequency responses and the models fitted to them.
+
+Rational and grey-box fits, reduction and fractional-order models.
 
 The frequency-domain path of seeds ``002`` (swept-sine FRFs of a mass-beam rig, an
 ``invfreqz`` rational fit, balanced reduction) and ``003`` (FRFs at several excitation

@@ -195,8 +195,11 @@ class Candidate(abc.ABC):
         return z[0]
 
     def resolved(self, eff: Effect, values: Mapping[str, float], h: float) -> bool:
-        """Whether the fitted values (qualified names) describe something the
-        simulation with step ``h`` can tell from the simpler effect this one nests."""
+        """Whether the fitted values can be told from the simpler effect this one nests.
+
+        Told apart by the simulation with step ``h``; the values are keyed by qualified
+        names.
+        """
         return True
 
     def output(self, xp, eff, th, t, y, z):
@@ -216,8 +219,10 @@ class Candidate(abc.ABC):
         return text
 
     def in_input_units(self, eff: Effect, values: Mapping[str, float]) -> dict:
-        """Per-unit-mass parameters as forces (N) or torques (N m), when a force or
-        torque input drives the velocity (``{}`` otherwise)."""
+        """Per-unit-mass parameters as forces (N) or torques (N m).
+
+        When a force or torque input drives the velocity; ``{}`` otherwise.
+        """
         gain = eff.options.get("force_gain")
         if not self.per_unit_mass or not gain:
             return {}
@@ -1123,8 +1128,11 @@ _FORCE_UNITS = {"force": "N", "torque": "N m"}
 
 
 def _force_gain(model, velocity: str, scales: Scales) -> dict:
-    """``force_gain`` (d(dv/dt)/dF, 1/mass) of the force or torque input that drives
-    ``velocity`` most, its name and unit; ``{}`` when no such input drives it."""
+    """``force_gain`` of the force or torque input that drives ``velocity`` most.
+
+    The gain is d(dv/dt)/dF, 1/mass; returned with the input's name and unit, or ``{}`` when
+    no such input drives it.
+    """
     best = None
     for u, kind in model.inputs.items():
         gain = scales.input_gain.get((velocity, u), 0.0)

@@ -90,8 +90,9 @@ __all__ = ["MismatchResult", "choose_input_hold", "discover_mismatch"]
 
 # ---------------------------------------------------------------------------- public
 def choose_input_hold(rec: Recording) -> str:
-    """``"zoh"`` when the inputs are held (most samples repeat the one before: steps,
-    a digital controller's output), else ``"foh"`` (a sampled continuous signal).
+    """``"zoh"`` when the inputs are held, else ``"foh"`` (a sampled continuous signal).
+
+    Held inputs: most samples repeat the one before (steps, a digital controller's output).
 
     Examples
     --------
@@ -428,8 +429,10 @@ def _fit_nominal(model, s: _Setup, data_name: str) -> tuple[_Problem, _Job]:
 
 
 def _screen(model, problem, sc, x_scale, nominal, cands, screen_iter: int, keep: int):
-    """Step 2a: every candidate from its starting points, a few iterations each;
-    ``(jobs, ranked best-per-effect first, kept for the refit)``."""
+    """Step 2a: every candidate from its starting points, a few iterations each.
+
+    Returns ``(jobs, ranked best-per-effect first, kept for the refit)``.
+    """
     jobs: list[_Job] = []
     for e in cands:
         jobs += _make_jobs(
@@ -452,9 +455,12 @@ def _screen(model, problem, sc, x_scale, nominal, cands, screen_iter: int, keep:
 
 
 def _refit(model, problem, sc, x_scale, ranked, kept, max_iter: int, ts: float):
-    """Step 2b: the kept candidates to convergence; friction whose smoothing is limited
-    by the step again on finer steps (``ranked`` and ``kept`` updated in place).
-    Returns ``(problems by RK4 steps per sample, steps of each job)``."""
+    """Step 2b: the kept candidates to convergence.
+
+    Friction whose smoothing is limited by the step is fitted again on finer steps
+    (``ranked`` and ``kept`` updated in place). Returns ``(problems by RK4 steps per sample,
+    steps of each job)``.
+    """
     _lm(problem, kept, max_iter)
     problems = {problem.n_sub: problem}
     n_sub_of = {id(j): problem.n_sub for j in ranked}
@@ -483,10 +489,12 @@ def _forward_selection(
     stages: _Stages,
     o: _Options,
 ) -> tuple[_Scored | None, _Scored | None, list]:
-    """Step 4: add the runner-up (or a companion) that helps most, while it helps
-    significantly, up to ``max_effects`` effects; companions are paired even when
-    neither helps alone (each hides the other). Returns ``(accepted single, the
-    accepted structure of several effects or None, its effects by weight)``."""
+    """Step 4: add the effect that helps most, while it helps significantly.
+
+    The effect is the runner-up or a companion, up to ``max_effects`` effects; companions
+    are paired even when neither helps alone (each hides the other). Returns ``(accepted
+    single, the accepted structure of several effects or None, its effects by weight)``.
+    """
     current = accepted
     considered = [s for s in singles if s.refit and s.e_val is not None]
     for size in range(2, o.max_effects + 1):
@@ -536,10 +544,12 @@ def _forward_selection(
 
 
 def _sparse_terms(f: _Fits, nominal: _Job, base: _Scored, ref: _Scored, significant):
-    """Step 5: a sparse equation through the simulation, when the residual of ``ref``
-    (the accepted structure, or the nominal) is not white. Returns ``(scored
-    equations, the equation that became the verdict or None, whether an equation beat
-    the named explanation without whitening the residual)``."""
+    """Step 5: a sparse equation through the simulation, when the residual is not white.
+
+    The residual of ``ref`` (the accepted structure, or the nominal). Returns ``(scored
+    equations, the equation that became the verdict or None, whether an equation beat the
+    named explanation without whitening the residual)``.
+    """
     from pdmkit.models.mismatch._sparse import fit_sparse
 
     sjobs = fit_sparse(f.problem, f.model, nominal.values(), f.sc, f.x_scale, x0=nominal.x0)
@@ -561,8 +571,10 @@ def _sparse_terms(f: _Fits, nominal: _Job, base: _Scored, ref: _Scored, signific
 
 
 def _single_effects(f: _Fits, s: _Setup, nominal, ranked, kept, n_sub_of, o: _Options):
-    """Step 3: validation scores of the nominal and every screened effect, and the
-    best single effect. Returns ``(base, singles, chosen, accepted or None)``."""
+    """Step 3: validation scores of the nominal and every screened effect.
+
+    With the best single effect. Returns ``(base, singles, chosen, accepted or None)``.
+    """
     scored = [_Scored(nominal, "nominal", (), n_sub=f.problem.n_sub)]
     scored += [
         _Scored(j, j.tag, j.effects, refit=j in kept, n_sub=n_sub_of[id(j)]) for j in ranked
@@ -665,8 +677,11 @@ def _discover(model, data, validation, stages: _Stages, o: _Options) -> Mismatch
 
 @dataclasses.dataclass
 class _Selection:
-    """What the steps selected: the nominal's score, every single effect's, the
-    accepted effect or structure (None: none), the equations tried."""
+    """What the steps selected.
+
+    The nominal's score, every single effect's, the accepted effect or structure (None:
+    none), the equations tried.
+    """
 
     base: _Scored
     singles: list

@@ -554,8 +554,10 @@ def _lm(
     ftol: float = 1e-5,
     budgeted: bool = True,
 ) -> None:
-    """Batched Levenberg-Marquardt: update ``jobs`` in place for up to ``max_iter``
-    iterations (fewer when ``budgeted`` and :data:`DEADLINE` has passed)."""
+    """Batched Levenberg-Marquardt: update ``jobs`` in place, up to ``max_iter`` iterations.
+
+    Fewer when ``budgeted`` and :data:`DEADLINE` has passed.
+    """
     deadline = DEADLINE.get() if budgeted else math.inf
     for job in jobs:  # pieces' initial states start from the data when not given
         if job.x0.shape[0] != problem.n_pieces:
@@ -635,8 +637,11 @@ def _lm(
 
 # ---------------------------------------------------------------------------- scales
 def simulate_states(model, rec: Recording, values: Mapping[str, float], n_sub: int):
-    """States ``(N, n_states)`` of ``model`` with ``values`` (``p:`` parameters,
-    ``x0:`` initial states; missing parameters nominal) along ``rec``'s inputs."""
+    """States ``(N, n_states)`` of ``model`` with ``values`` along ``rec``'s inputs.
+
+    ``values`` holds ``p:`` parameters and ``x0:`` initial states; missing parameters are
+    nominal.
+    """
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
     X0 = np.array([[values[f"x0:{s}"] for s in model.states]])
     with np.errstate(all="ignore"):
@@ -804,8 +809,11 @@ def _choose_n_sub(
     values: Mapping[str, float],
     along: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> int:
-    """RK4 steps per sample for a stable simulation, from the model's fastest mode
-    along the record's first samples (or along given states ``(X, index)``)."""
+    """RK4 steps per sample for a stable simulation, from the model's fastest mode.
+
+    The mode is taken along the record's first samples, or along given states
+    ``(X, index)``.
+    """
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
     if along is None:
         head = part(rec, 0, _PREFIX)
@@ -899,10 +907,11 @@ def choose_decimation(
 
 
 def decimate(rec: Recording, factor: int) -> Recording:
-    """Every ``factor``-th sample. A held input (``rec.hold == "zoh"``) becomes the
-    mean over the ``factor`` samples it stands for (held over that interval it delivers
-    the same impulse); an interpolated one (``"foh"``, a smooth sampled signal) and
-    each output are the samples themselves.
+    """Every ``factor``-th sample.
+
+    A held input (``rec.hold == "zoh"``) becomes the mean over the ``factor`` samples it
+    stands for (held over that interval it delivers the same impulse); an interpolated one
+    (``"foh"``, a smooth sampled signal) and each output are the samples themselves.
 
     Examples
     --------
@@ -1013,9 +1022,11 @@ def _make_jobs(
     fit_effects=True,
     x0=None,
 ):
-    """Jobs for one structure, one per start; ``x0`` ``(K, nx)`` the pieces' initial
-    states (default: ``values``' ``x0:`` entries, spread over the pieces from the data
-    when the fit starts)."""
+    """Jobs for one structure, one per start.
+
+    ``x0`` ``(K, nx)`` are the pieces' initial states (default: ``values``' ``x0:`` entries,
+    spread over the pieces from the data when the fit starts).
+    """
     states = list(model.states)
     if x0 is None:
         x0 = np.array([[values[f"x0:{s}"] for s in states]], dtype=float)

@@ -188,9 +188,11 @@ REACH = 0.3
 
 
 def _within_reach(ranked: list[_Job], nominal_cost: float, keep: int) -> list[_Job]:
-    """The screened jobs to refit: the ``keep`` best, and every other one whose gain
-    over the nominal cost is within :data:`REACH` of the best gain (at most
-    ``3 * keep`` in all, best first)."""
+    """The screened jobs to refit, best first.
+
+    The ``keep`` best, and every other one whose gain over the nominal cost is within
+    :data:`REACH` of the best gain (at most ``3 * keep`` in all).
+    """
     if not ranked:
         return []
     best_gain = nominal_cost - ranked[0].cost
@@ -205,9 +207,12 @@ def _within_reach(ranked: list[_Job], nominal_cost: float, keep: int) -> list[_J
 
 
 def _grow(current: _Scored, singles: list[_Scored], top: int) -> dict:
-    """``{effect keys: (current, single)}`` for the ``top`` refitted runner-ups (lowest
-    validation RMSE first) and the companions of ``current``'s effects: effects it
-    does not hold already, nor nests (Stribeck and Coulomb on one velocity)."""
+    """``{effect keys: (current, single)}`` for the runner-ups and companions to try.
+
+    For the ``top`` refitted runner-ups (lowest validation RMSE first) and the companions of
+    ``current``'s effects: effects it does not hold already, nor nests (Stribeck and Coulomb
+    on one velocity).
+    """
     held = {(e.id, e.target) for e in current.effects}
     for e in current.effects:  # nor one that nests it or that it nests
         if e.candidate.nests:
@@ -231,10 +236,13 @@ def _grow(current: _Scored, singles: list[_Scored], top: int) -> dict:
 
 
 def _simpler_rival(chosen: _Scored, considered: list[_Scored], min_gain: float):
-    """A considered structure that holds, instead of each effect of ``chosen`` that
-    nests a simpler one (``Candidate.nests``), that simpler effect on the same target, with
-    no more fitted values and a validation RMSE within ``min_gain`` of ``chosen``'s
-    (the best such, or None)."""
+    """A simpler considered structure that does about as well as ``chosen``.
+
+    It holds, instead of each effect of ``chosen`` that nests a simpler one
+    (``Candidate.nests``), that simpler effect on the same target, with no more fitted
+    values and a validation RMSE within ``min_gain`` of ``chosen``'s (the best such, or
+    None).
+    """
     nesting = [(e, e.candidate.nests) for e in chosen.effects if e.candidate.nests]
     if not nesting:
         return None
@@ -253,8 +261,10 @@ def _simpler_rival(chosen: _Scored, considered: list[_Scored], min_gain: float):
 
 
 def _by_weight(problem: _Problem, s: _Scored) -> list:
-    """The effects of a structure, the one whose removal (its parameters at their
-    neutral values, nothing refitted) raises the fitted cost most first."""
+    """The effects of a structure, the one whose removal raises the fitted cost most first.
+
+    Removal sets its parameters at their neutral values, nothing refitted.
+    """
     vals = s.job.values()
     rows, order = [], []
     for e in s.effects:
@@ -273,9 +283,11 @@ def _by_weight(problem: _Problem, s: _Scored) -> list:
 
 
 def _companion_pairs(singles: list[_Scored], top: int) -> list:
-    """``(single, companion)`` for each of the ``top`` refitted singles (lowest
-    validation RMSE first) and every candidate listed as its companion (on the same
-    target when both act on a state's derivative), screened or refitted alike."""
+    """``(single, companion)`` for each of the ``top`` refitted singles and its companions.
+
+    Singles by lowest validation RMSE first; every candidate listed as a single's companion
+    (on the same target when both act on a state's derivative), screened or refitted alike.
+    """
     ranked = [s for s in sorted(singles, key=lambda s: s.rmse_val) if s.refit][:top]
     out, seen = [], set()
     for s in ranked:
@@ -303,8 +315,10 @@ def _white(s: _Scored) -> bool:
 
 
 def _structured(s) -> bool:
-    """A residual with clear structure: not white and strongly correlated (a model
-    error, not measurement noise, which a control's residual is)."""
+    """A residual with clear structure: not white and strongly correlated.
+
+    A model error, not measurement noise, which a control's residual is.
+    """
     for j in range(s.e_val.shape[1]):
         w = whiteness_test(s.e_val[:, j])
         if not w["white"] and w["acf_max"] > 0.5:
@@ -313,8 +327,10 @@ def _structured(s) -> bool:
 
 
 def _score(model, problems, rec_val, scored, x_scale, n_res: int, everyone=None) -> None:
-    """Validation errors of ``scored`` and the BIC (on ``n_res`` training residuals)
-    of ``everyone`` (default: ``scored``)."""
+    """Validation errors of ``scored`` and the BIC of ``everyone`` (default: ``scored``).
+
+    The BIC is on ``n_res`` training residuals.
+    """
     _validate(model, problems, rec_val, scored, x_scale, 30)
     for s in scored if everyone is None else everyone:
         s.bic = _bic(s.job.cost, n_res, s.job.n_fitted)
@@ -322,9 +338,11 @@ def _score(model, problems, rec_val, scored, x_scale, n_res: int, everyone=None)
 
 @dataclasses.dataclass(frozen=True)
 class Significance:
-    """Whether a structure beats a reference: a relative validation-RMSE gain of at
-    least ``min_improvement``, a Diebold-Mariano p-value below ``alpha`` and a lower
-    BIC."""
+    """Whether a structure beats a reference.
+
+    It needs a relative validation-RMSE gain of at least ``min_improvement``, a
+    Diebold-Mariano p-value below ``alpha`` and a lower BIC.
+    """
 
     min_improvement: float
     alpha: float

@@ -455,9 +455,10 @@ def make_sparse_effect(
 
 # ---------------------------------------------------------------------------- fitting
 def _jacobian(problem, job):
-    """Weighted residual ``r`` at the job's point, its finite-difference Jacobian ``J``
-    in the job's parameters, and ``recover(d)``: the change of the pieces' initial
-    states that goes with a parameter step ``d``.
+    """Weighted residual ``r`` at the job's point, its Jacobian ``J`` and ``recover(d)``.
+
+    ``J`` is the finite-difference Jacobian in the job's parameters; ``recover(d)`` gives
+    the change of the pieces' initial states that goes with a parameter step ``d``.
 
     The initial states are nuisance values: ``r`` and ``J`` are projected onto what
     they cannot explain (piece by piece), so a selection on ``(r, J)`` is the selection

@@ -218,8 +218,11 @@ _SIGNATURES = {
 
 
 def _signatures(labels: Sequence[str], target: str, partner: str | None) -> list[dict]:
-    """Named effects whose signature the sparse terms hold (``sign(v)`` -> Coulomb,
-    ``1`` -> a bias force, ``x**3`` -> cubic stiffness, ``abs(v)*v`` -> drag)."""
+    """Named effects whose signature the sparse terms hold.
+
+    ``sign(v)`` -> Coulomb, ``1`` -> a bias force, ``x**3`` -> cubic stiffness,
+    ``abs(v)*v`` -> drag.
+    """
     found = []
     for lab in labels:
         if lab == f"sign({target})":
@@ -238,8 +241,11 @@ def _signatures(labels: Sequence[str], target: str, partner: str | None) -> list
 
 
 def _at_bounds(job: _Job) -> list[str]:
-    """Fitted values that ended on a bound of their search range (free model
-    parameters always; effect parameters when the bound is not their neutral value)."""
+    """Fitted values that ended on a bound of their search range.
+
+    Free model parameters always; effect parameters when the bound is not their neutral
+    value.
+    """
     lay = job.layout
     out = []
     neutral = {}
@@ -306,8 +312,11 @@ def _verdict_params(s: _Scored) -> dict:
 
 
 def _explain(e: Effect, vals: Mapping[str, float], model=None, rec=None) -> str:
-    """The effect's sentence; with the model and recording, forces in N use the input
-    gain (1 / mass) of the fit that ``vals`` come from, not the nominal one."""
+    """The effect's sentence.
+
+    With the model and recording, forces in N use the input gain (1 / mass) of the fit that
+    ``vals`` come from, not the nominal one.
+    """
     if model is not None and rec is not None and "force_gain" in e.options:
         gain = _input_gain(model, e.target, e.options["force_input"], vals, rec)
         if gain > 0:
@@ -333,8 +342,10 @@ def _input_gain(model, velocity: str, name: str, vals: Mapping[str, float], rec)
 def candidate_table(
     singles: list[_Scored], sparse_scored: list[_Scored], base: _Scored, top
 ):
-    """Every candidate, the best variant per effect and target, best first (``top``,
-    the one chosen by the BIC tie-break, leads)."""
+    """Every candidate, the best variant per effect and target, best first.
+
+    ``top``, the one chosen by the BIC tie-break, leads.
+    """
     import pandas as pd
 
     by_target: dict[tuple[str, str], _Scored] = {}
@@ -374,8 +385,10 @@ def candidate_table(
 
 
 def _no_effect(model, rec, base, singles, sparse_scored, beaten) -> dict:
-    """``none``, or ``unexplained`` (with what comes closest) when something
-    systematic is left that no candidate explains."""
+    """``none``, or ``unexplained`` (with what comes closest).
+
+    ``unexplained`` when something systematic is left that no candidate explains.
+    """
     if not (_structured(base) or beaten is not None):
         return {"effect": "none", "target": None, "physics": _NONE_PHYSICS, "params": {}}
     lead = beaten or (min(singles, key=lambda s: s.rmse_val) if singles else None)
@@ -440,8 +453,11 @@ def _named(model, rec, accepted: _Scored, pair: _Scored | None, pair_order) -> d
 
 
 def _alternatives(verdict: dict, final: _Scored, singles, tie_tolerance: float) -> None:
-    """Other single effects these data cannot tell from the verdict (a constant force
-    on a spring and a sensor offset look alike once the transients have died)."""
+    """Other single effects these data cannot tell from the verdict.
+
+    A constant force on a spring and a sensor offset look alike once the transients have
+    died.
+    """
     held = {(e.id, e.target) for e in final.effects}
     close = [
         s
@@ -481,8 +497,11 @@ def build_verdict(
     beaten: _Scored | None,
     tie_tolerance: float,
 ) -> dict:
-    """The verdict: the effect named (or ``none`` / ``unexplained``), its physics in
-    one sentence, its parameters, further effects and look-alike alternatives."""
+    """The verdict: the effect named (or ``none`` / ``unexplained``).
+
+    With its physics in one sentence, its parameters, further effects and look-alike
+    alternatives.
+    """
     if accepted is None:
         return _no_effect(model, rec, base, singles, sparse_scored, beaten)
     verdict = _named(model, rec, accepted, pair, pair_order)
@@ -508,8 +527,10 @@ def add_warnings(verdict: dict, job: _Job, budget: dict | None) -> None:
 
 # ---------------------------------------------------------------------------- result
 def _fit_summary(model, s, problem, nominal, base, final) -> dict:
-    """RMSEs before / after (validation and training), free values, how it was fitted
-    (``s``: the discovery's recordings and weights, ``_discover._Setup``)."""
+    """RMSEs before / after (validation and training), free values, how it was fitted.
+
+    ``s`` holds the discovery's recordings and weights (``_discover._Setup``).
+    """
     fitted = problem.sample_index()  # the training samples simulated
     train_err_nom = s.y_all[fitted] - base.y_train[fitted]
     return {
@@ -541,8 +562,10 @@ def _fit_summary(model, s, problem, nominal, base, final) -> dict:
 
 
 def _localise(model, s, problem, nominal, x_nominal, base, final) -> dict:
-    """Step 6: where the nominal residual lies (time, state space, frequency), its
-    whiteness before / after, and the signals for plots."""
+    """Step 6: where the nominal residual lies, and its whiteness before / after.
+
+    Where: in time, state space and frequency. Also the signals for plots.
+    """
     rec, y_all, w, n_fit = s.rec, s.y_all, s.w, s.n_fit
     if problem.n_pieces == 1:  # the whole training recording
         Xt = simulate_states(model, rec, nominal.values(), problem.n_sub)
@@ -587,8 +610,10 @@ def _localise(model, s, problem, nominal, x_nominal, base, final) -> dict:
 
 
 def _result(model, s, problem, nominal, x_nominal, base, final, verdict, table, timings):
-    """The :class:`MismatchResult`: the fit before / after, where the residual lies and
-    how sure the verdict is."""
+    """The :class:`MismatchResult`.
+
+    The fit before / after, where the residual lies and how sure the verdict is.
+    """
     fit = _fit_summary(model, s, problem, nominal, base, final)
     where = _localise(model, s, problem, nominal, x_nominal, base, final)
     nom_rmse, aug_rmse = fit["rmse_nominal"], fit["rmse_augmented"]

@@ -940,7 +940,7 @@ def load_model_file(
     data: Any = None,
     model_timeout: float | None = MODEL_TIMEOUT,
 ) -> OdeModel:
-    """Load and check a user model file (the mismatch-discovery model contract).
+    r"""Load and check a user model file (the mismatch-discovery model contract).
 
     A model file is Python code, run with your rights: it can do anything you can (read
     and write files, start programs). Trust it like code you would run.
@@ -997,13 +997,13 @@ def load_model_file(
     ... ''')
     >>> load_model_file(path)
     <OdeModel 'tank': states h(level); inputs q(flow); outputs h; free a>
-    >>> _ = path.write_text('STATES = {"h": "level"}\\nOUTPUTS = ["h"]\\nPARAMS = {}\\n'
-    ...                     'FREE = ["a"]\\ndef rhs(t, x, u, p): return {"h": 0.0}\\n')
+    >>> _ = path.write_text('STATES = {"h": "level"}\nOUTPUTS = ["h"]\nPARAMS = {}\n'
+    ...                     'FREE = ["a"]\ndef rhs(t, x, u, p): return {"h": 0.0}\n')
     >>> load_model_file(path)
     Traceback (most recent call last):
     ...
     pdmkit.errors.ModelError: model file .../tank.py: FREE names 'a', which is not in ...
-    >>> _ = path.write_text('import sys\\nsys.exit(0)\\n')
+    >>> _ = path.write_text('import sys\nsys.exit(0)\n')
     >>> load_model_file(path)
     Traceback (most recent call last):
     ...

@@ -174,9 +174,11 @@ def integrate_batch(
             Useq = xp.stack([U[n] for n in inputs], 2)
 
     def _piece_inputs(U, name, idx, transforms):
-        """Input ``name`` at the pieces' samples, ``(B * K, L)``: transforms (a dead
-        time reaching before a piece's start) act on the whole record, but only for the
-        rows that carry them."""
+        """Input ``name`` at the pieces' samples, ``(B * K, L)``.
+
+        Transforms (a dead time reaching before a piece's start) act on the whole record,
+        but only for the rows that carry them.
+        """
         out = np.array(U[name][:, idx])  # (B, K, L)
         mine = [i for i in transforms if effects[i].target == name]
         if not mine:
@@ -550,8 +552,10 @@ def stable_substeps(model, params, x_traj: np.ndarray, ts: float, u_traj=None) -
 
 
 def state_jacobians(model, params, x_traj: np.ndarray, u_traj, n_points: int):
-    """Finite-difference state Jacobians of ``rhs`` at ``n_points`` points of a
-    trajectory ``x_traj (N, nx)`` (inputs ``u_traj``); only finite ones.
+    """Finite-difference state Jacobians of ``rhs`` at ``n_points`` points of a trajectory.
+
+    The trajectory is ``x_traj (N, nx)`` (inputs ``u_traj``); only finite Jacobians are
+    kept.
 
     Examples
     --------

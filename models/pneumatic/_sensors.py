@@ -390,7 +390,7 @@ def ideal_readings(
 
 
 def _seed_sequence(seed) -> np.random.SeedSequence:
-    """int / None / SeedSequence / Generator -> SeedSequence."""
+    """The seed (int / None / SeedSequence / Generator) as a SeedSequence."""
     if isinstance(seed, np.random.SeedSequence):
         return seed
     if isinstance(seed, np.random.Generator):

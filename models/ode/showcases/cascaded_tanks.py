@@ -14,6 +14,7 @@ INITIAL = {"h1": 150.0, "h2": 5.0}
 
 
 def rhs(t, x, u, p):
+    """The level derivatives: the pump fills tank 1, which drains into tank 2."""
     return {
         "h1": u["u"] - p["k1"] * abs(x["h1"]) ** 0.5,
         "h2": p["k2"] * abs(x["h1"]) ** 0.5 - p["k3"] * abs(x["h2"]) ** 0.5,

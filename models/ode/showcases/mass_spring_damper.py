@@ -12,4 +12,5 @@ INITIAL = {"x": 0.0, "v": 0.0}
 
 
 def rhs(t, x, u, p):
+    """The state derivatives: the force, the spring and the damper accelerate the mass."""
     return {"x": x["v"], "v": (u["F"] - p["c"] * x["v"] - p["k"] * x["x"]) / p["m"]}

@@ -32,6 +32,7 @@ INITIAL = {"x": 0.0, "v": 0.0, "pa": 3.5e5, "pb": 3.5e5}
 
 
 def rhs(t, x, u, p):
+    """The state derivatives: valve flows fill and vent the chambers, moving the piston."""
     fill = 0.5 * (1.0 + u["u"])  # opening towards supply for A, towards ambient for B
     vent = 0.5 * (1.0 - u["u"])
     ps, p0, G = p["p_supply"], p["p_ambient"], p["G"]

@@ -13,6 +13,7 @@ INITIAL = {"h1": 0.1, "h2": 0.1}
 
 
 def rhs(t, x, u, p):
+    """The level derivatives: the pump fills tank 1, which drains into tank 2."""
     q1 = p["k1"] * abs(x["h1"]) ** 0.5
     q2 = p["k2"] * abs(x["h2"]) ** 0.5
     return {"h1": p["b"] * u["u"] - q1, "h2": q1 - q2}
