@@ -178,6 +178,49 @@ def check_columns(table: pd.DataFrame, columns: Sequence[str], param: str) -> No
         raise DataError(f"{param} columns {bad} are not numeric")
 
 
+def learnable_columns(table: pd.DataFrame, features, keys, owner: str):
+    """The feature columns a learned model trains on, and the ones it leaves out.
+
+    ``features=None`` takes every numeric, non-boolean column that is not a key or a
+    label; columns constant over the table (up to rounding: C-MAPSS stores two sensors
+    with a 1e-15 spread, which standardised would be pure noise) are dropped.
+
+    Returns
+    -------
+    (list of str, dict)
+        The columns kept, and ``{column: why it was dropped}``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from pdmkit.rul._base import learnable_columns
+    >>> t = pd.DataFrame({"unit": [1, 1], "time": [1, 2], "a": [0.1, 0.3], "b": 2.0})
+    >>> learnable_columns(t, None, {"unit", "time"}, "model")
+    (['a'], {'b': 'constant over the training table'})
+    """
+    if features is None:
+        cols = [
+            c
+            for c in table.columns
+            if c not in keys
+            and c not in LABEL_COLUMNS
+            and pd.api.types.is_numeric_dtype(table[c])
+            and not pd.api.types.is_bool_dtype(table[c])
+        ]
+    else:
+        cols = as_columns(features)
+    check_columns(table, cols, "features")
+    spread = table[cols].std() if cols else pd.Series(dtype=float)
+    magnitude = table[cols].abs().mean() if cols else pd.Series(dtype=float)
+    kept = [c for c in cols if spread[c] > 1e-9 * max(magnitude[c], 1.0)]
+    if not kept:
+        raise DataError(
+            f"every feature is constant over the training table ({cols}); the {owner} "
+            "has nothing to learn from"
+        )
+    return kept, {c: "constant over the training table" for c in cols if c not in kept}
+
+
 def failed_column(table: pd.DataFrame, failed: str | None) -> str | None:
     if failed is None:
         return "failed" if "failed" in table.columns else None

@@ -29,11 +29,8 @@ from threadpoolctl import threadpool_limits
 
 from pdmkit.errors import DataError
 from pdmkit.rul._base import (
-    LABEL_COLUMNS,
     TrajectoryMixin,
     Unit,
-    as_columns,
-    check_columns,
     check_fitted,
     check_level,
     check_max_rul,
@@ -41,6 +38,7 @@ from pdmkit.rul._base import (
     check_table,
     failed_column,
     keep_init_args,
+    learnable_columns,
     require_failures,
     resolve_keys,
 )
@@ -337,31 +335,9 @@ class BoostingRULModel(TrajectoryMixin, BaseEstimator):
         level = check_level(self.level)
         self._cap = check_max_rul(self.max_rul)
         keys = {*self._keys, *([self._failed] if self._failed else [])}
-        if self.features is None:
-            cols = [
-                c
-                for c in table.columns
-                if c not in keys
-                and c not in LABEL_COLUMNS
-                and pd.api.types.is_numeric_dtype(table[c])
-                and not pd.api.types.is_bool_dtype(table[c])
-            ]
-        else:
-            cols = as_columns(self.features)
-        check_columns(table, cols, "features")
-        spread = table[cols].std() if cols else pd.Series(dtype=float)
-        magnitude = table[cols].abs().mean() if cols else pd.Series(dtype=float)
-        # constant up to rounding (C-MAPSS stores two sensors with a 1e-15 spread):
-        # standardised, such a column would be pure noise
-        self.features_ = [c for c in cols if spread[c] > 1e-9 * max(magnitude[c], 1.0)]
-        self.dropped_ = {
-            c: "constant over the training table" for c in cols if c not in self.features_
-        }
-        if not self.features_:
-            raise DataError(
-                f"every feature is constant over the training table ({cols}); the model "
-                "has nothing to learn from"
-            )
+        self.features_, self.dropped_ = learnable_columns(
+            table, self.features, keys, "model"
+        )
         units = self._split(table, "training table")
         require_failures(units, "BoostingRULModel")
         if len(units) < 2:

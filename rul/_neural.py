@@ -19,11 +19,8 @@ from sklearn.base import BaseEstimator
 
 from pdmkit.errors import DataError
 from pdmkit.rul._base import (
-    LABEL_COLUMNS,
     TrajectoryMixin,
     Unit,
-    as_columns,
-    check_columns,
     check_fitted,
     check_level,
     check_max_rul,
@@ -31,6 +28,7 @@ from pdmkit.rul._base import (
     check_table,
     failed_column,
     keep_init_args,
+    learnable_columns,
     require_failures,
     resolve_keys,
 )
@@ -361,32 +359,9 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         level = check_level(self.level)
         check_max_rul(self.max_rul)
         keys = {*self._keys, *([self._failed] if self._failed else [])}
-        if self.features is None:
-            cols = [
-                c
-                for c in table.columns
-                if c not in keys
-                and c not in LABEL_COLUMNS
-                and pd.api.types.is_numeric_dtype(table[c])
-                and not pd.api.types.is_bool_dtype(table[c])
-            ]
-        else:
-            cols = as_columns(self.features)
-        check_columns(table, cols, "features")
-        self.dropped_ = {}
-        spread = table[cols].std() if cols else pd.Series(dtype=float)
-        magnitude = table[cols].abs().mean() if cols else pd.Series(dtype=float)
-        # constant up to rounding (C-MAPSS stores two sensors with a 1e-15 spread):
-        # standardised, such a column would be pure noise
-        self.features_ = [c for c in cols if spread[c] > 1e-9 * max(magnitude[c], 1.0)]
-        self.dropped_ = {
-            c: "constant over the training table" for c in cols if c not in self.features_
-        }
-        if not self.features_:
-            raise DataError(
-                f"every feature is constant over the training table ({cols}); the network "
-                "has nothing to learn from"
-            )
+        self.features_, self.dropped_ = learnable_columns(
+            table, self.features, keys, "network"
+        )
         units = self._split(table, "training table")
         require_failures(units, "NeuralRULModel")
         n_folds = min(int(self.n_folds), len(units))
