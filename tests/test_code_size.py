@@ -121,7 +121,6 @@ LONG_FUNCTIONS: dict[str, str] = {
     ),
     "experiments/_classify.py:classify": "selection, model, split and scores; to split",
     "models/ident/_hammerstein.py:fit": "initialisation and LM of the HW model; to split",
-    "rul/_neural.py:fit": "windows, networks, training loop; to split",
     "_persist.py:decode": "the decoder's type cases; one function per case",
     "ensembles/_pneumatic.py:simulate_leak_runs": (
         "leak schedule, units and simulation; to split"
