@@ -79,9 +79,11 @@ from pdmkit.experiments._rul_checks import (
     cap_text,
     default_time_unit,
     describe_rul,
+    ending_checks,
     input_checks,
     interval_checks,
     model_keys,
+    ood_check,
     rename_keys,
     resolve_cap,
     sample_checks,
@@ -445,8 +447,11 @@ def _predict_rul(
     reference = getattr(pipeline, "training_sample_", None)
     if reference is not None:  # how far each history lies from the training rows
         keyed = table.rename(columns={model_unit: "unit", model_time or "time": "time"})
-        cols = [c for c in reference.columns if c not in ("unit", "time")]
-        ood, _ = input_checks(reference, keyed, cols, unit_label, found)
+        cols = [c for c in reference.columns if c not in ("unit", "time") and c in keyed]
+        # the kept training rows are a thinned sample: only the history's own endings
+        # are checked for a shut-down, not the sample's
+        ood = ood_check(reference, keyed, cols, found)
+        ending_checks({"history": keyed}, cols, found)
         rows["ood_score"] = ood.reindex(rows["unit"]).to_numpy(dtype=float)
     records = rows.to_dict(orient="records")
     for record in records:

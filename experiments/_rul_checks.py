@@ -126,9 +126,15 @@ def sample_checks(model, estimator, calibrate, n_train, n_test, found) -> None:
 
 def input_checks(train, test, cols, unit_label, found) -> tuple[pd.Series, dict]:
     """Out-of-distribution scores of the test units and shut-down endings, warned."""
-    from pdmkit.rul import OOD_THRESHOLD, ood_scores, shutdown_endings
-
     usable = [c for c in cols if c in train.columns and c in test.columns]
+    scores = ood_check(train, test, usable, found)
+    return scores, ending_checks({"training": train, "test": test}, usable, found)
+
+
+def ood_check(train, test, usable, found) -> pd.Series:
+    """Each test unit's out-of-distribution score; the units beyond the threshold warned."""
+    from pdmkit.rul import OOD_THRESHOLD, ood_scores
+
     scores = ood_scores(train, test, usable) if usable else pd.Series(dtype=float)
     far = scores[scores > OOD_THRESHOLD]
     if len(far):
@@ -140,8 +146,15 @@ def input_checks(train, test, cols, unit_label, found) -> tuple[pd.Series, dict]
             "predictions and intervals are not to be trusted",
             found,
         )
+    return scores
+
+
+def ending_checks(tables: dict, usable, found) -> dict:
+    """Units whose last rows look like a shut-down, per named table, warned."""
+    from pdmkit.rul import shutdown_endings
+
     endings = {}
-    for part, table in (("training", train), ("test", test)):
+    for part, table in tables.items():
         flagged = shutdown_endings(table, usable) if usable else pd.DataFrame()
         if len(flagged):
             first = flagged.iloc[0]
@@ -155,7 +168,7 @@ def input_checks(train, test, cols, unit_label, found) -> tuple[pd.Series, dict]
                 found,
             )
             endings[part] = flagged.to_dict(orient="records")
-    return scores, endings
+    return endings
 
 
 def interval_checks(pred, cap, unit_label, found) -> tuple[np.ndarray, dict]:
