@@ -685,36 +685,30 @@ def _order_column(table: pd.DataFrame, args: argparse.Namespace) -> str | None:
     return None
 
 
-def _clock_columns(table: pd.DataFrame, ranked: pd.DataFrame, order: str | None) -> None:
-    """Warnings for top-ranked columns that step with the row order itself.
+def _clock_columns(table, ranked, unit: str | None, order: str | None) -> None:
+    """Warn about top-ranked columns that step with the row order itself.
 
-    A clock or a counter (a snapshot's time of day, a cycle count) moves the same way at
-    almost every row, which no noisy health indicator does: it ranks as perfectly
-    monotonic but says nothing about health.
+    A clock or a counter (a snapshot's time of day, a cycle count) is monotonic before
+    any smoothing, which no noisy health indicator is: the same monotonicity, on the raw
+    rows, at 0.98 or more (99 % of the steps one way).
     """
     import warnings
 
-    import numpy as np
-
     from pdmkit.errors import DataWarning
+    from pdmkit.features import rank_features
 
-    rows = table if order is None else table.sort_values(order, kind="stable")
-    for feature in ranked["feature"].head(10):
-        values = rows[feature]
-        if feature == order or not pd.api.types.is_numeric_dtype(values):
-            continue
-        steps = np.diff(values.to_numpy(dtype=float))
-        steps = steps[np.isfinite(steps)]
-        if steps.size < 10:
-            continue
-        up, down = float(np.mean(steps > 0)), float(np.mean(steps < 0))
-        if max(up, down) >= 0.99:
-            text = (
-                f"{feature!r} {'rises' if up > down else 'falls'} at {max(up, down):.1%} "
-                f"of the steps between rows ordered by {order or 'the row number'!r}: a "
-                "clock or a counter, not a health indicator; leave it out with --features"
+    top = [f for f in ranked["feature"].head(10) if f != order]
+    raw = rank_features(table, method="monotonicity", features=top, unit=unit, time=order)
+    for row in raw.to_pandas().itertuples():
+        if row.score >= 0.98:
+            warnings.warn(
+                f"{row.feature!r} is monotonic in the raw rows ordered by "
+                f"{order or 'the row number'!r} (monotonicity {row.score:.3f} before "
+                "smoothing): a clock or a counter, not a health indicator; leave it out "
+                "with --features",
+                DataWarning,
+                stacklevel=2,
             )
-            warnings.warn(text, DataWarning, stacklevel=2)
 
 
 def _rank(args: argparse.Namespace, run: OutputRun) -> int:
@@ -764,7 +758,7 @@ def _rank(args: argparse.Namespace, run: OutputRun) -> int:
         )
         described = {"unit": unit, "time": order, "n_units": int(units)}
         described["window"] = args.window
-        _clock_columns(table, ranking.to_pandas(), order)
+        _clock_columns(table, ranking.to_pandas(), unit, order)
     ranked = ranking.to_pandas()
     run.add_parquet("ranking.parquet", ranked)
     summary = {
