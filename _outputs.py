@@ -80,6 +80,7 @@ OUTPUTS: dict[str, tuple[str, ...]] = {
         "report.html",
         "summary.json",
     ),
+    "study": ("report.html", "summary.json"),
 }
 
 #: The JSON summary of each command: what ``--json PATH`` receives a copy of.
@@ -92,6 +93,7 @@ MAIN_JSON: dict[str, str] = {
     "identify": "summary.json",
     "mismatch": "summary.json",
     "demo": "summary.json",
+    "study": "summary.json",
 }
 
 #: pdmkit's own folder inside an output folder.

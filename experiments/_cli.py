@@ -26,6 +26,8 @@ import pandas as pd
 from pdmkit._outputs import OutputRun, check_output_folder, collect_warnings
 from pdmkit.errors import DataError, ModelError, did_you_mean
 from pdmkit.experiments._report import _readable_float
+from pdmkit.experiments.designer import add_parser as add_designer_parser
+from pdmkit.experiments.studies import STUDIES
 
 __all__ = ["main"]
 
@@ -1107,6 +1109,17 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_study(args: argparse.Namespace) -> int:
+    from pdmkit.experiments.studies import run_study
+
+    out = args.out if args.out is not None else Path("results/study") / args.name
+    start = time.perf_counter()
+    run_study(args.name, out, json_path=args.json, seed=args.seed, quick=args.quick)
+    seconds = time.perf_counter() - start
+    _say(f"{args.name} finished in {seconds:.0f} s; see {out}/report.html")
+    return 0
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     from pdmkit.experiments._demo import run_demo
 
@@ -1484,6 +1497,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=Path("results/mismatch"))
     p.add_argument("--json", type=Path)
     p.set_defaults(func=_cmd_mismatch)
+
+    p = sub.add_parser("study", help="run one of the source studies end to end")
+    p.add_argument("name", choices=sorted(STUDIES), help="the study (see below)")
+    p.add_argument("--out", type=Path, help="output folder (default results/study/NAME)")
+    p.add_argument("--json", type=Path, help="also write the summary JSON here")
+    p.add_argument("--seed", type=int, default=0, help="seed of the simulated rig (0)")
+    p.add_argument(
+        "--quick", action="store_true", help="a smaller, faster run for a first look"
+    )
+    p.epilog = "studies: " + "; ".join(f"{k}: {v[2]}" for k, v in sorted(STUDIES.items()))
+    p.set_defaults(func=_cmd_study)
+
+    add_designer_parser(sub)
 
     p = sub.add_parser("demo", help="the whole workbench on the simulated pneumatic piston")
     p.add_argument("--out", type=Path, default=Path("results/demo"))

@@ -1,0 +1,40 @@
+"""pdmkit designer: explore an ensemble, design indicators, rank, train and export.
+
+``pdmkit designer`` starts a local web app (bound to 127.0.0.1, a free port) that
+works through the steps of an interactive feature designer: look at the members and
+their signals by condition, compute indicators, rank them, train a classifier, and
+export the work as a command line, a Python script and a fitted pipeline.
+
+This module stays light (the command line imports it to register the command); the web
+app is imported when it starts.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["add_parser"]
+
+
+def add_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register the ``designer`` command with the ``pdmkit`` sub-command parsers."""
+    p = sub.add_parser("designer", help="the interactive feature designer in the browser")
+    source = p.add_mutually_exclusive_group()
+    source.add_argument("--ensemble", type=Path, help="an on-disk ensemble folder")
+    source.add_argument("--members", type=Path, nargs="+", help="recording files")
+    source.add_argument("--dataset", help="a named dataset (see `pdmkit datasets`)")
+    source.add_argument("--features", type=Path, help="a feature table to start from")
+    p.add_argument("--host", default="127.0.0.1", help="address to bind (127.0.0.1)")
+    p.add_argument("--port", type=int, default=0, help="port (0: a free one)")
+    p.add_argument(
+        "--no-browser", action="store_true", help="print the URL, do not open a browser"
+    )
+    p.set_defaults(func=_cmd_designer)
+    return p
+
+
+def _cmd_designer(args: argparse.Namespace) -> int:
+    from pdmkit.experiments.designer._app import serve
+
+    return serve(args)
