@@ -197,19 +197,14 @@ def _group_options(
 def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
     """(ensemble or path/URL, groups, options, label, sensors, profile, read errors)."""
     from pdmkit.experiments._datasets import get_profile
-    from pdmkit.features._extract import (
-        _OPTION_GROUP,
-        GROUP_OPTIONS,
-        _check_groups,
-        _check_option_names,
-    )
+    from pdmkit.features import GROUPS, check_group_options, check_groups, group_of_option
 
     groups = tuple(args.groups) if args.groups else ("stats", "spectral")
     extra = _group_options(getattr(args, "option", []) or [])
     try:  # a misspelt group or --option is an input error (exit 2), before loading
         if args.groups:
-            _check_groups(args.groups)
-        _check_option_names(list(GROUP_OPTIONS), extra, where="pdmkit --option")
+            check_groups(args.groups)
+        check_group_options(GROUPS, extra, where="pdmkit --option")
     except TypeError as exc:
         raise DataError(str(exc)) from None
     extra = {**extra, **_bearing_options(args)}
@@ -234,7 +229,7 @@ def _extraction_input(args: argparse.Namespace, on_error: str = "raise"):
         label = args.label or profile.label
         # the profile's defaults serve the groups chosen; the user's own must match
         defaults = {
-            k: v for k, v in profile.options().items() if _OPTION_GROUP[k] in groups
+            k: v for k, v in profile.options().items() if group_of_option(k) in groups
         }
         options = {**defaults, **extra}
         _check_label(ensemble, label, f"dataset {profile.name!r}")

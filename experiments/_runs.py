@@ -435,7 +435,7 @@ def _short(value: Any, limit: int = 60) -> str:
 
 
 def _feature_frames(result) -> tuple[dict[str, pd.DataFrame], dict[str, Any]]:
-    from pdmkit.features._extract import ERROR_COLUMNS
+    from pdmkit.features import ERROR_COLUMNS
 
     table, errors, names = result
     frames = {"errors": pd.DataFrame(errors, columns=list(ERROR_COLUMNS))}
@@ -511,44 +511,32 @@ def extract_features_run(
     >>> table.shape, len(errors), sorted(p.name for p in (run / "parts").iterdir())
     ((6, 11), 0, ['part-00000', 'part-00001'])
     """
-    from pdmkit.ensembles import parquet_partitions
-    from pdmkit.features._extract import (
-        _check_batch_size,
-        _check_groups,
-        _check_option_names,
-        _combine,
-        _extract_task,
-        _is_ensemble,
-    )
+    from pdmkit.features import extract_task, plan_extraction
 
-    group_list = _check_groups(groups)
-    _check_option_names(group_list, options, where="extract_features_run()")
-    size = _check_batch_size(batch_size, allow_none=False)
-    if on_error not in ("raise", "skip"):
-        raise ValueError(f"on_error must be 'raise' or 'skip'; got {on_error!r}")
-    if isinstance(signals, str):
-        signals = [signals]
-    signals = None if signals is None else list(signals)
-    if isinstance(ensemble, str | os.PathLike):
-        items: list = parquet_partitions(ensemble, batch_size=size)
-        if inputs is None:
-            inputs = {"ensemble": fingerprint_path(ensemble)}
-    elif _is_ensemble(ensemble):
-        if len(ensemble) == 0:
-            raise DataError("the ensemble has 0 members; nothing to extract")
-        items = list(ensemble.batches(size))
-        if inputs is None:
-            inputs = {"ensemble": fingerprint_ensemble(ensemble)}
-    else:
+    plan = plan_extraction(
+        ensemble,
+        signals=signals,
+        groups=groups,
+        batch_size=batch_size,
+        on_error=on_error,
+        where="extract_features_run()",
+        **options,
+    )
+    if not plan.resumable:
         raise TypeError(
             "a resumable run takes an Ensemble or the path/URL of a Parquet ensemble, "
             f"got {type(ensemble).__name__}"
         )
-    shaft = options.get("shaft_hz")
+    if inputs is None:
+        inputs = {
+            "ensemble": fingerprint_path(ensemble)
+            if isinstance(ensemble, str | os.PathLike)
+            else fingerprint_ensemble(ensemble)
+        }
     config = {
-        "signals": signals,
-        "groups": list(group_list),
-        "batch_size": size,
+        "signals": plan.signals,
+        "groups": list(plan.groups),
+        "batch_size": batch_size,
         "on_error": on_error,
         "options": options,
     }
@@ -560,26 +548,22 @@ def extract_features_run(
         fresh=fresh,
         replace_stale=replace_stale,
     )
-    keys = [f"part-{i:05d}" for i in range(len(items))]
+    keys = [f"part-{i:05d}" for i in range(len(plan.items))]
     try:
         parts = run.run(
-            _extract_task,
-            items,
+            extract_task,
+            plan.items,
             keys,
             _feature_frames,
             client=client,
             progress=progress,
-            signals=signals,
-            groups=group_list,
-            options=options,
-            shaft_column=shaft if isinstance(shaft, str) else None,
-            on_error=on_error,
+            **plan.task_options(),
         )
         results = []
         for frames, meta in parts:
             errors = frames["errors"].to_dict(orient="records")
             results.append((frames.get("features"), errors, meta["signals"]))
-        combined = _combine(results, return_errors=True)
+        combined = plan.combine(results, return_errors=True)
     except Exception:  # e.g. every member skipped: a failed run, not a finished one
         run.set_state("failed")
         raise

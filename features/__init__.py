@@ -13,7 +13,10 @@ Signal functions take an array with the samples along ``axis`` (1-D for one memb
 
 :func:`extract` turns an array into a feature table (columns ``<group>/<Feature>``) and
 :func:`extract_ensemble` an ensemble into one (``<signal>/<group>/<Feature>`` beside the
-condition variables, indexed by member id). :func:`rank_features` ranks the columns
+condition variables, indexed by member id). Each group is one :class:`FeatureGroup` in
+the registry :data:`FEATURE_GROUPS` (its options with their defaults, its indicator
+names, its computation); :func:`plan_extraction` and :func:`extract_task` open the
+ensemble extraction to other drivers (resumable runs, clusters). :func:`rank_features` ranks the columns
 (Kruskal-Wallis, ANOVA, monotonicity, trendability, prognosability) and
 :class:`SelectTopRanked` keeps the best ones inside a scikit-learn Pipeline.
 
@@ -35,18 +38,24 @@ __all__ = [
     "CWRU_DRIVE_END",
     "CWRU_FAN_END",
     "CYCLE_LEVELS",
+    "ERROR_COLUMNS",
     "EVENT_WINDOWS",
+    "FEATURE_GROUPS",
     "FRACTIONAL_FEATURES",
     "FRF_FEATURES",
     "GROUPS",
     "METHODS",
     "BearingGeometry",
     "EnvelopeSpectrum",
+    "ExtractionPlan",
+    "FeatureGroup",
     "FeatureRanking",
     "SelectTopRanked",
     "ar_feature_names",
     "ar_features",
     "bearing_frequencies",
+    "check_group_options",
+    "check_groups",
     "cycle_average",
     "cycle_feature_names",
     "cycle_features",
@@ -54,11 +63,14 @@ __all__ = [
     "envelope_spectrum",
     "extract",
     "extract_ensemble",
+    "extract_task",
     "fractional_features",
     "frf_features",
+    "group_of_option",
     "harmonic",
     "hw_feature_names",
     "hw_features",
+    "plan_extraction",
     "rank_features",
     "spectral",
     "stats",
@@ -82,9 +94,18 @@ _LAZY = {
     "bearing_frequencies": "_envelope",
     "envelope_features": "_envelope",
     "envelope_spectrum": "_envelope",
-    "GROUPS": "_extract",
+    "ERROR_COLUMNS": "_plan",
+    "ExtractionPlan": "_plan",
+    "extract_ensemble": "_plan",
+    "extract_task": "_plan",
+    "plan_extraction": "_plan",
     "extract": "_extract",
-    "extract_ensemble": "_extract",
+    "FEATURE_GROUPS": "_groups",
+    "FeatureGroup": "_groups",
+    "GROUPS": "_groups",
+    "check_group_options": "_groups",
+    "check_groups": "_groups",
+    "group_of_option": "_groups",
     "FRACTIONAL_FEATURES": "_model_features",
     "FRF_FEATURES": "_model_features",
     "fractional_features": "_model_features",

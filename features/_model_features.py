@@ -59,7 +59,7 @@ FRF_FEATURES = (
 )
 FRACTIONAL_FEATURES = ("A", "Alpha", "B", "Beta", "C", "Error")
 
-#: Options of each group (defaults), as ``features._extract.GROUP_OPTIONS`` lists them.
+#: Options of each model group (defaults), as the registry ``FEATURE_GROUPS`` lists them.
 MODEL_GROUP_OPTIONS: dict[str, dict[str, object]] = {
     "frf": {
         "frf_input": None,

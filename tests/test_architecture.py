@@ -26,13 +26,7 @@ LAYERS = {"models": 1, "ensembles": 2, "features": 3, "rul": 4, "experiments": 5
 TOP = {"pdmkit", "pdmkit.__main__", "pdmkit._entry"}
 
 #: (importer, imported module or module:name) -> why it is still there
-PRIVATE_DEBT: dict[tuple[str, str], str] = {
-    ("pdmkit.experiments._cli", "pdmkit.features._extract"): "the CLI's --option help and "
-    "checks read the extractor's option table; to go with the feature-group registry "
-    "(issue 16: features/ as registered group objects)",
-    ("pdmkit.experiments._runs", "pdmkit.features._extract"): "resumable runs re-use the "
-    "extractor's private planning and batch steps; same fix (a public planning API)",
-}
+PRIVATE_DEBT: dict[tuple[str, str], str] = {}
 
 
 def _module_name(path: Path) -> str:

@@ -64,10 +64,6 @@ LONG_MODULES: dict[str, str] = {
     ),
     "experiments/_demo.py": "the demo's sections; each section to its own function module",
     "ensembles/_ensemble.py": "the Ensemble class and its views; views and frames to split",
-    "features/_extract.py": (
-        "extract / extract_ensemble and the three group if-chains; to become the group "
-        "registry (issue 16)"
-    ),
     "_outputs.py": (
         "everything written into --out; the output-folder checks to their own module"
     ),
@@ -135,7 +131,6 @@ LONG_FUNCTIONS: dict[str, str] = {
         "the twin's batched LM; to merge with mismatch's into models/_optim.py"
     ),
     "models/mismatch/_sparse.py:fit_sparse": "sparse path, refits and selection; to split",
-    "features/_extract.py:_batch_table": "per-group dispatch; goes with the group registry",
     "experiments/_cli.py:_add_input_options": "every input flag; to split by input kind",
     "models/frequency/_rational.py:fit_tf": (
         "Levy, SK iterations and refinement; to split by stage"

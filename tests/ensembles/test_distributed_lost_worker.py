@@ -37,7 +37,7 @@ def _kill_own_worker_once(marker: str):
     """
 
     def patch():
-        import pdmkit.features._extract as extract
+        import pdmkit.features._plan as extract
 
         original = extract._batch_table
 
