@@ -27,10 +27,6 @@ LONG_MODULES: dict[str, str] = {
         "the twin's batched estimation: problem, stepper, LM, intervals; the LM to "
         "share models/_optim.py with mismatch's (issue 16)"
     ),
-    "experiments/_cli.py": (
-        "every command's parser and printing; to become one parser module per command "
-        "with run_* workflows (issue 16)"
-    ),
     "models/mismatch/_candidates.py": (
         "the 22 candidate effects, one class each; to split by where they attach "
         "(velocity, input, level, output)"
@@ -78,9 +74,6 @@ LONG_MODULES: dict[str, str] = {
 
 #: "module:function" -> why it is still longer than MAX_FUNCTION_LINES
 LONG_FUNCTIONS: dict[str, str] = {
-    "experiments/_cli.py:build_parser": (
-        "every sub-parser in one function; one add_<command>_parser each (issue 16)"
-    ),
     "experiments/_demo.py:_demo": (
         "the demo's stages in sequence; one function per report section"
     ),
@@ -131,7 +124,6 @@ LONG_FUNCTIONS: dict[str, str] = {
         "the twin's batched LM; to merge with mismatch's into models/_optim.py"
     ),
     "models/mismatch/_sparse.py:fit_sparse": "sparse path, refits and selection; to split",
-    "experiments/_cli.py:_add_input_options": "every input flag; to split by input kind",
     "models/frequency/_rational.py:fit_tf": (
         "Levy, SK iterations and refinement; to split by stage"
     ),

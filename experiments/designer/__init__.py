@@ -18,13 +18,28 @@ __all__ = ["add_parser"]
 
 
 def add_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register the ``designer`` command with the ``pdmkit`` sub-command parsers."""
+    """Register the ``designer`` command with the ``pdmkit`` sub-command parsers.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> sub = argparse.ArgumentParser(prog="pdmkit").add_subparsers(dest="command")
+    >>> args = add_parser(sub).parse_args(["--dataset", "cwru"])
+    >>> args.dataset, args.host, args.port
+    ('cwru', '127.0.0.1', 0)
+    """
     p = sub.add_parser("designer", help="the interactive feature designer in the browser")
     source = p.add_mutually_exclusive_group()
     source.add_argument("--ensemble", type=Path, help="an on-disk ensemble folder")
     source.add_argument("--members", type=Path, nargs="+", help="recording files")
     source.add_argument("--dataset", help="a named dataset (see `pdmkit datasets`)")
     source.add_argument("--features", type=Path, help="a feature table to start from")
+    p.add_argument(
+        "--project",
+        type=Path,
+        help="a saved designer project (JSON): re-open it where it was (its members "
+        "unless one of the options above names others)",
+    )
     p.add_argument("--host", default="127.0.0.1", help="address to bind (127.0.0.1)")
     p.add_argument("--port", type=int, default=0, help="port (0: a free one)")
     p.add_argument(
