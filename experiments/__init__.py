@@ -5,8 +5,11 @@
 scores remaining-useful-life models (C-MAPSS, the twin's air-leak runs, your tables) and
 :func:`predict_rul` answers a unit's RUL from a saved model and its history;
 :func:`run_identify` identifies a linear model from a recording; :func:`run_mismatch`
-explains where a model file and a recording differ. Each ``run_*`` writes a JSON
-summary and a self-contained HTML :class:`Report`, as the ``pdmkit`` command does.
+explains where a model file and a recording differ. :func:`run_features`,
+:func:`run_rank`, :func:`run_classify` and :func:`run_sensors` are the feature-table
+commands, reading members or indicators from a :class:`TableSource`. Each ``run_*``
+writes a JSON summary and a self-contained HTML :class:`Report`, as the ``pdmkit``
+command of its name does.
 
 Examples
 --------
@@ -37,6 +40,7 @@ __all__ = [
     "SeedSensorRecipe",
     "SensorComparison",
     "SensorCosts",
+    "TableSource",
     "classify",
     "compare_models",
     "compare_sensors",
@@ -51,10 +55,14 @@ __all__ = [
     "package_versions",
     "predict_members",
     "predict_rul",
+    "run_classify",
+    "run_features",
     "run_identify",
     "run_mismatch",
+    "run_rank",
     "run_rul",
     "run_seed_study",
+    "run_sensors",
     "seed_air_leak_rul",
     "seed_comparison",
     "seed_feature_table",
@@ -73,6 +81,11 @@ __all__ = [
 #: public name -> the module that defines it; imported on first use, so that the
 #: command line (``pdmkit.experiments._cli``) starts without loading every workflow
 _LAZY = {
+    "TableSource": "_sources",
+    "run_classify": "_table_workflows",
+    "run_features": "_table_workflows",
+    "run_rank": "_table_workflows",
+    "run_sensors": "_table_workflows",
     "ClassificationResult": "_classify",
     "MODELS": "_classify",
     "SELECTIONS": "_classify",

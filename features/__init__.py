@@ -16,9 +16,10 @@ Signal functions take an array with the samples along ``axis`` (1-D for one memb
 condition variables, indexed by member id). Each group is one :class:`FeatureGroup` in
 the registry :data:`FEATURE_GROUPS` (its options with their defaults, its indicator
 names, its computation); :func:`plan_extraction` and :func:`extract_task` open the
-ensemble extraction to other drivers (resumable runs, clusters). :func:`rank_features` ranks the columns
-(Kruskal-Wallis, ANOVA, monotonicity, trendability, prognosability) and
-:class:`SelectTopRanked` keeps the best ones inside a scikit-learn Pipeline.
+ensemble extraction to other drivers (resumable runs, clusters).
+:func:`rank_features` ranks the columns (Kruskal-Wallis, ANOVA, monotonicity,
+trendability, prognosability) and :class:`SelectTopRanked` keeps the best ones inside
+a scikit-learn Pipeline.
 
 Examples
 --------

@@ -140,6 +140,16 @@ def plan_extraction(
         ``on_error``, an empty ensemble.
     TypeError
         An unknown option, or an ``ensemble`` of the wrong type.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.ensembles import Ensemble
+    >>> from pdmkit.features import plan_extraction
+    >>> ens = Ensemble({"x": np.zeros((10, 256))}, fs=100.0)
+    >>> plan = plan_extraction(ens, groups=("stats", "ar"), batch_size=4, ar_order=4)
+    >>> plan.total, plan.groups, plan.options
+    (3, ('stats', 'ar'), {'ar_order': 4})
     """
     group_list = check_groups(groups)
     check_group_options(group_list, options, where=where)
@@ -420,6 +430,17 @@ def extract_task(
         Members left out (rows of the errors table, :data:`ERROR_COLUMNS`).
     signals : list of str
         The signals the item's table holds, in column order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.ensembles import Ensemble
+    >>> from pdmkit.features import extract_task, plan_extraction
+    >>> ens = Ensemble({"x": np.ones((3, 128))}, fs=100.0)
+    >>> plan = plan_extraction(ens, groups=("stats",))
+    >>> table, errors, signals = extract_task(plan.items[0], **plan.task_options())
+    >>> table["x/stats/RMS"].tolist(), errors, signals
+    ([1.0, 1.0, 1.0], [], ['x'])
     """
     from pdmkit.ensembles import Partition, read_partition
 

@@ -124,7 +124,7 @@ def test_features_import_without_sklearn_or_the_models_layer() -> None:
 def test_the_help_lists_every_identify_structure() -> None:
     """``--structure``'s choices are written out for a light ``--help``; they must be
     the structures ``run_identify`` knows."""
-    from pdmkit.experiments._cli import IDENTIFY_CHOICES
+    from pdmkit.experiments._cli_models import IDENTIFY_CHOICES
     from pdmkit.experiments._identify import IDENTIFY_STRUCTURES
 
     assert list(IDENTIFY_CHOICES) == list(IDENTIFY_STRUCTURES)

@@ -84,6 +84,14 @@ def run_study(
     -------
     dict
         The study's summary (what ``summary.json`` holds).
+
+    Examples
+    --------
+    >>> from pdmkit.experiments.studies import run_study
+    >>> run_study("rotor", "results/study")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.DataError: study: unknown study 'rotor'; expected one of mass-beam, ...
     """
     if name not in STUDIES:
         from pdmkit.errors import DataError

@@ -13,7 +13,8 @@ import pandas as pd
 import pytest
 
 from pdmkit.errors import DataError
-from pdmkit.experiments._cli import _long_from_wide, main
+from pdmkit.experiments._cli import main
+from pdmkit.experiments._cli_rul import _long_from_wide
 
 
 def _wide(n_units: int = 12, seed: int = 0) -> pd.DataFrame:

@@ -317,16 +317,16 @@ def test_rul_answer_json_must_not_overwrite_its_history(tmp_path, capsys):
 
 
 def test_warnings_of_the_run_land_in_its_summary(tmp_path, monkeypatch):
-    from pdmkit.experiments import _cli
+    from pdmkit.experiments import _table_workflows
 
-    real = _cli._extraction_input
+    real = _table_workflows.extraction_input
 
     def noisy(*args, **kwargs):  # a warning raised twice while the run works
         for _ in range(2):
             warnings.warn("a warning of this run\nsecond line", RuntimeWarning, 1)
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(_cli, "_extraction_input", noisy)
+    monkeypatch.setattr(_table_workflows, "extraction_input", noisy)
     out = tmp_path / "out"
     with pytest.warns(RuntimeWarning, match="a warning of this run"):
         assert main(_command("features", tmp_path / "in", out)) == 0
