@@ -47,7 +47,7 @@ import numpy as np
 
 from pdmkit._atomic import atomic_path
 from pdmkit._checks import file_sha256, npy_declared
-from pdmkit.errors import ModelError
+from pdmkit.errors import DataNotFoundError, ModelError
 
 __all__ = ["file_sha256", "load_model", "object_registry", "save_model"]
 
@@ -742,8 +742,6 @@ def _read_members(path: Path, expect_sha256: str | None) -> tuple[dict, dict[str
 
     where = str(path)
     if not path.is_file():
-        from pdmkit.errors import DataNotFoundError
-
         raise DataNotFoundError(f"{path} does not exist; expected a pdmkit model file")
     if expect_sha256 is not None:
         found = file_sha256(path)

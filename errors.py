@@ -20,7 +20,7 @@ __all__ = [
     "DataNotFoundError",
     "DataWarning",
     "ModelError",
-    "NotFittedError",
+    "NotFittedError",  # noqa: F822 (made on first use by __getattr__)
     "did_you_mean",
 ]
 
@@ -37,8 +37,34 @@ class ModelError(ValueError):
     """A model (model file, parameters, structure) is malformed or inconsistent."""
 
 
-class NotFittedError(ValueError, AttributeError):
-    """An estimator was used before ``fit``."""
+def __getattr__(name: str):
+    """``NotFittedError``, made on first use (it subclasses scikit-learn's).
+
+    Built lazily so that ``import pdmkit.errors`` does not import scikit-learn (seconds);
+    only the estimators that raise it, which import scikit-learn anyway, load it.
+
+    Examples
+    --------
+    >>> from sklearn.exceptions import NotFittedError as SklearnNotFitted
+    >>> from pdmkit.errors import NotFittedError
+    >>> issubclass(NotFittedError, SklearnNotFitted), NotFittedError.__module__
+    (True, 'pdmkit.errors')
+    """
+    if name != "NotFittedError":
+        raise AttributeError(f"module 'pdmkit.errors' has no attribute {name!r}")
+    from sklearn.exceptions import NotFittedError as _SklearnNotFittedError
+
+    class NotFittedError(_SklearnNotFittedError):
+        """An estimator was used before ``fit``.
+
+        scikit-learn's ``NotFittedError`` (a ``ValueError`` and an ``AttributeError``),
+        so ``except sklearn.exceptions.NotFittedError`` catches pdmkit's too.
+        """
+
+    NotFittedError.__module__ = __name__
+    NotFittedError.__qualname__ = "NotFittedError"
+    globals()["NotFittedError"] = NotFittedError
+    return NotFittedError
 
 
 class ConvergenceWarning(RuntimeWarning):

@@ -27,7 +27,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from pdmkit._checks import check_int
 from pdmkit.ensembles._ensemble import Ensemble
+from pdmkit.ensembles._limits import check_declared_sizes
+from pdmkit.ensembles._parquet import (
+    FORMAT,
+    MANIFEST,
+    MEMBER,
+    _lists_to_arrays,
+    _pick,
+    _table_to_ensemble,
+    read_manifest,
+    url_filesystem,
+)
+from pdmkit.ensembles._pneumatic import simulate_fault_ensemble
 from pdmkit.errors import DataError, DataNotFoundError
 
 __all__ = [
@@ -429,7 +442,6 @@ class Partition:
 
 
 def _read_url_manifest(url: str) -> dict[str, Any]:
-    from pdmkit.ensembles._parquet import FORMAT, MANIFEST, url_filesystem
 
     fs, root = url_filesystem(url)
     file = f"{root.rstrip('/')}/{MANIFEST}"
@@ -485,9 +497,6 @@ def parquet_partitions(
     >>> len(parquet_partitions(path)), len(parquet_partitions(path.as_uri(), 2))
     (1, 2)
     """
-    from pdmkit._checks import check_int
-    from pdmkit.ensembles._parquet import read_manifest
-
     if _is_url(path):
         root = str(path)
         manifest = _read_url_manifest(root)
@@ -525,8 +534,6 @@ def _read_rows(url: str, columns: list[str], first: int, last: int) -> Any:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from pdmkit.ensembles._limits import check_declared_sizes
-
     with _open(url) as source:
         reader = pq.ParquetFile(source, buffer_size=1 << 20, pre_buffer=False)
         # sizes declared before anything is decoded: a bomb costs only its own part
@@ -560,8 +567,6 @@ def _read_rows(url: str, columns: list[str], first: int, last: int) -> Any:
 def _drop_nonfinite(table: Any, sigs: list[str], where: str, errors: list) -> Any:
     """Drop (and record in ``errors``) the rows whose signals hold NaN or inf."""
     import numpy as np
-
-    from pdmkit.ensembles._parquet import MEMBER, _lists_to_arrays
 
     keep = np.ones(table.num_rows, dtype=bool)
     ids = None
@@ -627,8 +632,6 @@ def read_partition(
     ['m00000', 'm00001', 'm00002']
     """
     import pyarrow as pa
-
-    from pdmkit.ensembles._parquet import MEMBER, _pick, _table_to_ensemble
 
     manifest = dict(part.manifest)
     sigs = _pick(signals, manifest["signals"], "signal(s)", Path(part.root))
@@ -705,8 +708,6 @@ def simulate_sweep(
     if not configs:
         raise ValueError("simulate_sweep needs at least one setting in configs")
     if simulator is None:
-        from pdmkit.ensembles._pneumatic import simulate_fault_ensemble
-
         simulator = simulate_fault_ensemble
     if keys is None:
         keys = [f"s{i}" for i in range(len(configs))]

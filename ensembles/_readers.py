@@ -38,6 +38,8 @@ import pandas as pd
 
 from pdmkit._checks import npy_declared, parse_timestamps
 from pdmkit._config import max_bytes
+from pdmkit._progress import progress as _progress_bar
+from pdmkit.ensembles._ensemble import Ensemble
 from pdmkit.ensembles._limits import _one_line, _size, _too_big, _why, check_declared_sizes
 from pdmkit.errors import DataError, DataNotFoundError, DataWarning, did_you_mean
 
@@ -1599,8 +1601,6 @@ def read_members(
     """
     import glob
 
-    from pdmkit.ensembles._ensemble import Ensemble
-
     if on_error not in ("raise", "skip"):
         raise ValueError(f"on_error must be 'raise' or 'skip'; got {on_error!r}")
     patterns = [files] if isinstance(files, str | os.PathLike) else list(files)
@@ -1655,7 +1655,6 @@ def read_members(
 
     read: list[tuple[str, Path, dict, float | None, dict]] = []
     noted: dict[tuple[str, str, str], list[Path]] = {}
-    from pdmkit._progress import progress as _progress_bar
 
     named = _NameConditions(label_from_name, labels)
     for path in _progress_bar(paths, desc="reading members", enable=progress):

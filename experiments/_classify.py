@@ -21,7 +21,9 @@ from sklearn.metrics import accuracy_score, confusion_matrix
 from sklearn.model_selection import StratifiedKFold, TimeSeriesSplit, train_test_split
 from sklearn.pipeline import Pipeline
 
+from pdmkit._checks import parse_timestamps
 from pdmkit._outputs import to_jsonable
+from pdmkit._progress import progress as bar
 from pdmkit.errors import DataError
 
 __all__ = [
@@ -405,8 +407,6 @@ def _cv_scores(
     ``cross_val_score(..., scoring="accuracy")`` computes it, with a progress bar
     (``progress``; default only on a terminal).
     """
-    from pdmkit._progress import progress as bar
-
     if in_time:
         folds = TimeSeriesSplit(n_splits=n_splits)
     else:
@@ -449,8 +449,6 @@ def _order_key(table: pd.DataFrame, order: str | None) -> tuple[np.ndarray, Any]
     if pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
         key = column.to_numpy(dtype=float)
     else:
-        from pdmkit._checks import parse_timestamps
-
         stamps = parse_timestamps(column)
         if stamps.isna().any():
             bad = column[stamps.isna()].iloc[0]

@@ -28,7 +28,7 @@ from pdmkit.errors import DataError, ModelError, did_you_mean
 from pdmkit.experiments import _cli_models, _cli_rul, _cli_tables
 from pdmkit.experiments._cli_common import say
 from pdmkit.experiments.designer import add_parser as add_designer_parser
-from pdmkit.experiments.studies import STUDIES
+from pdmkit.experiments.studies import STUDIES, run_study
 
 __all__ = ["build_parser", "main"]
 
@@ -45,7 +45,6 @@ def _cmd_datasets(args: argparse.Namespace) -> int:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from pdmkit.experiments.studies import run_study
 
     out = args.out if args.out is not None else Path("results/study") / args.name
     start = time.perf_counter()

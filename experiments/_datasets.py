@@ -14,6 +14,7 @@ from typing import Any
 
 import pandas as pd
 
+from pdmkit.ensembles import load_cwru
 from pdmkit.errors import DataError
 
 __all__ = ["PROFILES", "DatasetProfile", "dataset_features", "get_profile"]
@@ -56,7 +57,6 @@ class DatasetProfile:
 
 def _cwru_profile() -> DatasetProfile:
     def load():
-        from pdmkit.ensembles import load_cwru
 
         return load_cwru(frame_length=2048, fs=12000.0)
 

@@ -40,7 +40,23 @@ import pandas as pd
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
+from pdmkit._outputs import OutputRun
+from pdmkit.ensembles import PNEUMATIC_SENSORS, pneumatic_residuals, simulate_fault_ensemble
 from pdmkit.errors import DataError
+from pdmkit.experiments._classify import classify
+from pdmkit.experiments._demo_mismatch import add_mismatch_section, demo_mismatch_cases
+from pdmkit.experiments._report import Report
+from pdmkit.experiments._seed_indicators import seed_feature_table
+from pdmkit.experiments._seed_recipes import (
+    seed_flow_bagged_trees,
+    seed_flow_knn,
+    seed_flow_pca_bagged_trees,
+    seed_residual_classification,
+    seed_sensor_faults,
+    seed_sensor_table,
+)
+from pdmkit.experiments._seed_study import seed_comparison, seed_ensemble_parts
+from pdmkit.experiments._sensors import SensorComparison, compare_sensors
 
 __all__ = [
     "OperatingPointScaler",
@@ -462,8 +478,6 @@ def run_demo(
     >>> sorted(summary)  # doctest: +SKIP
     ['classification', 'residuals', 'rul', 'sensor_faults', 'sensors', 'timing_s', ...]
     """
-    from pdmkit._outputs import OutputRun
-
     n_members = int(members) if members is not None else 480
     if n_members < 80:
         raise DataError(
@@ -478,21 +492,6 @@ def run_demo(
 
 def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
     """:func:`run_demo` with its files registered with ``run`` (not yet written)."""
-    from pdmkit.ensembles import PNEUMATIC_SENSORS
-    from pdmkit.experiments._classify import classify
-    from pdmkit.experiments._demo_mismatch import add_mismatch_section, demo_mismatch_cases
-    from pdmkit.experiments._report import Report
-    from pdmkit.experiments._seed_indicators import seed_feature_table
-    from pdmkit.experiments._seed_recipes import (
-        seed_flow_bagged_trees,
-        seed_flow_knn,
-        seed_flow_pca_bagged_trees,
-        seed_residual_classification,
-        seed_sensor_faults,
-        seed_sensor_table,
-    )
-    from pdmkit.experiments._seed_study import seed_comparison, seed_ensemble_parts
-    from pdmkit.experiments._sensors import SensorComparison, compare_sensors
     from pdmkit.features import extract_ensemble, rank_features
 
     cycle = twin_cycle_options()
@@ -917,8 +916,6 @@ def compare_residuals(
     >>> sorted(results["forest"])  # doctest: +SKIP
     ['indicator_residuals', 'residual_signal', 'signal']
     """
-    from pdmkit.ensembles import pneumatic_residuals, simulate_fault_ensemble
-    from pdmkit.experiments._classify import classify
     from pdmkit.features import extract_ensemble
 
     cycle = twin_cycle_options()

@@ -40,8 +40,17 @@ from pdmkit._outputs import OutputRun, to_jsonable
 from pdmkit.ensembles import read_mat, read_npz, read_table
 from pdmkit.errors import ConvergenceWarning, DataError, DataWarning, ModelError
 from pdmkit.experiments._report import Report
-from pdmkit.models.frequency import frf_comparison
-from pdmkit.models.ident import STRUCTURES, fit_percent, identify, physical_modes
+from pdmkit.models.frequency import fit_fractional_tf, frf_comparison
+from pdmkit.models.ident import (
+    STRUCTURES,
+    HammersteinWiener,
+    fit_percent,
+    identify,
+    modes_from_poles,
+    n4sid,
+    oe,
+    physical_modes,
+)
 
 __all__ = [
     "IDENTIFY_STRUCTURES",
@@ -65,8 +74,6 @@ def _linear(structure: str) -> Callable[..., Any]:
 
 def _modes(poles: np.ndarray, fs: float) -> tuple[list[float], list[float]]:
     """Natural frequencies (Hz) and damping ratios of discrete poles (upper half-plane)."""
-    from pdmkit.models.ident import modes_from_poles
-
     fn, zeta, _ = modes_from_poles(poles, fs)
     return [float(v) for v in fn], [float(v) for v in zeta]
 
@@ -147,14 +154,12 @@ def _order_dict(order, keys: tuple[str, ...], structure: str) -> dict:
 
 
 def _fit_hw(u, y, fs, order, criterion):
-    from pdmkit.models.ident import HammersteinWiener
 
     opts = _order_dict(order, ("nb", "nf", "nk"), "hw")
     return _HammersteinWienerResult(HammersteinWiener(**opts).fit(u, y), fs)
 
 
 def _fit_fractional(u, y, fs, order, criterion):
-    from pdmkit.models.frequency import fit_fractional_tf
 
     fixed = _order_dict(order, ("alpha", "beta"), "fractional") or None
     fit = fit_fractional_tf(u, y, fs, domain="time", fixed_orders=fixed)
@@ -567,8 +572,6 @@ def _alternative(u, y, fs, structure: str, model) -> dict | None:
 
     Kept when it is stable and fits positively; None if neither does.
     """
-    from pdmkit.models.ident import n4sid, oe
-
     n = max(2, min(_n_poles(model), 40))
     tries = []
     if structure != "oe":

@@ -73,7 +73,11 @@ from pdmkit._outputs import (
     collect_warnings,
     write_json_file,
 )
-from pdmkit.errors import DataError
+from pdmkit._persist import load_model
+from pdmkit.ensembles import load_cmapss, read_table
+from pdmkit.errors import DataError, ModelError
+from pdmkit.experiments._report import Report, _readable_float
+from pdmkit.experiments._rul_battery import run_battery
 from pdmkit.experiments._rul_checks import (
     CAP_CONVENTIONS,
     cap_text,
@@ -107,6 +111,7 @@ from pdmkit.experiments._rul_models import (
     leak_accuracy,
     make_rul_model,
 )
+from pdmkit.rul import resolve_keys, rul_metrics, timestamps_to_seconds
 
 __all__ = [
     "CAP_CONVENTIONS",
@@ -171,8 +176,6 @@ def split_run_to_failure(
     >>> bool((test["cycle"].max() + test["rul_true_final"].iloc[0]) == 10)
     True
     """
-    from pdmkit.rul import resolve_keys
-
     unit, time = resolve_keys(table, unit, time)
     if not 0 < test_fraction < 1:
         raise ValueError(f"test_fraction must be in (0, 1), got {test_fraction!r}")
@@ -210,7 +213,6 @@ def _dataset(dataset, features):
                 "'cmapss-fd001', 'pneumatic-leak', 'nasa-battery' or pass "
                 "(train_table, test_table)"
             )
-        from pdmkit.ensembles import load_cmapss
 
         train = load_cmapss("FD001", "train")
         test = load_cmapss("FD001", "test")
@@ -345,8 +347,6 @@ def units_in_seconds(
     >>> units_in_seconds(pd.DataFrame({"cycle": [1, 2]}), "units.csv")[1] is None
     True
     """
-    from pdmkit.rul import timestamps_to_seconds
-
     try:
         return timestamps_to_seconds(table, time)
     except DataError as exc:
@@ -394,9 +394,6 @@ def _names_of_training(table: pd.DataFrame, pipeline, where: str) -> pd.DataFram
 def _predict_rul(
     model_file, history, expect_sha256=None, unit=None, time=None, time_unit=None
 ) -> dict[str, Any]:
-    from pdmkit._persist import load_model
-    from pdmkit.ensembles import read_table
-    from pdmkit.errors import ModelError
 
     pipeline = load_model(model_file, expect_sha256=expect_sha256)
     if not hasattr(pipeline, "predict_trajectory"):
@@ -602,9 +599,6 @@ def _rul(
     time_unit=None,
 ) -> dict[str, Any]:
     """:func:`run_rul` with its files registered with ``sink`` (not yet written)."""
-    from pdmkit.experiments._report import Report, _readable_float
-    from pdmkit.rul import rul_metrics
-
     key = dataset.lower().replace("_", "-") if isinstance(dataset, str) else None
     if key in ("cmapss",):
         key = "cmapss-fd001"
@@ -614,8 +608,6 @@ def _rul(
         key = "pneumatic-leak"
     cap, cap_source = resolve_cap(rul_cap, key)
     if key == "nasa-battery":
-        from pdmkit.experiments._rul_battery import run_battery
-
         if dataset_options:
             raise DataError("'nasa-battery' takes no dataset options")
         summary = run_battery(

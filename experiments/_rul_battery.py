@@ -18,7 +18,19 @@ from typing import Any
 
 import pandas as pd
 
+from pdmkit.ensembles import BATTERY_EOL_AH, load_nasa_battery
 from pdmkit.errors import DataError
+from pdmkit.experiments._report import Report
+from pdmkit.experiments._rul_models import (
+    RUL_MODELS,
+    _calibration,
+    _finish,
+    _save_pipeline,
+    _trajectory_plot,
+    _trajectory_scores,
+    make_rul_model,
+)
+from pdmkit.rul import ConformalRUL, RULPipeline
 
 #: Workflow models that read the capacity directly.
 BATTERY_MODELS = (
@@ -32,9 +44,6 @@ BATTERY_MODELS = (
 
 
 def _battery_estimator(model, seed, rul_cap, options, calibrate):
-    from pdmkit.ensembles import BATTERY_EOL_AH
-    from pdmkit.experiments._rul_models import make_rul_model
-    from pdmkit.rul import ConformalRUL, RULPipeline
 
     if model not in BATTERY_MODELS:
         raise DataError(
@@ -85,17 +94,6 @@ def run_battery(
     The files are registered with ``sink`` (a :class:`pdmkit._outputs.OutputRun` or a
     sub-folder of one) and written when the caller commits it.
     """
-    from pdmkit.ensembles import BATTERY_EOL_AH, load_nasa_battery
-    from pdmkit.experiments._report import Report
-    from pdmkit.experiments._rul_models import (
-        RUL_MODELS,
-        _calibration,
-        _finish,
-        _save_pipeline,
-        _trajectory_plot,
-        _trajectory_scores,
-    )
-
     data = load_nasa_battery()
     failed = [u for u, part in data.groupby("unit", sort=False) if part["failed"].any()]
     paths, fit_seconds = [], 0.0

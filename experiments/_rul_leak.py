@@ -20,7 +20,9 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._atomic import atomic_path
+from pdmkit.ensembles import simulate_leak_runs
 from pdmkit.errors import DataError
+from pdmkit.experiments._report import Report
 from pdmkit.experiments._rul_models import (
     _READINGS,
     RUL_MODELS,
@@ -32,6 +34,8 @@ from pdmkit.experiments._rul_models import (
     _trajectory_plot,
     _trajectory_scores,
 )
+from pdmkit.features import extract
+from pdmkit.rul import prognostic_ranking
 
 __all__ = [
     "LEAK_DEFAULTS",
@@ -93,8 +97,6 @@ def leak_indicators(ensemble, *, signals=None) -> pd.DataFrame:
     >>> bool((table["cycle"] >= 1).all()), "LeverPosition/deviation/LogRMS" in table
     (True, True)
     """
-    from pdmkit.features import extract
-
     cond = ensemble.conditions.reset_index(drop=True)
     missing = [c for c in ("unit", "cycle") if c not in cond]
     if missing:
@@ -178,8 +180,6 @@ def simulate_leak_dataset(
     >>> train["unit"].nunique(), test["unit"].nunique(), int(test["rul"].min())
     (2, 1, 0)
     """
-    from pdmkit.ensembles import simulate_leak_runs
-
     for name, value in (("n_train", n_train), ("n_test", n_test)):
         if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
             raise DataError(f"{name} must be a positive integer, got {value!r}")
@@ -229,8 +229,6 @@ def simulate_leak_dataset(
 
 def _leak_data(features, seed, options, cache_dir):
     """(train, test, feature columns, ranking) of the air-leak workflow."""
-    from pdmkit.rul import prognostic_ranking
-
     opts = {**LEAK_DEFAULTS, **dict(options or {})}
     unknown = set(opts) - {*LEAK_DEFAULTS, "cache_dir", "signals"}
     if unknown:
@@ -284,7 +282,6 @@ def _run_leak(
     cap_source="none",
     time_unit="cycles",
 ):
-    from pdmkit.experiments._report import Report
 
     start = time.perf_counter()
     train, test, cols, ranking = _leak_data(features, seed, dataset_options, sink.cache)

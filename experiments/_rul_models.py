@@ -14,7 +14,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from pdmkit import rul
+from pdmkit._persist import save_model
 from pdmkit.errors import DataError, did_you_mean
+from pdmkit.rul import ConformalRUL, RULPipeline, alpha_lambda_accuracy, rul_metrics
 
 __all__ = ["RUL_MODELS", "leak_accuracy", "make_rul_model"]
 
@@ -79,8 +82,6 @@ def make_rul_model(
     >>> type(hi).__name__, type(est).__name__
     ('HealthIndicator', 'ResidualSimilarityModel')
     """
-    from pdmkit import rul
-
     if model not in RUL_MODELS:
         raise DataError(f"model must be one of {sorted(RUL_MODELS)}, got {model!r}")
     opts = dict(options or {})
@@ -148,8 +149,6 @@ def _fit_pipeline(
 
     ``calibrate`` wraps the estimator in :class:`pdmkit.rul.ConformalRUL`.
     """
-    from pdmkit.rul import ConformalRUL, RULPipeline
-
     indicator, estimator = make_rul_model(
         model, features, seed=seed, rul_cap=rul_cap, options=options, smoothing=smoothing
     )
@@ -177,8 +176,6 @@ def _calibration(pipeline) -> dict:
 def _save_pipeline(pipeline, sink, summary: dict) -> None:
     """Register the trained pipeline as ``model.pdmkit`` (see :func:`predict_rul`)."""
     import tempfile
-
-    from pdmkit._persist import save_model
 
     with tempfile.TemporaryDirectory() as folder:  # hashed now, written at the commit
         blob = save_model(pipeline, Path(folder) / "model.pdmkit").read_bytes()
@@ -208,8 +205,6 @@ def _trajectory_scores(path, life: pd.Series, rul_cap: float | None):
     The prediction is a RULPrediction or its table; returns (table of every prediction,
     headline metrics, per-unit accuracy, fractions).
     """
-    from pdmkit.rul import rul_metrics
-
     table = path.to_pandas() if hasattr(path, "to_pandas") else path.copy()
     table["life"] = life.reindex(table["unit"]).to_numpy(dtype=float)
     table["rul_true"] = table["life"] - table["time"]
@@ -310,8 +305,6 @@ def leak_accuracy(unit, time, rul_pred, life, *, alpha: float = 0.1) -> pd.DataF
     >>> acc.loc[1, ["of_rul", "of_life", "mean_of_life", "alpha_lambda"]].tolist()
     [False, True, True, True]
     """
-    from pdmkit.rul import alpha_lambda_accuracy
-
     if not 0 < alpha:
         raise ValueError(f"alpha must be positive, got {alpha!r}")
     frame = pd.DataFrame(

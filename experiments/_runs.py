@@ -36,7 +36,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from pdmkit import __version__
 from pdmkit._atomic import atomic_dir, atomic_path, remove_stale_temporaries
+from pdmkit._progress import progress as bar
+from pdmkit.ensembles import dask_client, dask_stream
 from pdmkit.errors import DataError
 
 __all__ = [
@@ -62,8 +65,6 @@ def package_versions() -> dict[str, str]:
     ['numpy', 'pandas', 'pdmkit']
     """
     import scipy
-
-    from pdmkit import __version__
 
     versions = {
         "pdmkit": __version__,
@@ -383,8 +384,6 @@ class RunDirectory:
         are committed by this process as they complete. Returns every partition, read
         back from the directory, in the order of ``keys``.
         """
-        from pdmkit._progress import progress as bar
-
         items = list(items)
         if len(items) != len(keys):
             raise ValueError(f"{len(keys)} keys for {len(items)} partitions")
@@ -393,8 +392,6 @@ class RunDirectory:
             for key, item in bar(todo, desc="partitions", total=len(todo), enable=progress):
                 self.commit(key, *to_frames(func(item, **kwargs)))
         elif todo:
-            from pdmkit.ensembles import dask_client, dask_stream
-
             with dask_client(client) as c:
                 tasks = dask_stream(c, func, [item for _, item in todo], **kwargs)
                 for i, result in tasks:

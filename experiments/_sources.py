@@ -19,7 +19,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from pdmkit.errors import DataError, did_you_mean
+from pdmkit._checks import parse_timestamps
+from pdmkit.errors import DataError, DataWarning, did_you_mean
 from pdmkit.experiments._cli_common import parse_options, say
 
 __all__ = [
@@ -288,7 +289,6 @@ def feature_table(source: TableSource, common: bool = True):
     ensemble, groups, options, label, sensors, profile, skipped = extraction_input(
         source, on_error="skip"
     )
-    from pdmkit.errors import DataWarning
     from pdmkit.features import extract_ensemble
 
     if skipped is not None and len(skipped):  # one bad file must not cost the others
@@ -345,8 +345,6 @@ def _common_signals(table: pd.DataFrame, columns: list) -> list:
     indicators are left out, with a DataWarning naming it and the members lacking it.
     A signal no member has whole stays (the classifier's error names it).
     """
-    from pdmkit.errors import DataWarning
-
     by_signal: dict[str, list] = {}
     for c in columns:
         by_signal.setdefault(str(c).split("/")[0], []).append(c)
@@ -446,8 +444,6 @@ def order_column(
         return found
     first = columns[0] if columns else ""
     if first.startswith("Unnamed: ") and not pd.api.types.is_numeric_dtype(table[first]):
-        from pdmkit._checks import parse_timestamps
-
         if parse_timestamps(table[first]).notna().all():
             return first
     return None

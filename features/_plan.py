@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._progress import progress as _progress_bar
+from pdmkit.ensembles import Partition, dask_map, parquet_partitions, read_partition
 from pdmkit.errors import DataError
 from pdmkit.features._common import MemberDataError
 from pdmkit.features._extract import check_batch_size, extract
@@ -161,8 +162,6 @@ def plan_extraction(
     shaft = options.get("shaft_hz")
     total = None
     if isinstance(ensemble, str | os.PathLike):
-        from pdmkit.ensembles import parquet_partitions
-
         items: Iterable = list(parquet_partitions(ensemble, batch_size=batch_size))
         total = len(items)
     elif _is_ensemble(ensemble):
@@ -442,8 +441,6 @@ def extract_task(
     >>> table["x/stats/RMS"].tolist(), errors, signals
     ([1.0, 1.0, 1.0], [], ['x'])
     """
-    from pdmkit.ensembles import Partition, read_partition
-
     errors: list = []
     source = None
     if isinstance(item, Partition):
@@ -577,8 +574,6 @@ def extract_ensemble(
         )
         results = (extract_task(item, **plan.task_options()) for item in items)
     else:
-        from pdmkit.ensembles import dask_map
-
         results = dask_map(
             extract_task, list(plan.items), client=client, **plan.task_options()
         )

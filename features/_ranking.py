@@ -33,6 +33,7 @@ from sklearn.base import BaseEstimator
 from sklearn.feature_selection import SelectorMixin, f_classif
 from sklearn.utils.validation import check_is_fitted
 
+from pdmkit._checks import parse_timestamps
 from pdmkit.errors import DataError
 
 __all__ = ["METHODS", "FeatureRanking", "SelectTopRanked", "rank_features"]
@@ -298,7 +299,6 @@ def _time_values(table: pd.DataFrame, time) -> pd.Series:
         raise DataError(f"time column {time!r} holds true/false values, not times")
     if pd.api.types.is_numeric_dtype(column):
         return column.astype(float)
-    from pdmkit._checks import parse_timestamps
 
     stamps = parse_timestamps(column)
     bad = stamps.isna() & column.notna()

@@ -23,8 +23,9 @@ from starlette.requests import Request
 from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Route
 
+from pdmkit import save_model
 from pdmkit.errors import DataError
-from pdmkit.experiments.designer._export import command_lines, python_script
+from pdmkit.experiments.designer._export import bearing_spec, command_lines, python_script
 from pdmkit.experiments.designer._project import (
     MAX_PROJECT_BYTES,
     project_json,
@@ -254,8 +255,6 @@ class _Api:
     async def model_file(self, request: Request) -> Response:
         import tempfile
 
-        from pdmkit import save_model
-
         if self.session.result is None:
             raise DataError("train a classifier first (step 3)")
         with tempfile.TemporaryDirectory() as folder:
@@ -290,7 +289,6 @@ class _Api:
 
 
 def _option_word(value: Any) -> str:
-    from pdmkit.experiments.designer._export import bearing_spec
 
     if hasattr(value, "n_balls"):
         return bearing_spec(value)

@@ -20,7 +20,16 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from pdmkit.ensembles import (
+    Ensemble,
+    iter_parquet,
+    parquet_partitions,
+    read_members,
+    read_partition,
+    read_table,
+)
 from pdmkit.errors import DataError
+from pdmkit.experiments._datasets import get_profile
 
 __all__ = ["SOURCE_KINDS", "Source", "default_label", "open_source"]
 
@@ -122,7 +131,6 @@ class Source:
             raise DataError(f"no member {member!r} in this ensemble")
         if self.ensemble is not None:
             return self.ensemble.select([member]).signal(signal)[0]
-        from pdmkit.ensembles import read_partition
 
         pos = int(self.conditions.index.get_loc(member))
         part = dataclasses.replace(self._partition, index=0, start=pos, stop=pos + 1)
@@ -139,7 +147,6 @@ class Source:
             if n != len(self.conditions):
                 chosen = self.ensemble.select(list(members))
             return chosen.batches(batch_size), total
-        from pdmkit.ensembles import iter_parquet
 
         keep = set(members)
         whole = n == len(self.conditions)
@@ -183,7 +190,6 @@ def default_label(conditions: pd.DataFrame) -> str | None:
 
 
 def _dataset_source(name: str) -> Source:
-    from pdmkit.experiments._datasets import get_profile
 
     profile = get_profile(name)
     if name not in DATASET_LOADERS:
@@ -197,7 +203,6 @@ def _dataset_source(name: str) -> Source:
 
 
 def _ensemble_source(path: str) -> Source:
-    from pdmkit.ensembles import Ensemble, parquet_partitions
 
     if "://" in str(path):
         raise DataError(
@@ -223,14 +228,12 @@ def _ensemble_source(path: str) -> Source:
 
 
 def _members_source(files: list[str]) -> Source:
-    from pdmkit.ensembles import read_members
 
     ensemble = read_members(files)
     return Source.from_ensemble(ensemble, kind="members", value=[str(f) for f in files])
 
 
 def _features_source(path: str) -> Source:
-    from pdmkit.ensembles import read_table
 
     table = read_table(path)
     if table.index.name is None and "member" in table.columns:

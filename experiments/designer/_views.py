@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit.errors import DataError
+from pdmkit.experiments.designer._source import MAX_PLOT_MEMBERS
 
 __all__ = [
     "MAX_VALUES",
@@ -180,8 +181,6 @@ def signal_traces(
     >>> out["traces"][0]["group"], len(out["traces"][0]["y"]) <= 2000, out["decimated"]
     ('a', True, True)
     """
-    from pdmkit.experiments.designer._source import MAX_PLOT_MEMBERS
-
     if kind not in ("signal", "spectrum"):
         raise DataError(f"kind must be 'signal' or 'spectrum'; got {kind!r}")
     fs = source.signals.get(signal)

@@ -3,8 +3,11 @@
 Diagnostic masks with alarm delay and hysteresis, and the binary diagnostic matrix
 that isolates the fault from the symptoms (seed ``000``, sections 2.8 and 3.4:
 :class:`DiagnosticMask`, :class:`DiagnosticMatrix`); and symbolic dynamics of
-time series, the anomaly measure of seed ``002`` (maximum-entropy partitioning,
-symbol-state probabilities, :class:`SymbolicAnomaly`; Ray 2004, Rajagopalan & Ray 2006).
+time series, the anomaly measure of seed ``002`` (uniform, maximum-entropy and SFNN
+partitions, symbol-state probabilities, :class:`SymbolicAnomaly`; Ray 2004, Rajagopalan
+& Ray 2006, Kennel & Buhl 2003), and the anomaly measures seed 002 compares it with
+(:class:`PCAAnomaly`, :class:`RBFAnomaly`, :class:`MLPAnomaly`; Chin, Ray &
+Rajagopalan 2005).
 
 Examples
 --------
@@ -15,20 +18,30 @@ Examples
 [13]
 """
 
+from pdmkit.models.diagnosis._anomaly import MLPAnomaly, PCAAnomaly, RBFAnomaly
 from pdmkit.models.diagnosis._masks import DiagnosticMask, DiagnosticMatrix, MaskResult
 from pdmkit.models.diagnosis._symbolic import (
     SymbolicAnomaly,
     max_entropy_partition,
+    sfnn_fraction,
+    sfnn_partition,
     state_probabilities,
     symbolize,
+    uniform_partition,
 )
 
 __all__ = [
     "DiagnosticMask",
     "DiagnosticMatrix",
+    "MLPAnomaly",
     "MaskResult",
+    "PCAAnomaly",
+    "RBFAnomaly",
     "SymbolicAnomaly",
     "max_entropy_partition",
+    "sfnn_fraction",
+    "sfnn_partition",
     "state_probabilities",
     "symbolize",
+    "uniform_partition",
 ]

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from sklearn.base import BaseEstimator
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
 
@@ -103,7 +104,7 @@ class MaskResult:
         return ax
 
 
-class DiagnosticMask:
+class DiagnosticMask(BaseEstimator):
     """Tolerance band with alarm delay and hysteresis, static or self-tuned.
 
     Parameters

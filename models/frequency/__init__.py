@@ -14,6 +14,7 @@ error), and the fractional-order models of seed ``004``:
 - :func:`fit_frf_params`: physical parameters of a user FRF function;
 - :func:`hankel_singular_values`, :func:`balanced_truncation`;
 - :class:`FractionalTF`, :func:`fit_fractional_tf`, :func:`fit_fractional_frf`,
+  :func:`fit_fractional_simplex` (seed 004's Nelder-Mead on ``|G_EETF - G|``),
   :func:`gl_simulate`, :func:`oustaloup`, :class:`FractionalConditionClassifier`.
 
 Frequencies are in Hz in the public arguments (``freq``).
@@ -36,6 +37,7 @@ from pdmkit.models.frequency._fractional import (
     FractionalFit,
     FractionalTF,
     fit_fractional_frf,
+    fit_fractional_simplex,
     fit_fractional_tf,
     gl_simulate,
     gl_weights,
@@ -71,6 +73,7 @@ __all__ = [
     "amplitude_dependence",
     "balanced_truncation",
     "fit_fractional_frf",
+    "fit_fractional_simplex",
     "fit_fractional_tf",
     "fit_frf_params",
     "fit_tf",

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 import scipy.optimize as sopt
 import scipy.signal as ss
+from sklearn.base import BaseEstimator
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
 
@@ -297,7 +298,7 @@ class _Layout:
         return th_in, b, f, theta[i : i + self.n_out]
 
 
-class HammersteinWiener:
+class HammersteinWiener(BaseEstimator):
     """Hammerstein-Wiener model fitted by simulation-error minimisation.
 
     Parameters

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 from scipy import ndimage, optimize, signal
+from sklearn.base import BaseEstimator
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
 from pdmkit.models.ident._model import _as_signal, _check_fs, _check_order, modes_from_poles
@@ -177,7 +178,7 @@ class PoleTracks:
         return ax
 
 
-class RecursiveARX:
+class RecursiveARX(BaseEstimator):
     """Recursive least squares for AR/ARX models with a forgetting factor.
 
     Parameters

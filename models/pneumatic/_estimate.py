@@ -52,7 +52,7 @@ import numpy as np
 
 from pdmkit._progress import progress
 from pdmkit.errors import ConvergenceWarning, DataError, ModelError, did_you_mean
-from pdmkit.models._xp import get_namespace
+from pdmkit.models._xp import TorchNamespace, get_namespace
 from pdmkit.models.ode import ResponseData
 from pdmkit.models.pneumatic._integrate import _THETA, _switch_times, simulate_piston
 from pdmkit.models.pneumatic._sensors import P_STD, SENSOR_UNITS, T_STD
@@ -303,8 +303,6 @@ class _Problem:
         of every residual at the cost of about five forward passes.
         """
         import torch
-
-        from pdmkit.models._xp import TorchNamespace
 
         W, p = self.n_windows, self.p
         zt = torch.tensor(np.repeat(z[:, None], W, axis=1), dtype=torch.float64)

@@ -2,7 +2,14 @@
 
 :class:`MassBeamRig`: the mass-beam rig of seed ``002`` (two masses on a cantilever
 beam, modal model with the beam's stiffness from Euler-Bernoulli theory), used for its
-resonances and for the symbolic-dynamics fatigue study.
+resonances (also with the beams' mass distributed: :func:`beam_fe_modes`) and for the
+symbolic-dynamics fatigue study (:meth:`MassBeamRig.fatigue_run`, :class:`FatigueRun`).
+
+:class:`MotorGearboxRig`: the DC motor and four-gear chain of seed ``004`` (transmission
+paths from a broken tooth to the motor current and the output-bearing accelerometer),
+whose current / accelerometer transfer function changes with the condition
+(:data:`MOTOR_CONDITIONS`); :class:`MotorRecord` is one simulated record.
+
 
 Examples
 --------
@@ -11,6 +18,14 @@ Examples
 'MassBeamRig'
 """
 
-from pdmkit.models.rigs._massbeam import MassBeamRig
+from pdmkit.models.rigs._massbeam import FatigueRun, MassBeamRig, beam_fe_modes
+from pdmkit.models.rigs._motor import MOTOR_CONDITIONS, MotorGearboxRig, MotorRecord
 
-__all__ = ["MassBeamRig"]
+__all__ = [
+    "MOTOR_CONDITIONS",
+    "FatigueRun",
+    "MassBeamRig",
+    "MotorGearboxRig",
+    "MotorRecord",
+    "beam_fe_modes",
+]

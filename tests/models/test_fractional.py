@@ -4,12 +4,14 @@ import numpy as np
 import pytest
 import scipy.signal as ss
 from scipy.special import erfcx
+from sklearn.exceptions import NotFittedError
 
-from pdmkit.errors import DataError, ModelError, NotFittedError
+from pdmkit.errors import DataError, ModelError
 from pdmkit.models.frequency import (
     FractionalConditionClassifier,
     FractionalTF,
     fit_fractional_frf,
+    fit_fractional_simplex,
     fit_fractional_tf,
     gl_simulate,
     gl_weights,
@@ -145,3 +147,116 @@ def test_fit_errors():
         fit_fractional_frf(np.arange(1, 20.0), np.ones(19), fixed_orders={"gamma": 1})
     with pytest.raises(ModelError, match="domain"):
         fit_fractional_tf(np.ones(100), np.ones(100), 10.0, domain="laplace")
+
+
+# ----------------------------------------------------------------- seed 004's simplex
+W_SEED = np.linspace(100.0, 1000.0, 80)  # seed 004: 100-1000 rad/s
+F_SEED = W_SEED / (2 * np.pi)
+
+
+def _seed_frf(a, alpha, b, beta, c, w=W_SEED):
+    """Eq. 8 written out by hand (not through FractionalTF)."""
+    jw = 1j * w
+    return 1.0 / (a * np.exp(alpha * np.log(jw)) + b * np.exp(beta * np.log(jw)) + c)
+
+
+def test_simplex_recovers_the_seed_model_from_noisy_records():
+    true = (2e-4, 1.7, 0.05, 0.6, 20.0)
+    rng = np.random.default_rng(0)
+    H0 = _seed_frf(*true)
+    H = H0 * (
+        1
+        + 0.03
+        * (rng.normal(size=(20, W_SEED.size)) + 1j * rng.normal(size=(20, W_SEED.size)))
+    )
+    fit = fit_fractional_simplex(F_SEED, H)
+    assert fit.method == "simplex"
+    assert fit.alpha == pytest.approx(1.7, abs=0.05)
+    assert fit.beta == pytest.approx(0.6, abs=0.1)
+    # the reported error is the seed's f_e, the mean |G_EETF - G| over the records
+    G = _seed_frf(fit.a, fit.alpha, fit.b, fit.beta, fit.c)
+    assert fit.error == pytest.approx(np.mean(np.abs(H - G)), rel=1e-9)
+    # the fractional model holds the integer one: it can only fit as well or better
+    iom = fit_fractional_simplex(F_SEED, H, fixed_orders={"alpha": 2.0, "beta": 1.0})
+    assert (iom.alpha, iom.beta) == (2.0, 1.0)
+    assert fit.error <= iom.error
+    sq = fit_fractional_simplex(F_SEED, H, loss="squared")
+    assert sq.error == pytest.approx(
+        np.mean(np.abs(H - sq.model.frequency_response(W_SEED)) ** 2), rel=1e-9
+    )
+
+
+def test_simplex_on_a_pure_fractional_integrator_has_phase_minus_alpha_90():
+    """1 / (a s^alpha) has the phase -alpha * 90 degrees at every frequency; data written
+    from that closed form give back alpha and the phase."""
+    alpha = 0.7
+    H = W_SEED**-alpha * np.exp(-1j * alpha * np.pi / 2) / 3.0
+    fit = fit_fractional_simplex(F_SEED, H)
+    G = fit.model.frequency_response(W_SEED)
+    assert np.max(np.abs(np.degrees(np.angle(G)) + alpha * 90)) < 0.5
+    assert np.max(np.abs(G / H - 1)) < 0.01
+
+
+def test_gl_second_order_matches_scipy_lsim():
+    """Integer orders: 1 / (a s^2 + b s + c) by Grunwald-Letnikov against scipy."""
+    a, b, c = 0.01, 0.08, 1.0
+    dt = 2e-4
+    t = np.arange(0, 3, dt)
+    u = np.sin(7 * t) + 0.5 * np.sign(np.sin(2 * t))
+    y = gl_simulate(u, dt, [a, b, c], [2.0, 1.0, 0.0])
+    _, ref, _ = ss.lsim(([1.0], [a, b, c]), u, t)
+    assert np.max(np.abs(y - ref)) < 0.02 * np.max(np.abs(ref))
+
+
+def test_condition_classifier_follows_the_sklearn_contract():
+    from sklearn.base import clone
+    from sklearn.model_selection import cross_val_score
+
+    f = np.logspace(-1, 1, 25)
+    rng = np.random.default_rng(3)
+    H, y = [], []
+    for lab, alpha in [("ok", 1.2), ("worn", 1.6), ("broken", 1.9)]:
+        G = FractionalTF.seed004(0.1, alpha, 0.5, 0.5, 1.0).frequency_response(
+            2 * np.pi * f
+        )
+        for _ in range(12):
+            H.append(G * (1 + 0.03 * rng.normal(size=f.size)))
+            y.append(lab)
+    H, y = np.array(H), np.array(y)
+    clf = FractionalConditionClassifier(f, fit_method="simplex")
+    assert clone(clf).get_params()["fit_method"] == "simplex"
+    with pytest.raises(NotFittedError):
+        clf.predict(H)
+    assert clf.fit(H, y) is clf
+    assert all(m.method == "simplex" for m in clf.models_.values())
+    scores = cross_val_score(FractionalConditionClassifier(f), H, y, cv=3)
+    assert scores.mean() > 0.9
+    with pytest.raises(ModelError, match="fit_method"):
+        FractionalConditionClassifier(f, fit_method="bfgs").fit(H, y)
+
+
+@pytest.mark.real_data
+def test_simplex_on_the_silverbox_finds_its_integer_orders(require_data):
+    """The Silverbox is an electronic mass-spring-damper (Wigren & Schoukens 2013): its
+    FRF is 1/(m s^2 + d s + k) plus a weak cubic stiffness. The seed's fit must find
+    alpha ~ 2, beta ~ 1, gain nothing over the integer model, and put the resonance
+    (c / a)^(1/alpha) at the peak of the H1 estimate."""
+    from pdmkit.ensembles import load_silverbox
+    from pdmkit.models.frequency import frf_estimate
+
+    require_data("silverbox")
+    sb = load_silverbox()
+    u, y, fs = sb["V1"][40650:], sb["V2"][40650:], sb["fs"]
+    frf = frf_estimate(u - u.mean(), y - y.mean(), fs, nperseg=2048, fmin=5, fmax=150)
+    ok = frf.coherence > 0.9
+    fom = fit_fractional_simplex(frf.freq[ok], frf.H[ok])
+    iom = fit_fractional_simplex(
+        frf.freq[ok], frf.H[ok], fixed_orders={"alpha": 2, "beta": 1}
+    )
+    assert fom.alpha == pytest.approx(2.0, abs=0.05)
+    assert fom.beta == pytest.approx(1.0, abs=0.2)
+    assert 0.9 < fom.error / iom.error <= 1.0
+    peak = frf.freq[ok][np.argmax(np.abs(frf.H[ok]))]
+    # undamped natural frequency (c / a)^(1 / alpha), just above the damped peak
+    w_n = (fom.c / fom.a) ** (1 / fom.alpha) / (2 * np.pi)
+    assert w_n == pytest.approx(peak, abs=fs / 2048 + 1.5)

@@ -111,3 +111,114 @@ def test_identified_frf_recovers_physical_resonances_seed_002_section_4():
     # balanced reduction of the physical model to one mode keeps the dominant one
     red = balanced_truncation((A, B, C[1:], D[1:]), order=2)
     assert np.abs(red.poles[0]) == pytest.approx(rig.resonances()[1], rel=0.02)
+
+
+# ---------------------------------------------------------------- beam FE, fatigue
+def test_fe_cantilever_matches_euler_bernoulli_closed_form():
+    """Uniform cantilever: w_k = (beta_k L)^2 sqrt(EI / (rho A L^4)) with beta_k L =
+    1.87510, 4.69409, 7.85476 (roots of 1 + cos x cosh x = 0)."""
+    from scipy.optimize import brentq
+
+    from pdmkit.models.rigs import beam_fe_modes
+
+    EI, rA, L = 200e9 * 25.4e-3 * 12.7e-3**3 / 12, 7850 * 25.4e-3 * 12.7e-3, 0.8
+    roots = [
+        brentq(lambda x: 1 + np.cos(x) * np.cosh(x), a, b)
+        for a, b in [(1, 3), (4, 6), (7, 9)]
+    ]
+    ref = np.array(roots) ** 2 * np.sqrt(EI / (rA * L**4))
+    assert np.allclose(beam_fe_modes([(EI, rA, L)], n_modes=3), ref, rtol=1e-4)
+
+
+def test_fe_cantilever_with_tip_mass_matches_frequency_equation():
+    """Cantilever with a tip mass M (mass ratio mu = M / (rho A L)): the exact frequency
+    equation 1 + cos x cosh x + mu x (cos x sinh x - sin x cosh x) = 0, w = x^2
+    sqrt(EI / (rho A L^4)) (Blevins, Formulas for natural frequency, table 8-8)."""
+    from scipy.optimize import brentq
+
+    from pdmkit.models.rigs import beam_fe_modes
+
+    EI, rA, L, M = 1.0, 1.0, 1.0, 0.7
+    mu = M / (rA * L)
+
+    def eq(x):
+        return (
+            1
+            + np.cos(x) * np.cosh(x)
+            + mu * x * (np.cos(x) * np.sinh(x) - np.sin(x) * np.cosh(x))
+        )
+
+    x1 = brentq(eq, 0.5, 2.0)
+    x2 = brentq(eq, 3.0, 5.0)
+    fe = beam_fe_modes([(EI, rA, L)], {0: M}, n_modes=2)
+    assert np.allclose(fe, [x1**2, x2**2], rtol=1e-4)
+    # two segments in series are the same beam cut in two
+    two = beam_fe_modes(
+        [(EI, rA, L / 2), (EI, rA, L / 2)], {1: M}, n_elements=12, n_modes=2
+    )
+    assert np.allclose(two, fe, rtol=1e-4)
+
+
+def test_distributed_mass_moves_system2_modes():
+    """With the beams' mass (FE) and table 1's masses the upper mode lands near the
+    seed's 87.8 rad/s; lumping the beams away (rho -> 0) gives the eq.-8 model back."""
+    rig = MassBeamRig()
+    fe = rig.distributed_resonances()
+    assert fe[1] == pytest.approx(87.8, rel=0.02)
+    light = rig.with_params(m1=1.0, m2=0.615)
+    near_massless = light.distributed_resonances(rho1=0.1, rho3=0.1)  # 26 mg of beam
+    assert np.allclose(near_massless, light.resonances()[1:], rtol=1e-3)
+
+
+def test_linear_record_amplitude_matches_the_frf():
+    """Without the crack's breathing, noise and drift, the steady sine amplitude is
+    F0 / |k - m w^2 + j c w| (single-degree-of-freedom closed form)."""
+    rig = MassBeamRig()
+    k = 0.97 * rig.stiffness1()
+    x = rig.vibration_record(
+        k,
+        breathing=False,
+        duration=20.0,
+        force_noise=0,
+        force_drift=0,
+        sensor_noise=0,
+        rng=0,
+    )
+    w = 2 * np.pi * 11.39
+    c = 2 * 0.01 * np.sqrt(rig.stiffness1() * rig.m3)
+    ref = 8.5 / abs(k - rig.m3 * w**2 + 1j * c * w)
+    assert np.max(np.abs(x)) == pytest.approx(ref, rel=0.01)
+
+
+def test_breathing_crack_oscillates_at_the_bilinear_frequency():
+    """Free vibration of a bilinear oscillator: half a cycle at each stiffness, so its
+    period is pi / w1 + pi / w2 (Chati, Rand & Mukherjee 1997)."""
+    from pdmkit.models.rigs._massbeam import _bilinear_rk4
+
+    m, k1, k2, fs = 2.0, 8000.0, 12000.0, 2000.0
+    force = np.zeros((1, 4000))
+    force[0, :2] = 2000.0  # a short kick, then free vibration
+    x = _bilinear_rk4(force, np.array([k1]), np.array([k2]), m, 0.0, fs, substeps=4)[0]
+    up = np.nonzero((x[:-1] <= 0) & (x[1:] > 0))[0]
+    period = np.mean(np.diff(up)) / fs
+    ref = np.pi / np.sqrt(k1 / m) + np.pi / np.sqrt(k2 / m)
+    assert period == pytest.approx(ref, rel=0.01)
+    assert x[x > 0].max() > -x[x < 0].min()  # the softer side swings further
+
+
+def test_fatigue_run_softens_to_failure_at_the_set_life():
+    run = MassBeamRig().fatigue_run(n_files=6, file_minutes=5.0, record_seconds=4.0, rng=1)
+    loss = run.stiffness_loss
+    assert np.all(np.diff(loss) > 0) and loss[0] > 0
+    assert np.all(np.diff(run.amplitude) > 0)  # the resonance moves toward 11.39 Hz
+    assert run.curve["time_min"].iloc[-1] == pytest.approx(40.0)
+    assert run.curve["stiffness_loss"].iloc[-1] > 0.3  # broken at the end
+    # the crack accelerates: the last 10 % of life grows it more than the first half
+    c = run.curve
+    first = np.interp(20.0, c["time_min"], c["crack_mm"]) - c["crack_mm"].iloc[0]
+    last = c["crack_mm"].iloc[-1] - np.interp(36.0, c["time_min"], c["crack_mm"])
+    assert last > first
+    assert run.records.shape == (6, 2000)
+    assert list(run.to_pandas().columns)[:3] == ["time_min", "crack_mm", "stiffness"]
+    with pytest.raises(ModelError, match="life_minutes"):
+        MassBeamRig().fatigue_run(n_files=30)

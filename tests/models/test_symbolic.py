@@ -66,3 +66,60 @@ def test_errors():
         SymbolicAnomaly(metric="kl").fit(np.arange(10.0))
     with pytest.raises(ModelError, match="n_symbols"):
         max_entropy_partition(np.arange(10.0), 1)
+
+
+def _logistic(n, r=3.9, x0=0.1234):
+    x = np.empty(n)
+    x[0] = x0
+    for i in range(1, n):
+        x[i] = r * x[i - 1] * (1 - x[i - 1])
+    return x
+
+
+def test_uniform_partition_is_equal_widths():
+    from pdmkit.models.diagnosis import uniform_partition
+
+    x = np.random.default_rng(0).normal(size=1000)
+    b = uniform_partition(x, 5)
+    assert np.allclose(b, np.linspace(x.min(), x.max(), 6)[1:-1])
+    with pytest.raises(ModelError, match="n_symbols"):
+        uniform_partition(x, 1)
+
+
+def test_sfnn_finds_the_generating_partition_of_the_logistic_map():
+    """For a unimodal map the critical point (0.5) is the generating partition (kneading
+    theory: Collet & Eckmann 1980); the maximum-entropy partition (the median, 0.59 at
+    r = 3.9) is not. SFNN (Kennel & Buhl 2003) must move there and count fewer false
+    neighbours."""
+    from pdmkit.models.diagnosis import sfnn_fraction, sfnn_partition
+
+    x = _logistic(6000)
+    opts = dict(dim=1, delay=1, word_length=9, r_tol=0.2)
+    b = sfnn_partition(x, 2, grid=24, **opts)
+    assert abs(b[0] - 0.5) < 0.03
+    assert abs(np.median(x) - 0.5) > 0.05
+    assert sfnn_fraction(x, b, **opts) < 0.2 * sfnn_fraction(x, [np.median(x)], **opts)
+
+
+def test_symbolic_anomaly_partitions():
+    from pdmkit.models.diagnosis import sfnn_fraction, uniform_partition
+
+    x0 = _oscillator(0.02, seed=0, n=20000)
+    dets = {
+        p: SymbolicAnomaly(6, 1, partition=p, sfnn_options={"r_tol": 0.1, "n_points": 800})
+        for p in ("uniform", "max_entropy", "sfnn")
+    }
+    for p, d in dets.items():
+        d.fit(x0)
+        assert (
+            d.score(_oscillator(0.06, seed=1, n=20000))[0]
+            > 3 * d.score(_oscillator(0.02, seed=2, n=20000))[0]
+        ), p
+    assert np.allclose(dets["uniform"].boundaries_, uniform_partition(x0, 6))
+    f = {
+        p: sfnn_fraction(x0, d.boundaries_, r_tol=0.1, n_points=800)
+        for p, d in dets.items()
+    }
+    assert f["sfnn"] <= min(f["uniform"], f["max_entropy"])
+    with pytest.raises(ModelError, match="partition"):
+        SymbolicAnomaly(partition="kmeans").fit(x0)
