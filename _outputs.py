@@ -6,7 +6,7 @@ and never removing anything else; what pdmkit needs for itself lives in ``.pdmki
 (and, for ``features``, the resumable partition store ``run/``)::
 
     OUT/
-      features.parquet, features.json, report.html, ...   the command's files
+      features.parquet, summary.json, report.html, ...   the command's files
       run/                     features: committed partitions (resume after a kill)
       .pdmkit/lock             held (flock) by the run writing into OUT; holds its pid
       .pdmkit/run.json         manifest of the last run committed here: run id,
@@ -64,11 +64,11 @@ __all__ = [
 #: Nothing else in the folder is ever replaced or removed (``.pdmkit/`` and the
 #: ``features`` partition store ``run/`` are pdmkit's own).
 OUTPUTS: dict[str, tuple[str, ...]] = {
-    "features": ("features.parquet", "errors.parquet", "report.html", "features.json"),
-    "rank": ("ranking.parquet", "report.html", "ranking.json"),
-    "classify": ("report.html", "classify.json"),
-    "sensors": ("report.html", "sensors.json"),
-    "rul": ("predictions.parquet", "model.pdmkit", "report.html", "rul.json"),
+    "features": ("features.parquet", "errors.parquet", "report.html", "summary.json"),
+    "rank": ("ranking.parquet", "report.html", "summary.json"),
+    "classify": ("report.html", "summary.json"),
+    "sensors": ("report.html", "summary.json"),
+    "rul": ("predictions.parquet", "model.pdmkit", "report.html", "summary.json"),
     "identify": ("report.html", "summary.json"),
     "mismatch": ("candidates.csv", "report.html", "summary.json"),
     "demo": (
@@ -76,25 +76,16 @@ OUTPUTS: dict[str, tuple[str, ...]] = {
         "rul/predictions.parquet",
         "rul/model.pdmkit",
         "rul/report.html",
-        "rul/rul.json",
+        "rul/summary.json",
         "report.html",
         "summary.json",
     ),
     "study": ("report.html", "summary.json"),
 }
 
-#: The JSON summary of each command: what ``--json PATH`` receives a copy of.
-MAIN_JSON: dict[str, str] = {
-    "features": "features.json",
-    "rank": "ranking.json",
-    "classify": "classify.json",
-    "sensors": "sensors.json",
-    "rul": "rul.json",
-    "identify": "summary.json",
-    "mismatch": "summary.json",
-    "demo": "summary.json",
-    "study": "summary.json",
-}
+#: The JSON summary of each command: what ``--json PATH`` receives a copy of (every
+#: command calls it ``summary.json``).
+MAIN_JSON: dict[str, str] = dict.fromkeys(OUTPUTS, "summary.json")
 
 #: pdmkit's own folder inside an output folder.
 PRIVATE = ".pdmkit"
@@ -623,11 +614,11 @@ class OutputRun(_Sink):
     >>> _ = (out / "notes.txt").write_text("mine")
     >>> with OutputRun(out, "classify") as run:
     ...     _ = run.add_text("report.html", "<html></html>")
-    ...     _ = run.add_json("classify.json", {"accuracy": 0.9})
+    ...     _ = run.add_json("summary.json", {"accuracy": 0.9})
     ...     manifest = run.commit()
     >>> sorted(p.name for p in out.iterdir())
-    ['.pdmkit', 'classify.json', 'notes.txt', 'report.html']
-    >>> json.loads((out / "classify.json").read_text())["warnings"]
+    ['.pdmkit', 'notes.txt', 'report.html', 'summary.json']
+    >>> json.loads((out / "summary.json").read_text())["warnings"]
     []
     """
 

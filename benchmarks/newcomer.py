@@ -106,7 +106,7 @@ def cases(data: Path, out: Path) -> list[dict]:
             "needs": [ims],
             "args": ["rank", "--features", ims, "--method", "monotonicity",
                      "--window", "50", "--out", out / "ims_rank"],
-            "read": _json_reader(out / "ims_rank" / "ranking.json", _top),
+            "read": _json_reader(out / "ims_rank" / "summary.json", _top),
         },
         {
             "case": "PRONOSTIA Bearing1_1 indicators, ranking",
@@ -114,7 +114,7 @@ def cases(data: Path, out: Path) -> list[dict]:
             "args": ["rank", "--features", femto / "Bearing1_1_acc_features.csv",
                      "--method", "monotonicity", "--order", "snapshot", "--window", "50",
                      "--out", out / "femto_rank"],
-            "read": _json_reader(out / "femto_rank" / "ranking.json", _top),
+            "read": _json_reader(out / "femto_rank" / "summary.json", _top),
         },
         {
             "case": "PRONOSTIA raw snapshots (header-less), indicators",
@@ -123,7 +123,7 @@ def cases(data: Path, out: Path) -> list[dict]:
                      "--fs", "25600", "--signals", "column_4", "column_5",
                      "--out", out / "femto_features"],
             "read": _json_reader(
-                out / "femto_features" / "features.json",
+                out / "femto_features" / "summary.json",
                 lambda j: f"{j['n_features']} indicators of {j['n_members']} snapshots",
             ),
         },

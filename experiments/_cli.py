@@ -26,7 +26,7 @@ from typing import NoReturn
 from pdmkit._outputs import collect_warnings
 from pdmkit.errors import DataError, ModelError, did_you_mean
 from pdmkit.experiments import _cli_models, _cli_rul, _cli_tables
-from pdmkit.experiments._cli_common import say
+from pdmkit.experiments._cli_common import add_output_options, say
 from pdmkit.experiments.designer import add_parser as add_designer_parser
 from pdmkit.experiments.studies import STUDIES, run_study
 
@@ -60,7 +60,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     run_demo(
         args.out,
-        members=args.members,
+        members=args.n_members,
         seed=args.seed,
         recording_s=args.recording_s,
         json_path=args.json,
@@ -123,7 +123,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("study", help="run one of the source studies end to end")
     p.add_argument("name", choices=sorted(STUDIES), help="the study (see below)")
     p.add_argument("--out", type=Path, help="output folder (default results/study/NAME)")
-    p.add_argument("--json", type=Path, help="also write the summary JSON here")
+    p.add_argument("--json", type=Path, metavar="PATH", help="also write summary.json here")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated rig (0)")
     p.add_argument(
         "--quick", action="store_true", help="a smaller, faster run for a first look"
@@ -134,15 +134,18 @@ def build_parser() -> argparse.ArgumentParser:
     add_designer_parser(sub)
 
     p = sub.add_parser("demo", help="the whole workbench on the simulated pneumatic piston")
-    p.add_argument("--out", type=Path, default=Path("results/demo"))
-    p.add_argument("--json", type=Path)
+    add_output_options(p, "results/demo")
     p.add_argument(
-        "--members", type=int, default=None, help="recordings of the seed data set (480)"
+        "--n-members",
+        type=int,
+        default=None,
+        metavar="N",
+        help="recordings of the seed data set to simulate (default 480)",
     )
     p.add_argument(
         "--recording-s", type=float, default=10.0, help="seconds per recording (10)"
     )
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the simulation (0)")
     p.set_defaults(func=_cmd_demo)
     return parser
 

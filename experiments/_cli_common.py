@@ -7,12 +7,14 @@ import json
 import math
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from pdmkit._outputs import OutputRun
 from pdmkit.errors import DataError
 
 __all__ = [
     "EXIT_SKIPPED",
+    "add_output_options",
     "finish",
     "fraction",
     "input_paths",
@@ -33,9 +35,7 @@ def say(message: str) -> None:
 def input_paths(args: argparse.Namespace) -> list:
     """The files and folders a command reads (never to be overwritten by its output)."""
     names = ["members", "ensemble", "costs", "data", "model_file", "validation"]
-    names += ["train", "test", "trained", "history"]
-    if args.command != "rul":  # rul's --features names columns
-        names.append("features")
+    names += ["train", "test", "trained", "history", "features"]
     paths = []
     for name in names:
         value = getattr(args, name, None)
@@ -51,12 +51,27 @@ def output_run(args: argparse.Namespace, command: str) -> OutputRun:
     return OutputRun(args.out, command, inputs=input_paths(args), json_path=args.json)
 
 
-def finish(run: OutputRun, summary: dict, report, name: str, then=None) -> None:
-    """Register the JSON summary and the report with the run and commit it."""
-    run.add_json(f"{name}.json", summary)
+def add_output_options(parser: argparse.ArgumentParser, default: str) -> None:
+    """Add ``--out DIR`` (default ``default``) and ``--json PATH``, as every command has."""
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path(default),
+        metavar="DIR",
+        help=f"output folder: summary.json, report.html and the command's files (default "
+        f"{default}); nothing else in it is touched",
+    )
+    parser.add_argument(
+        "--json", type=Path, metavar="PATH", help="also write summary.json here"
+    )
+
+
+def finish(run: OutputRun, summary: dict, report, then=None) -> None:
+    """Register ``summary.json`` and ``report.html`` with the run and commit it."""
+    run.add_json("summary.json", summary)
     run.add_report("report.html", report)
     run.commit(then)
-    say(f"wrote {run.path(f'{name}.json')} and {run.path('report.html')}")
+    say(f"wrote {run.path('summary.json')} and {run.path('report.html')}")
 
 
 def parse_options(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pdmkit.experiments._cli_common import positive_seconds, say
+from pdmkit.experiments._cli_common import add_output_options, positive_seconds, say
 
 __all__ = ["IDENTIFY_CHOICES", "add_parsers"]
 
@@ -112,7 +112,12 @@ def _add_identify_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--order", default=None, help="4, or na=4,nb=3,nk=1 (default: by --criterion)"
     )
-    p.add_argument("--criterion", default="aic", choices=["aic", "bic", "mdl"])
+    p.add_argument(
+        "--criterion",
+        default="aic",
+        choices=["aic", "bic", "mdl"],
+        help="order selection criterion when --order is not given (default aic)",
+    )
     p.add_argument("--fs", type=float, help="sampling rate (Hz) when there is no time")
     p.add_argument(
         "--band",
@@ -126,8 +131,7 @@ def _add_identify_parser(sub: argparse._SubParsersAction) -> None:
         metavar="N",
         help="decimate by N first (anti-aliased); 1 turns automatic decimation off",
     )
-    p.add_argument("--out", type=Path, default=Path("results/identify"))
-    p.add_argument("--json", type=Path)
+    add_output_options(p, "results/identify")
     p.set_defaults(func=_cmd_identify)
 
 
@@ -183,6 +187,5 @@ def _add_mismatch_parser(sub: argparse._SubParsersAction) -> None:
         "data-driven terms) are skipped and the best verdict so far is reported, marked "
         "as such (default: no limit)",
     )
-    p.add_argument("--out", type=Path, default=Path("results/mismatch"))
-    p.add_argument("--json", type=Path)
+    add_output_options(p, "results/mismatch")
     p.set_defaults(func=_cmd_mismatch)

@@ -10,7 +10,12 @@ import pandas as pd
 
 from pdmkit._outputs import check_output_folder
 from pdmkit.errors import DataError
-from pdmkit.experiments._cli_common import input_paths, parse_options, say
+from pdmkit.experiments._cli_common import (
+    add_output_options,
+    input_paths,
+    parse_options,
+    say,
+)
 from pdmkit.experiments._report import _readable_float
 
 __all__ = ["add_parsers"]
@@ -66,7 +71,7 @@ def _cmd_rul(args: argparse.Namespace) -> int:
         json_path=args.json,
         seed=args.seed,
         rul_cap=args.rul_cap,
-        features=args.features,
+        features=args.columns,
         options=parse_options(args.option, example="k=5"),
         dataset_options=parse_options(
             args.dataset_option, "--dataset-option", "walk_shape=16"
@@ -83,7 +88,7 @@ def _cmd_rul(args: argparse.Namespace) -> int:
         f"{u}, PHM08 score {_readable_float(summary['phm08_score'])}, "
         f"{100 * summary['level']:g} % interval coverage {summary['coverage']:.2f} on "
         f"{summary['n_units']} units; {capped}; time unit {u}"
-        + (f"; {n_warn} warning(s), listed in rul.json" if n_warn else "")
+        + (f"; {n_warn} warning(s), listed in summary.json" if n_warn else "")
         + f"; see {args.out}/report.html; trained model {summary['model_file']} "
         f"(sha256 {summary['model_sha256']}: keep it to check the file later with "
         "--expect-sha256)"
@@ -287,7 +292,12 @@ def _add_table_options(p: argparse.ArgumentParser) -> None:
         help="test units' histories, with rul_true_final (each unit's true RUL after "
         "its last row); with --train",
     )
-    p.add_argument("--features", nargs="+", help="input columns (default: all numeric)")
+    p.add_argument(
+        "--columns",
+        nargs="+",
+        metavar="COL",
+        help="the model's input columns (default: all numeric ones)",
+    )
     p.add_argument(
         "--option",
         action="append",
@@ -320,7 +330,7 @@ def _add_table_options(p: argparse.ArgumentParser) -> None:
         "--expect-sha256",
         metavar="HASH",
         help="with --trained: refuse the model file unless its SHA-256 is HASH (the "
-        "model_sha256 its training run printed and wrote to rul.json)",
+        "model_sha256 its training run printed and wrote to summary.json)",
     )
     p.add_argument(
         "--history",
@@ -329,10 +339,4 @@ def _add_table_options(p: argparse.ArgumentParser) -> None:
         help="units' histories so far (CSV / Parquet: unit, time or cycle, the model's "
         "columns); with --trained",
     )
-    p.add_argument(
-        "--out",
-        type=Path,
-        default=Path("results/rul"),
-        help="output folder: rul.json, predictions.parquet, report.html, model.pdmkit",
-    )
-    p.add_argument("--json", type=Path, help="also write the JSON summary here")
+    add_output_options(p, "results/rul")

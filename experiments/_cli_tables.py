@@ -13,6 +13,7 @@ from pathlib import Path
 
 from pdmkit.experiments._cli_common import (
     EXIT_SKIPPED,
+    add_output_options,
     fraction,
     positive_int,
     say,
@@ -148,11 +149,18 @@ def _add_rank_parser(sub: argparse._SubParsersAction) -> None:
 def _add_classify_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("classify", help="train and evaluate a fault classifier")
     add_input_options(p)
-    p.add_argument("--model", default="knn", choices=CLASSIFIERS)
+    p.add_argument(
+        "--model", default="knn", choices=CLASSIFIERS, help="the classifier (default knn)"
+    )
     p.add_argument(
         "--top-k", type=positive_int, default=5, help="indicators kept by the selector"
     )
-    p.add_argument("--selection", default="kruskal", choices=["kruskal", "anova", "pca"])
+    p.add_argument(
+        "--selection",
+        default="kruskal",
+        choices=["kruskal", "anova", "pca"],
+        help="how the --top-k indicators are chosen (default kruskal)",
+    )
     p.add_argument(
         "--test-size",
         type=fraction,
@@ -174,7 +182,7 @@ def _add_classify_parser(sub: argparse._SubParsersAction) -> None:
         "timestamps; default --time of a --features table, else a condition named "
         "time/timestamp/date/cycle, else the order the members were given in)",
     )
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the split and model (0)")
     p.set_defaults(func=_cmd_classify)
 
 
@@ -188,11 +196,13 @@ def _add_sensors_parser(sub: argparse._SubParsersAction) -> None:
         help="a sensor and the signals it owns (repeat); default: one per signal",
     )
     p.add_argument("--costs", type=Path, help="TOML file of sensor costs")
-    p.add_argument("--model", default="knn", choices=CLASSIFIERS)
+    p.add_argument(
+        "--model", default="knn", choices=CLASSIFIERS, help="the classifier (default knn)"
+    )
     p.add_argument(
         "--top-k", type=positive_int, default=5, help="indicators kept per sensor"
     )
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the split and model (0)")
     p.set_defaults(func=_cmd_sensors)
 
 
@@ -284,8 +294,7 @@ def _add_bearing_and_output_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--quiet", action="store_true", help="no progress bars (they show on a terminal)"
     )
-    parser.add_argument("--out", type=Path, default=Path("results"), help="output folder")
-    parser.add_argument("--json", type=Path, help="also write the JSON summary here")
+    add_output_options(parser, "results")
 
 
 def add_scale_options(parser: argparse.ArgumentParser) -> None:

@@ -277,7 +277,7 @@ def predict_rul(
         Also write the answer here as JSON.
     expect_sha256 : str, optional
         The model file's SHA-256 as its training run reported it (``model_sha256`` in
-        ``rul.json``); a file with another hash is refused before it is read.
+        ``summary.json``); a file with another hash is refused before it is read.
     unit, time : str, optional
         The history's unit and time columns when they have other names than the
         model's (renamed to the model's before predicting).
@@ -496,7 +496,7 @@ def run_rul(
         One of :data:`RUL_MODELS` (``similarity``, ``degradation``, ``survival``,
         ``neural`` and the variants named in the module notes).
     out_dir : str or Path, default "results/rul"
-        Folder for ``rul.json``, ``predictions.parquet``, ``report.html`` and
+        Folder for ``summary.json``, ``predictions.parquet``, ``report.html`` and
         ``model.pdmkit``, written all at once when everything succeeded; anything else
         in the folder is left as it is (see :mod:`pdmkit._outputs`).
     json_path : str or Path, optional

@@ -190,12 +190,12 @@ def _finish(report, summary: dict, sink) -> dict:
     """Register the report and the JSON summary (with its ``paths``); return the summary."""
     report.add_json(summary, caption="Summary")
     summary["paths"] = {
-        "json": str(sink.path("rul.json")),
+        "json": str(sink.path("summary.json")),
         "report": str(sink.path("report.html")),
         "predictions": str(sink.path("predictions.parquet")),
     }
     sink.add_report("report.html", report)
-    sink.add_json("rul.json", summary)
+    sink.add_json("summary.json", summary)
     return summary
 
 

@@ -55,7 +55,7 @@ def run_features(
     source : TableSource
         A dataset, ensemble or member files (not a feature table).
     out_dir : path
-        Receives ``features.parquet``, ``errors.parquet``, ``features.json`` and
+        Receives ``features.parquet``, ``errors.parquet``, ``summary.json`` and
         ``report.html``.
     json_path : path, optional
         Also write the summary here.
@@ -132,7 +132,7 @@ def run_features(
         def saved() -> None:  # under OUT's lock: the store's results are in OUT now
             mark_run(out / "run", "saved", run.id)
 
-        finish(run, summary, _features_report(table, errors, summary), "features", saved)
+        finish(run, summary, _features_report(table, errors, summary), saved)
     return summary
 
 
@@ -213,7 +213,7 @@ def run_rank(
     source : TableSource
         Members (indicators are extracted) or a feature table.
     out_dir : path
-        Receives ``ranking.parquet``, ``ranking.json`` and ``report.html``.
+        Receives ``ranking.parquet``, ``summary.json`` and ``report.html``.
     json_path : path, optional
         Also write the summary here.
     method : str, default "kruskal"
@@ -288,7 +288,7 @@ def run_rank(
         report = Report(f"pdmkit rank ({method})")
         report.add_figure(ranking.plot(k=min(top, 30)), caption="Ranked indicators")
         report.add_table(ranked.head(top), caption=f"Top {top} indicators")
-        finish(run, summary, report, "ranking")
+        finish(run, summary, report)
     return summary
 
 
@@ -335,7 +335,7 @@ def run_classify(
     source : TableSource
         Members (indicators are extracted) or a feature table, with ``label``.
     out_dir : path
-        Receives ``classify.json`` and ``report.html``.
+        Receives ``summary.json`` and ``report.html``.
     json_path : path, optional
         Also write the summary here.
     model, top_k, selection, test_size : see :func:`classify`
@@ -411,7 +411,7 @@ def run_classify(
                 _ranking(table, label, selection, features).plot(k=20),
                 caption="Indicator ranking",
             )
-        finish(run, summary, report, "classify")
+        finish(run, summary, report)
     return summary
 
 
@@ -433,7 +433,7 @@ def run_sensors(
     source : TableSource
         Members (indicators are extracted) or a feature table, with ``label``.
     out_dir : path
-        Receives ``sensors.json`` and ``report.html``.
+        Receives ``summary.json`` and ``report.html``.
     json_path : path, optional
         Also write the summary here.
     sensors : sequence of str, optional
@@ -492,5 +492,5 @@ def run_sensors(
         for sensor, note in zip(frame["sensor"], frame["note"], strict=True):
             if note:
                 report.add_text(f"{sensor}: {note}")
-        finish(run, summary, report, "sensors")
+        finish(run, summary, report)
     return summary

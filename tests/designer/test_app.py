@@ -284,7 +284,7 @@ def test_export_reproduces_pdmkit_commands_on_cwru(
     cli_table = pd.read_parquet(tmp_path / "results/designer/features/features.parquet")
     fe = [c for c in cli_table.columns if str(c).startswith("FE/")]
     np.testing.assert_array_equal(cli_table[fe].to_numpy(), session.table[fe].to_numpy())
-    json_path = tmp_path / "classify.json"
+    json_path = tmp_path / "summary.json"
     assert pdmkit_main([*shlex.split(classify_cmd)[1:], "--json", str(json_path)]) == 0
     cli = json.loads(json_path.read_text())
     assert cli["accuracy"] == page["accuracy"] and cli["features"] == page["features"]

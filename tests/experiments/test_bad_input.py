@@ -105,7 +105,7 @@ def test_cli_skips_reports_and_exits_3(members, tmp_path, capsys):
     assert "5 member(s) skipped for bad input" in err
     errors = pd.read_parquet(out_bad / "errors.parquet")
     assert sorted(errors["member"]) == ["b_fs", "b_nan", "b_notemp", "b_notmat", "b_trunc"]
-    summary = json.loads((out_bad / "features.json").read_text())
+    summary = json.loads((out_bad / "summary.json").read_text())
     assert summary["n_skipped"] == 5
     assert "Members left out" in (out_bad / "report.html").read_text()
     # the good members' indicators are exactly those of a run without the bad files

@@ -180,18 +180,18 @@ def test_unreadable_feature_file_keeps_earlier_results(tmp_path, rng, capsys):
         str(tmp_path / "out"),
     ]
     assert main(args) == 0
-    before = (tmp_path / "out" / "classify.json").read_text()
+    before = (tmp_path / "out" / "summary.json").read_text()
     (tmp_path / "bad.parquet").write_bytes(b"not parquet at all")
     args[2] = str(tmp_path / "bad.parquet")
     assert main(args) == 2
     assert "bad.parquet" in capsys.readouterr().err
-    assert (tmp_path / "out" / "classify.json").read_text() == before
+    assert (tmp_path / "out" / "summary.json").read_text() == before
 
 
 @pytest.mark.real_data
 def test_rul_cmapss_similarity_meets_the_issue_bound(require_data, tmp_path):
     require_data("cmapss_fd001")
-    path = tmp_path / "rul.json"
+    path = tmp_path / "summary.json"
     assert (
         main(
             [
@@ -211,3 +211,30 @@ def test_rul_cmapss_similarity_meets_the_issue_bound(require_data, tmp_path):
         assert key in summary
     assert summary["n_units"] == 100
     assert summary["rmse"] <= 20.0  # issue 6: best similarity model on FD001
+
+
+def test_every_option_of_every_command_says_what_it_does():
+    """Issue 16: every flag with help text; a flag means one thing across commands."""
+    import argparse
+
+    from pdmkit.experiments._cli import build_parser
+
+    subparsers = next(
+        a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)
+    )
+    meanings: dict[str, set] = {}
+    for command, parser in subparsers.choices.items():
+        for action in parser._actions:
+            if action.dest == "help":
+                continue
+            assert action.help, f"pdmkit {command} {action.option_strings}: no help"
+            name = getattr(action.type, "__name__", "")
+            numeric = action.type in (int, float) or any(
+                w in name for w in ("number", "integer", "seconds")
+            )
+            for flag in action.option_strings:
+                meanings.setdefault(flag, set()).add("number" if numeric else "text")
+    # one flag, one kind of value: --members is always files, --features a table
+    assert all(len(kinds) == 1 for kinds in meanings.values()), {
+        f: k for f, k in meanings.items() if len(k) > 1
+    }

@@ -18,7 +18,7 @@ def test_demo_writes_summary_and_report(tmp_path):
                 "demo",
                 "--out",
                 str(out),
-                "--members",
+                "--n-members",
                 "80",
                 "--seed",
                 "2",

@@ -31,7 +31,7 @@ def test_a_clock_column_is_named_and_a_noisy_indicator_is_not(tmp_path) -> None:
     out = tmp_path / "out"
     args = ["rank", "--features", str(path), "--method", "monotonicity"]
     assert main([*args, "--order", "snapshot", "--window", "20", "--out", str(out)]) == 0
-    warned = json.loads((out / "ranking.json").read_text())["warnings"]
+    warned = json.loads((out / "summary.json").read_text())["warnings"]
     assert (
         len(warned) == 1 and "'t_start_s_of_day' is monotonic in the raw rows" in warned[0]
     )

@@ -52,7 +52,7 @@ def _run(tmp_path, capsys, *args, name="out"):
     code = main(["rul", *args, "--out", str(out)])
     captured = capsys.readouterr()
     assert code == 0, captured.err
-    return json.loads((out / "rul.json").read_text()), captured.err, out
+    return json.loads((out / "summary.json").read_text()), captured.err, out
 
 
 @pytest.fixture
@@ -198,7 +198,7 @@ def test_small_samples_are_warned(tmp_path, capsys):
     assert "3 training units for k=10" in text
     assert "5-fold calibration on 3 training units" in text
     assert "1 test unit(s)" in text
-    assert "warning(s), listed in rul.json" in err
+    assert "warning(s), listed in summary.json" in err
     report = (out / "report.html").read_text()
     assert "Warnings" in report and "3 training units for k=10" in report
     summary, _, _ = _run(

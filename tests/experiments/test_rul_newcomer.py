@@ -51,7 +51,7 @@ def test_rul_trains_on_a_wide_file_end_to_end(tmp_path) -> None:
     args = ["rul", "--train", str(path), "--wide", "vibration"]
     code = main([*args, "--model", "linear-degradation", "--out", str(out)])
     assert code == 0
-    summary = json.loads((out / "rul.json").read_text())
+    summary = json.loads((out / "summary.json").read_text())
     assert summary["time_unit"] == "s"  # timestamps became seconds
     assert summary["n_test_units"] >= 1
 

@@ -74,7 +74,7 @@ def test_changed_settings_after_a_saved_run_start_over(ensemble_dir, tmp_path):
     # the store's results are in OUT already: other settings start over, and say so
     with pytest.warns(UserWarning, match="discarded the 1 partitions"):
         assert main([*base, "--groups", "stats", "spectral"]) == 0
-    summary = json.loads((out / "features.json").read_text())
+    summary = json.loads((out / "summary.json").read_text())
     assert any(
         "discarded the" in w and "config differs (groups:" in w for w in summary["warnings"]
     )

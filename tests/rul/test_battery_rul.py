@@ -62,7 +62,7 @@ def test_noisy_wiener_beats_the_regression_line_on_the_cells(battery_runs):
     # capacity regenerates between discharges: the line's iid noise misreads it
     assert noisy["rmse"] < 0.7 * line["rmse"]
     assert noisy["coverage"] > 0.8 > line["coverage"]
-    on_disk = json.loads((out / "wiener-noisy" / "rul.json").read_text())
+    on_disk = json.loads((out / "wiener-noisy" / "summary.json").read_text())
     assert on_disk["rmse"] == pytest.approx(noisy["rmse"])
 
 

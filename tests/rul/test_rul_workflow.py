@@ -40,7 +40,7 @@ def test_each_model_writes_json_report_and_predictions(tmp_path, model, rul_tabl
     assert KEYS <= set(out)
     assert out["n_units"] == 8 and out["model"] == model
     assert out["features"] and "setting_1" not in out["features"]
-    on_disk = json.loads((tmp_path / "out" / "rul.json").read_text())
+    on_disk = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert on_disk["rmse"] == pytest.approx(out["rmse"])
     assert json.loads((tmp_path / "x.json").read_text())["model"] == model
     pred = pd.read_parquet(tmp_path / "out" / "predictions.parquet")
@@ -73,7 +73,7 @@ def test_bad_inputs_give_clear_errors(tmp_path, rul_tables):
         run_rul((train, test), "similarity", tmp_path, dataset_options={"n_test": 3})
     with pytest.raises(DataError, match="rul_true_final"):
         run_rul((train, test.drop(columns="rul_true_final")), "similarity", tmp_path)
-    assert not (tmp_path / "rul.json").exists()
+    assert not (tmp_path / "summary.json").exists()
 
 
 def test_model_names_are_documented():

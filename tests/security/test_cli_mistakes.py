@@ -197,7 +197,7 @@ def test_classify_members_leaves_out_bad_and_unlabelled_files_and_says_so(
         ]
     )
     assert code == 0
-    said = " ".join(json.loads((out / "classify.json").read_text())["warnings"])
+    said = " ".join(json.loads((out / "summary.json").read_text())["warnings"])
     assert "broken.csv" in said and "'nolabel'" in said
 
 
@@ -299,8 +299,8 @@ def test_json_inside_pdmkit_s_own_folder_is_refused(members, tmp_path, capsys, i
     assert main([*argv, "--json", str(out / inside)]) == 2
     line = _error_line(capsys)
     assert f"--json {out / inside} is inside {out / '.pdmkit'}, pdmkit's own" in line
-    assert f"e.g. {out / 'ranking.json'}" in line
-    assert not (out / "ranking.json").exists()
+    assert f"e.g. {out / 'summary.json'}" in line
+    assert not (out / "summary.json").exists()
     # another output folder's .pdmkit is pdmkit's too
     (tmp_path / "other" / ".pdmkit").mkdir(parents=True)
     js = tmp_path / "other" / ".pdmkit" / "x.json"

@@ -1,6 +1,6 @@
 """A run's files in `--out` are consistent whenever it is killed, and runs never collide.
 
-Consistent: ``features.parquet``, ``errors.parquet``, ``features.json`` and
+Consistent: ``features.parquet``, ``errors.parquet``, ``summary.json`` and
 ``report.html`` are all the files of one run (the SHA-256 of each in that run's
 manifest, its run id in the JSON and the report, the JSON's ``n_members`` the table's
 rows), and the table is the one an uninterrupted run writes.
@@ -68,7 +68,7 @@ def _consistent(out: Path, user: dict[str, str]) -> pd.DataFrame:
     assert set(manifest["files"]) == set(OUTPUTS["features"])
     for name, info in manifest["files"].items():
         assert _sha(out / name) == info["sha256"], f"{name} is not of run {manifest}"
-    summary = json.loads((out / "features.json").read_text())
+    summary = json.loads((out / "summary.json").read_text())
     assert summary["run_id"] == manifest["run_id"]
     assert f'content="{manifest["run_id"]}"' in (out / "report.html").read_text()
     table = pd.read_parquet(out / "features.parquet")
@@ -266,16 +266,27 @@ def test_a_commit_cut_short_is_rolled_forward_by_the_next_run(
     new = json.loads((commit / "manifest.json").read_text())
     # the window a kill leaves: the new table beside the old JSON and report
     assert _sha(out / "features.parquet") == new["files"]["features.parquet"]["sha256"]
-    assert _sha(out / "features.json") == old["files"]["features.json"]["sha256"]
+    assert _sha(out / "summary.json") == old["files"]["summary.json"]["sha256"]
 
-    # any later run on OUT (here another command) first finishes the cut commit
+    # any later run on OUT (here another command) first finishes the cut commit, then
+    # writes its own files (its summary.json and report.html replace the features run's)
+    moved = []  # after each roll-forward: which of the cut run's files are in OUT
+    real_roll = _outputs._roll_forward
+
+    def watched(*args, **kwargs):
+        result = real_roll(*args, **kwargs)
+        moved.append({n: _sha(out / n) == new["files"][n]["sha256"] for n in new["files"]})
+        return result
+
+    monkeypatch.setattr(_outputs, "_roll_forward", watched)
     assert main(["classify", "--features", str(out / "features.parquet"), "--label",
                  "fault", "--top-k", "2", "--out", str(out)]) == 0  # fmt: skip
-    for name in ("features.parquet", "errors.parquet", "features.json"):
+    monkeypatch.undo()
+    assert moved and all(moved[0].values()), moved  # first: all of the cut run
+    for name in ("features.parquet", "errors.parquet"):
         assert _sha(out / name) == new["files"][name]["sha256"], name
-    summary = json.loads((out / "features.json").read_text())
-    assert summary["run_id"] == new["run_id"]
-    assert summary["n_members"] == len(pd.read_parquet(out / "features.parquet"))
+    summary = json.loads((out / "summary.json").read_text())
+    assert "accuracy" in summary and summary["run_id"] != new["run_id"]
     assert not list((out / ".pdmkit").glob("commit-*"))
     assert {k: _sha(out / k) for k in user} == user
 
@@ -291,7 +302,7 @@ def test_a_failed_run_does_not_block_the_corrected_rerun(ensemble, tmp_path, cap
     with pytest.warns(UserWarning, match="earlier failed run made with other settings"):
         assert main(_args(ensemble, out)) == 0
     _consistent(out, user)
-    summary = json.loads((out / "features.json").read_text())
+    summary = json.loads((out / "summary.json").read_text())
     assert any("discarded the" in w for w in summary["warnings"])
     # a bad --option name is refused before anything is written: the rerun just works
     assert main(_args(ensemble, out, "--option", "nperseg_typo=3")) == 2

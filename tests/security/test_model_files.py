@@ -561,7 +561,7 @@ def test_the_training_run_reports_the_hash_that_later_proves_the_file(tmp_path, 
     out = tmp_path / "out"
     args = ["rul", "--train", str(tmp_path / "train.csv"), "--model", "linear-degradation"]
     assert main([*args, "--out", str(out)]) == 0
-    summary = json.loads((out / "rul.json").read_text())
+    summary = json.loads((out / "summary.json").read_text())
     digest = hashlib.sha256((out / "model.pdmkit").read_bytes()).hexdigest()
     assert summary["model_sha256"] == digest
     assert digest in capsys.readouterr().err

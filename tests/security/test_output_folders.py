@@ -109,7 +109,7 @@ def _command(command: str, inputs: Path, out: Path) -> list[str]:
         if command == "classify":
             args += ["--top-k", "2"]
     elif command == "demo":
-        args = ["demo", "--members", "80", "--recording-s", "2.2"]
+        args = ["demo", "--n-members", "80", "--recording-s", "2.2"]
     else:  # pragma: no cover
         raise AssertionError(command)
     return [str(a) for a in [*args, "--out", out]]
@@ -330,7 +330,7 @@ def test_warnings_of_the_run_land_in_its_summary(tmp_path, monkeypatch):
     out = tmp_path / "out"
     with pytest.warns(RuntimeWarning, match="a warning of this run"):
         assert main(_command("features", tmp_path / "in", out)) == 0
-    summary = json.loads((out / "features.json").read_text())
+    summary = json.loads((out / "summary.json").read_text())
     assert summary["warnings"] == ["RuntimeWarning: a warning of this run"]
     manifest = json.loads((out / ".pdmkit" / "run.json").read_text())
     assert manifest["warnings"] == summary["warnings"]

@@ -471,7 +471,7 @@ def test_cli_features_on_a_headerless_snapshot(require_data, tmp_path, capsys):
         )
     assert status == 0
     capsys.readouterr()
-    summary = json.loads((out / "features.json").read_text())
+    summary = json.loads((out / "summary.json").read_text())
     signals = {c.split("/")[0] for c in summary["features"]}
     assert signals == {f"column_{k}" for k in range(6)}  # six, not 170
 
