@@ -42,6 +42,8 @@ from pdmkit.ensembles._distributed import (
     simulate_sweep,
 )
 from pdmkit.ensembles._ensemble import Ensemble
+from pdmkit.ensembles._matlab_numpy import read_mat, read_npz
+from pdmkit.ensembles._member_files import read_members
 from pdmkit.ensembles._parquet import iter_parquet, url_filesystem, write_parquet_batches
 from pdmkit.ensembles._pneumatic import (
     PNEUMATIC_FAULTS,
@@ -59,7 +61,7 @@ from pdmkit.ensembles._pneumatic import (
     simulate_seed_single_fault_ensemble,
     simulate_sensor_fault_ensemble,
 )
-from pdmkit.ensembles._readers import read_mat, read_members, read_npz, read_table
+from pdmkit.ensembles._table_files import read_table
 from pdmkit.ensembles._tables import from_frame
 
 __all__ = [

@@ -24,7 +24,8 @@ from pdmkit.ensembles._ensemble import (
     resample_poly_1d,
     resample_ratio,
 )
-from pdmkit.ensembles._readers import read_mat, read_npz, read_table
+from pdmkit.ensembles._matlab_numpy import read_mat, read_npz
+from pdmkit.ensembles._table_files import read_table
 from pdmkit.errors import DataError, DataNotFoundError
 
 __all__ = [

@@ -14,7 +14,7 @@ from hypothesis.extra.numpy import arrays
 from scipy.io import savemat
 
 from pdmkit.ensembles import read_mat, read_npz, read_table
-from pdmkit.ensembles._readers import read_members
+from pdmkit.ensembles._member_files import read_members
 from pdmkit.errors import DataError
 
 FUZZ = settings(

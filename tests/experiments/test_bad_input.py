@@ -10,7 +10,7 @@ import pytest
 from scipy.io import savemat
 
 from pdmkit.ensembles import Ensemble
-from pdmkit.ensembles._readers import read_members
+from pdmkit.ensembles._member_files import read_members
 from pdmkit.errors import DataError
 from pdmkit.experiments._cli import main
 from pdmkit.experiments._runs import predict_members

@@ -29,8 +29,8 @@ import pytest
 from scipy.io import savemat
 
 from pdmkit.ensembles import Ensemble, read_mat, read_npz, read_table
+from pdmkit.ensembles._member_files import read_members
 from pdmkit.ensembles._parquet import url_filesystem
-from pdmkit.ensembles._readers import read_members
 from pdmkit.errors import DataError, DataWarning
 from pdmkit.experiments._cli import main
 
@@ -155,7 +155,7 @@ def _write_good(path: Path, seed: int = 0) -> np.ndarray:
 _MEASURE = textwrap.dedent(
     """
     import json, sys, time
-    from pdmkit.ensembles._readers import read_members
+    from pdmkit.ensembles._member_files import read_members
     out = {}
     for good, bomb in zip(sys.argv[1::2], sys.argv[2::2]):
         start = time.perf_counter()

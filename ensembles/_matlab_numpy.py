@@ -1,0 +1,417 @@
+"""MATLAB ``.mat`` (v4, v5, v7.3) and NumPy ``.npz`` files, read within size limits.
+
+Recordings are untrusted input. Every reader
+
+- raises :class:`pdmkit.errors.DataNotFoundError` for a missing file and
+  :class:`pdmkit.errors.DataError` for one it cannot read, with the path (and the array,
+  variable or column) in a one-line message; never a bare ``KeyError``,
+  ``zipfile.BadZipFile``, ``zlib.error`` or pickle error;
+- checks the sizes a file *declares* before reading it, against
+  :func:`pdmkit._config.max_bytes` ``("member")`` (1 GiB by default,
+  ``$PDMKIT_MAX_MEMBER_BYTES``), so a small file that declares (or decompresses to) a
+  huge array is refused before anything is allocated;
+- never unpickles anything.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import struct
+import zipfile
+import zlib
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from pdmkit._checks import npy_declared
+from pdmkit._config import max_bytes
+from pdmkit.ensembles._limits import _one_line, _size, _too_big, _why
+from pdmkit.ensembles._table_files import _DECOMPRESS_ERRORS, _existing_file
+from pdmkit.errors import DataError
+
+__all__ = ["read_mat", "read_npz"]
+
+
+def _is_hdf5_mat(path: Path) -> bool:
+    with path.open("rb") as f:
+        head = f.read(520)
+    return head.startswith(b"MATLAB 7.3") or head[512:520] == b"\x89HDF\r\n\x1a\n"
+
+
+_MI_MATRIX, _MI_COMPRESSED = 14, 15
+#: Bytes per element of the numeric MATLAB classes (mxCHAR: numpy's 4-byte unicode).
+_MAT_WIDTH = {4: 4, 6: 8, 7: 4, 8: 1, 9: 1, 10: 2, 11: 2, 12: 4, 13: 4, 14: 8, 15: 8}
+#: Bytes per element of the classes scipy's whosmat names (v4 files).
+_MAT4_WIDTH = {
+    "double": 8,
+    "single": 4,
+    "int32": 4,
+    "int16": 2,
+    "uint16": 2,
+    "uint8": 1,
+    "char": 4,
+}
+
+
+def _mat5_header(
+    content: bytes, endian: str
+) -> tuple[str, tuple[int, ...], int, int] | None:
+    """``(name, dims, declared bytes, array flags)`` of a miMATRIX element, or None."""
+    pos = 0
+
+    def element() -> bytes:
+        nonlocal pos
+        mdtype, n = struct.unpack_from(endian + "II", content, pos)
+        if mdtype >> 16:  # small element: size in the upper half, data in the tag
+            n = mdtype >> 16
+            data, pos = content[pos + 4 : pos + 4 + n], pos + 8
+        else:
+            data, pos = content[pos + 8 : pos + 8 + n], pos + 8 + n + (-n % 8)
+        return data
+
+    try:
+        flags = struct.unpack_from(endian + "I", element())[0]
+        raw = element()
+        dims = struct.unpack(endian + f"{len(raw) // 4}i", raw[: len(raw) // 4 * 4])
+        name = element().decode("latin-1")
+    except struct.error:
+        return None
+    if any(d < 0 for d in dims):
+        return None
+    width = _MAT_WIDTH.get(flags & 0xFF, 0) * (2 if flags >> 11 & 1 else 1)
+    return name, dims, math.prod(dims) * width, flags
+
+
+#: The array flag of a MATLAB logical (true/false) array, stored as uint8.
+_MAT_LOGICAL = 1 << 9
+
+
+def _check_mat5_header(
+    path: Path, content: bytes, endian: str, k: int, logical: set[str]
+) -> str:
+    """The name (for messages) of variable ``k``; refuses a declared size over the limit.
+
+    Adds the name to ``logical`` when the variable is a logical array (which scipy
+    reads as uint8).
+    """
+    header = _mat5_header(content, endian)
+    if header is None:
+        return f"#{k + 1}"
+    name, dims, declared, flags = header
+    limit = max_bytes("member")
+    if declared > limit:
+        raise _too_big(f"{path}: variable {name!r} (shape {dims})", declared, limit)
+    if flags & _MAT_LOGICAL:
+        logical.add(name)
+    return repr(name)
+
+
+def _inflated(f: IO[bytes], n: int) -> Iterator[bytes]:
+    """The zlib stream in the next ``n`` bytes of ``f``, decompressed a MiB at a time."""
+    inflate = zlib.decompressobj()
+    left = n
+    while left > 0 and not inflate.eof:
+        # small reads first: the header is decoded before damage further on stops it
+        data = f.read(min(left, 256 if n - left < 4096 else 1 << 16))
+        if not data:
+            return
+        left -= len(data)
+        while True:
+            out = inflate.decompress(data, 1 << 20)
+            if out:
+                yield out
+            data = inflate.unconsumed_tail
+            if not data and len(out) < 1 << 20:
+                break
+
+
+def _check_mat_sizes(path: Path, limit: int) -> set[str]:
+    """Refuse a .mat file whose variables declare or decompress to more than ``limit``.
+
+    Walks the top-level elements of a v5 file without scipy: a compressed variable is
+    inflated and counted (never kept), so one that decompresses to gigabytes costs
+    only time, bounded by the ceiling. v4 files (never compressed) are checked from the
+    shapes scipy's ``whosmat`` lists. Returns the names of the logical variables.
+    """
+    logical: set[str] = set()
+    size = path.stat().st_size
+    with path.open("rb") as f:
+        head = f.read(128)
+        endian = {b"IM": "<", b"MI": ">"}.get(head[126:128])
+        if len(head) < 128 or endian is None:
+            from scipy.io import whosmat
+
+            try:  # a v4 file, or not a .mat: loadmat says what is wrong
+                listed = whosmat(path)
+            except Exception:  # loadmat says what is wrong with it
+                return logical
+            for name, shape, kind in listed:
+                declared = math.prod(shape) * _MAT4_WIDTH.get(kind, 8)
+                if declared > limit:
+                    raise _too_big(
+                        f"{path}: variable {name!r} ({kind} of shape {shape})",
+                        declared,
+                        limit,
+                    )
+            return logical
+        pos, total, k = 128, 0, 0
+        while pos + 8 <= size:
+            f.seek(pos)
+            mdtype, n = struct.unpack(endian + "II", f.read(8))
+            if mdtype >> 16 or mdtype not in (_MI_MATRIX, _MI_COMPRESSED):
+                return logical  # damaged: loadmat says so
+            budget = limit - total
+            if mdtype == _MI_COMPRESSED:
+                verb, used, content, header = "decompresses to at least", 0, b"", None
+                try:
+                    for out in _inflated(f, n):  # counted, never kept
+                        used += len(out)
+                        if header is None:
+                            content += out[: 4096 - len(content)]
+                            if len(content) >= 4096:  # the miMATRIX tag, then its header
+                                header = _check_mat5_header(
+                                    path, content[8:], endian, k, logical
+                                )
+                        if used > budget:
+                            break
+                except zlib.error as exc:
+                    partial = _mat5_header(content[8:], endian)
+                    name = header or (repr(partial[0]) if partial else f"#{k + 1}")
+                    raise DataError(
+                        f"{path}: variable {name} is damaged: its compressed data does "
+                        f"not decompress (zlib.error: {_one_line(exc)}); re-save or "
+                        "re-copy the file"
+                    ) from None
+                if header is None:
+                    header = _check_mat5_header(path, content[8:], endian, k, logical)
+            else:
+                content, used, verb = f.read(min(n, 4096)), n, "holds"
+                header = _check_mat5_header(path, content, endian, k, logical)
+            if used > budget:
+                name = f"variable {header}"
+                if used > limit:
+                    raise _too_big(f"{path}: {name}", used, limit, verb)
+                raise _too_big(f"{path}: its variables together", total + used, limit, verb)
+            total += used
+            pos += 8 + n
+            k += 1
+    return logical
+
+
+def read_mat(path: str | os.PathLike) -> dict[str, Any]:
+    """Read the variables of a MATLAB ``.mat`` file (v4 to v7).
+
+    Wraps :func:`scipy.io.loadmat` with ``simplify_cells=True``: singleton dimensions
+    are squeezed (a ``(n, 1)`` column becomes a 1-D array, a ``1x1`` value a scalar),
+    structs become dicts; the ``__header__``, ``__version__`` and ``__globals__`` entries
+    are left out. A logical (true/false) variable is a numpy ``bool`` array (scipy
+    alone reads it as ``uint8``).
+
+    Sizes are checked before scipy reads anything, against ``max_bytes("member")``
+    (1 GiB by default, ``$PDMKIT_MAX_MEMBER_BYTES``): the shape and class each variable
+    declares, the size each compressed variable decompresses to (counted, not kept),
+    and the sum over the variables.
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    dict
+        Variable name -> numpy array (or scalar, dict, ...).
+
+    Raises
+    ------
+    pdmkit.errors.DataNotFoundError
+        The file does not exist.
+    pdmkit.errors.DataError
+        A v7.3 (HDF5) file, which scipy cannot read (the message says so), a damaged
+        / non-MATLAB file, one without variables, or a variable (or the variables
+        together) larger than the ceiling.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from scipy.io import savemat
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "rig.mat"
+    >>> savemat(path, {"u": np.arange(3.0).reshape(3, 1), "Ts": 4.0})
+    >>> data = read_mat(path)
+    >>> sorted(data), data["u"].shape, float(data["Ts"])
+    (['Ts', 'u'], (3,), 4.0)
+    """
+    from scipy.io import loadmat
+    from scipy.io.matlab import MatReadError
+
+    path = _existing_file(path, "a MATLAB .mat file")
+    if _is_hdf5_mat(path):
+        raise DataError(
+            f"{path} is a MATLAB v7.3 (HDF5) file, which scipy.io.loadmat cannot read; "
+            "re-save it in MATLAB with save(..., '-v7'), or read it with h5py"
+        )
+    logical = _check_mat_sizes(path, max_bytes("member"))
+    try:
+        raw = loadmat(path, simplify_cells=True)
+    except NotImplementedError:
+        raise DataError(
+            f"{path} is a MATLAB v7.3 (HDF5) file, which scipy.io.loadmat cannot read; "
+            "re-save it in MATLAB with save(..., '-v7'), or read it with h5py"
+        ) from None
+    except (
+        MatReadError,
+        ValueError,
+        TypeError,
+        OSError,
+        EOFError,
+        zlib.error,
+        IndexError,  # scipy indexes short headers unchecked
+        KeyError,
+        struct.error,
+        OverflowError,
+        MemoryError,  # a damaged header can claim a huge array
+    ) as exc:
+        raise DataError(
+            f"cannot read {path} as a MATLAB file ({_why(exc)}); the file "
+            "is damaged or not a .mat file"
+        ) from None
+    data = {k: v for k, v in raw.items() if not k.startswith("__")}
+    if not data:
+        raise DataError(f"{path} holds no variables")
+    for name in logical & data.keys():
+        value = data[name]
+        if isinstance(value, np.ndarray | np.generic) and value.dtype.kind in "iu":
+            data[name] = np.asarray(value).astype(bool)
+        elif isinstance(value, int):  # a 1x1 logical, squeezed to a scalar
+            data[name] = bool(value)
+    return data
+
+
+# --------------------------------------------------------------------------- NumPy
+_ZIP_ERRORS = (*_DECOMPRESS_ERRORS, NotImplementedError, RuntimeError)  # method, password
+
+
+@contextlib.contextmanager
+def _npz_entry(path: Path, key: str, failure: str) -> Iterator[None]:
+    """Turn the errors of reading one ``.npz`` entry into a one-line DataError."""
+    try:
+        yield
+    except zlib.error as exc:
+        raise DataError(
+            f"{path}: array {key!r} is damaged: its compressed data does not decompress "
+            f"(zlib.error: {_one_line(exc)}); re-save or re-copy the archive"
+        ) from None
+    except _ZIP_ERRORS as exc:
+        raise DataError(
+            f"{path}: array {key!r} {failure} ({_why(exc)}); the archive is damaged or "
+            "was not written by numpy.savez: re-save or re-copy it"
+        ) from None
+
+
+def _npy_header(
+    archive: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path, key: str
+) -> tuple[tuple[int, ...], np.dtype, int]:
+    """``(shape, dtype, header length)`` an ``.npy`` entry declares; its data unread."""
+    with _npz_entry(path, key, "has no valid .npy header"), archive.open(info) as f:
+        return npy_declared(f)
+
+
+def _npz_array(archive: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path, key: str):
+    with _npz_entry(path, key, "cannot be read"), archive.open(info) as f:
+        return np.lib.format.read_array(f, allow_pickle=False)
+
+
+def read_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Read all arrays of a NumPy ``.npz`` archive, refusing pickled objects.
+
+    Before any array is read, the ``.npy`` header of every entry is read (a few hundred
+    bytes) and the size it declares (shape x item size) is checked: against
+    ``max_bytes("member")`` (1 GiB by default, ``$PDMKIT_MAX_MEMBER_BYTES``), for each
+    array and for their sum, and against the size of the zip entry. An archive of a few
+    MB whose entry inflates to gigabytes is refused without allocating them.
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Every array, loaded into memory (the archive is closed again).
+
+    Raises
+    ------
+    pdmkit.errors.DataNotFoundError
+        The file does not exist.
+    pdmkit.errors.DataError
+        A damaged or non-npz file (a corrupt compressed entry names the array), an
+        archive without arrays or with an entry that is no ``.npy`` array, an array of
+        Python objects (``allow_pickle=False``: loading pickles can run arbitrary code),
+        or an array (or the arrays together) larger than the ceiling.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "rec.npz"
+    >>> np.savez(path, DE=np.zeros((4, 1)), FE=np.ones((4, 1)))
+    >>> {k: v.shape for k, v in read_npz(path).items()}
+    {'DE': (4, 1), 'FE': (4, 1)}
+    """
+    path = _existing_file(path, "a NumPy .npz archive")
+    limit = max_bytes("member")
+    out: dict[str, np.ndarray] = {}
+    with path.open("rb") as handle:
+        if handle.read(6) == b"\x93NUMPY":
+            raise DataError(
+                f"{path} is a single .npy array, not an .npz archive; read it with "
+                "numpy.load"
+            )
+        handle.seek(0)
+        try:
+            archive = zipfile.ZipFile(handle)
+        except _ZIP_ERRORS as exc:
+            raise DataError(
+                f"cannot read {path} as a NumPy .npz archive ({type(exc).__name__}: "
+                f"{_one_line(exc)}); the file is damaged or not an .npz"
+            ) from None
+        with archive:
+            entries, total = [], 0
+            for info in archive.infolist():
+                if info.is_dir():
+                    continue
+                if not info.filename.endswith(".npy"):
+                    raise DataError(
+                        f"{path}: entry {info.filename!r} is not a .npy array; an .npz "
+                        "archive (numpy.savez) holds .npy entries only. Re-save it with "
+                        "numpy.savez"
+                    )
+                key = info.filename[: -len(".npy")]
+                shape, dtype, header = _npy_header(archive, info, path, key)
+                if dtype.hasobject:
+                    raise DataError(
+                        f"array {key!r} in {path} holds Python objects (pickled data); "
+                        "pdmkit reads numeric arrays only (allow_pickle=False). Re-save "
+                        "it with a numeric dtype"
+                    )
+                declared = math.prod(shape) * dtype.itemsize
+                what = f"{path}: array {key!r} ({dtype} of shape {shape})"
+                if declared > limit:
+                    raise _too_big(what, declared, limit)
+                if info.file_size < header + declared:
+                    raise DataError(
+                        f"{what} declares {_size(declared)} of data, but its zip entry "
+                        f"holds {_size(max(info.file_size - header, 0))}; the archive is "
+                        "damaged (truncated?). Re-save or re-copy it"
+                    )
+                total += declared
+                entries.append((key, info))
+            if total > limit:
+                raise _too_big(f"{path}: its {len(entries)} arrays together", total, limit)
+            for key, info in entries:
+                out[key] = _npz_array(archive, info, path, key)
+    if not out:
+        raise DataError(f"{path} holds no arrays")
+    return out

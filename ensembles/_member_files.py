@@ -1,0 +1,728 @@
+"""Member files (one recording per file) as an :class:`Ensemble`: :func:`read_members`.
+
+Each file is read by the reader of its format (:func:`read_table`, :func:`read_mat`,
+:func:`read_npz`), its sampling rate taken from the file or its time column, its
+conditions from its name or a table; a bad file is reported, the others read on.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pdmkit._checks import parse_timestamps
+from pdmkit._config import max_bytes
+from pdmkit._progress import progress as _progress_bar
+from pdmkit.ensembles._ensemble import Ensemble
+from pdmkit.ensembles._limits import _too_big, _why
+from pdmkit.ensembles._matlab_numpy import read_mat, read_npz
+from pdmkit.ensembles._table_files import (
+    _COMPRESSED,
+    _CSV,
+    _PARQUET,
+    _read_table,
+    read_table,
+)
+from pdmkit.errors import DataError, DataNotFoundError, DataWarning, did_you_mean
+
+__all__ = ["read_members"]
+
+
+def _member_like(path: Path) -> bool:
+    """True when ``path`` is named like a member file (``x.csv``, ``x.mat``, ...)."""
+    suffixes = [s.lower() for s in path.suffixes]
+    if suffixes and suffixes[-1] in _COMPRESSED:
+        suffixes.pop()
+    return bool(suffixes) and suffixes[-1] in (*_CSV, *_PARQUET, ".mat", ".npz")
+
+
+#: Names of a sampling-rate scalar in a .mat / .npz member file.
+_FS_NAMES = ("fs", "Fs", "FS", "sampling_rate", "sample_rate")
+#: Names of a time column in a CSV / Parquet member file.
+_TIME_NAMES = ("time", "t", "Time", "TIME")
+_MEMBER_ERRORS = ("member", "signal", "source", "error")
+#: How far a time step may differ from the median step: 1 % of it, or one unit of the
+#: last decimal the time stamps are written with when that is more and at most half a
+#: step (stamps rounded to microseconds at 25.6 kHz step 39 or 40 us).
+_TIME_JITTER = 0.01
+
+
+def _stamp_resolution(t: np.ndarray) -> float:
+    """The decimal step time stamps were written with (``1e-6`` for ``0.000039``), or 0."""
+    for d in range(10):
+        scaled = t * 10.0**d
+        if np.allclose(scaled, np.round(scaled), rtol=1e-12, atol=1e-6):
+            return 10.0**-d
+    return 0.0
+
+
+def _time_rate(path: Path, column: pd.Series, where: Callable[[int], str]) -> float | None:
+    """The sampling rate a time column states, after checking it increases uniformly.
+
+    Numbers are seconds; text is parsed as timestamps. A missing, repeated, decreasing
+    or uneven time stamp is a DataError naming the file and the first bad row.
+    """
+    name = column.name
+    if pd.api.types.is_datetime64_any_dtype(column):
+        stamps = column
+    elif pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
+        stamps = None
+    else:
+        stamps = parse_timestamps(column)
+        if stamps.isna().all():
+            raise DataError(
+                f"{path}: time column {name!r} holds {str(column.iloc[0])!r} at "
+                f"{where(0)}; expected seconds (numbers) or timestamps. Rename the "
+                "column if it is no time, or drop it and pass fs= (--fs)"
+            )
+    if stamps is None:
+        t = column.to_numpy(dtype=float)
+    else:
+        t = (stamps - stamps.dropna().iloc[0]).dt.total_seconds().to_numpy(dtype=float)
+
+    def shown(i: int) -> str:
+        return f"{t[i]:g} s" if stamps is None else repr(str(column.iloc[i]))
+
+    missing = np.flatnonzero(~np.isfinite(t))
+    if missing.size:
+        k = int(missing[0])
+        raise DataError(
+            f"{path}: time column {name!r} has no valid time at {where(k)} (found "
+            f"{str(column.iloc[k])!r}); every row needs its time stamp. Fill it in, or "
+            "drop the time column and pass fs= (--fs)"
+        )
+    if len(t) < 2:
+        return None
+    dt = np.diff(t)
+    back = np.flatnonzero(dt <= 0)
+    if back.size:
+        k = int(back[0]) + 1
+        verb = "repeats" if dt[k - 1] == 0 else "goes back"
+        raise DataError(
+            f"{path}: time {verb} at {where(k)}: {shown(k)} after {shown(k - 1)} on the "
+            "row before; time must increase from row to row. Remove the repeated rows or "
+            "sort them, or drop the time column and pass fs= (--fs)"
+        )
+    step = float(np.median(dt))
+    tol = _TIME_JITTER * step
+    quantum = _stamp_resolution(t)
+    if quantum <= step / 2:  # stamps rounded to a finer decimal than the step
+        tol = max(tol, 1.001 * quantum)
+    uneven = np.flatnonzero(np.abs(dt - step) > tol)
+    if uneven.size:
+        k = int(uneven[0]) + 1
+        raise DataError(
+            f"{path}: time is not uniform at {where(k)}: {shown(k)} is {dt[k - 1]:g} s "
+            f"after the row before, the median step is {step:g} s (steps may differ by "
+            f"{100 * tol / step:.2g} % of it); a member is one uniformly sampled "
+            "recording. Resample it to a uniform grid or split it at the gap, or drop the "
+            "time column and pass fs= (--fs)"
+        )
+    return (len(t) - 1) / float(t[-1] - t[0])
+
+
+#: Most signals one member file may hold (``$PDMKIT_MAX_SIGNALS``): every signal costs
+#: a full set of indicators, so a 35 KB CSV of 2000 three-sample columns cost a minute
+#: and a gigabyte before this bound.
+MAX_SIGNALS = 1024
+
+
+def _member_arrays(
+    path: Path, notes: list, time: str | None = None
+) -> tuple[dict, float | None, dict]:
+    """(signals, sampling rate or None, condition values) of one member file.
+
+    What was read other than as written (a boolean signal, a variable skipped) is
+    appended to ``notes`` as ``("variable" or "column", its name, what was done)``.
+    ``time`` names the time column (or variable); default one of :data:`_TIME_NAMES`.
+    """
+    signals, fs, conditions = _member_contents(path, notes, time)
+    limit = int(os.environ.get("PDMKIT_MAX_SIGNALS", MAX_SIGNALS))
+    if len(signals) > limit:
+        raise DataError(
+            f"{path}: {len(signals)} signal columns, more than the {limit} a member may "
+            "hold; is it a table of members or features rather than one recording? "
+            "(raise $PDMKIT_MAX_SIGNALS if it really is one)"
+        )
+    return signals, fs, conditions
+
+
+#: What a member's variable that is not read is, and why (for the DataWarning).
+_NOT_READ = (
+    "not a signal (a numeric vector) or a condition (a scalar); skipped. Save what it "
+    "holds as numeric variables to read it"
+)
+#: What a true/false signal became.
+_READ_AS_01 = (
+    "holds true/false values; read as a signal of 0.0 and 1.0. Save it as numbers if "
+    "that is what it means (or as one scalar if it is a condition)"
+)
+
+
+def _unread_variable(value: Any, arr: np.ndarray | None) -> str | None:
+    """Why a .mat / .npz variable is neither a signal nor a condition (None: it is one)."""
+    if isinstance(value, dict):
+        return f"is a MATLAB struct (fields {sorted(value)[:5]}), {_NOT_READ}"
+    if arr is None:
+        return f"is a {type(value).__name__} object, {_NOT_READ}"
+    kind = arr.dtype.kind
+    if kind == "O":
+        return f"is a MATLAB cell or struct array (shape {arr.shape}), {_NOT_READ}"
+    if kind == "V":
+        return f"is a structured (record) array {arr.dtype}, {_NOT_READ}"
+    if arr.size == 0:
+        return f"is empty ({arr.dtype} of shape {arr.shape}), {_NOT_READ}"
+    if arr.size == 1 and kind in "USiufb":
+        return None  # a condition
+    if kind in "iufb" and arr.ndim >= 1:
+        return None  # a signal
+    return f"holds {arr.dtype} values of shape {arr.shape}, {_NOT_READ}"
+
+
+def _no_time_column(path: Path, time: str, names: list, what: str) -> DataError:
+    return DataError(
+        f"{path}: no time {what} {time!r} (time= / --time); it has {names[:12]}"
+        f"{did_you_mean(time, names)}. Name its time {what}, or leave time out and "
+        "pass fs= (--fs)"
+    )
+
+
+def _member_contents(
+    path: Path, notes: list, time: str | None = None
+) -> tuple[dict, float | None, dict]:
+    suffix = path.suffix.lower()
+    if suffix in (".mat", ".npz"):
+        data = read_mat(path) if suffix == ".mat" else read_npz(path)
+        signals, fs, conditions = {}, None, {}
+        limit = max_bytes("member")
+        if time is not None:
+            if time not in data:
+                raise _no_time_column(path, time, [str(k) for k in data], "variable")
+            stamps = np.asarray(data.pop(time))
+            if stamps.dtype.kind not in "iuf" or stamps.size < 2:
+                raise DataError(
+                    f"{path}: time variable {time!r} holds {stamps.dtype} of shape "
+                    f"{stamps.shape}; expected a vector of times in seconds"
+                )
+            fs = _time_rate(
+                path, pd.Series(stamps.reshape(-1), name=time), lambda k: f"sample {k}"
+            )
+        for key, value in data.items():
+            numeric = isinstance(value, np.ndarray | np.generic | bool | int | float | str)
+            arr = np.asarray(value) if numeric or isinstance(value, complex) else None
+            if arr is not None and arr.dtype.kind == "c":
+                raise DataError(
+                    f"{path}: variable {key!r} holds complex values ({arr.dtype} of shape "
+                    f"{arr.shape}); pdmkit reads real signals. Store the real and "
+                    f"imaginary parts as two signals (e.g. {key}_re and {key}_im)"
+                )
+            if key in _FS_NAMES:
+                rate = (
+                    float(arr.reshape(-1)[0])
+                    if arr is not None and arr.size == 1 and arr.dtype.kind in "iuf"
+                    else None
+                )
+                if rate is None or not math.isfinite(rate) or rate <= 0:
+                    found = (
+                        f"{arr.dtype} of shape {arr.shape}"
+                        if arr is not None
+                        else type(value).__name__
+                    )
+                    raise DataError(
+                        f"{path}: variable {key!r} should be the sampling rate (one "
+                        f"positive number, Hz); it holds {found}"
+                        + (f" = {rate:g}" if rate is not None else "")
+                    )
+                fs = rate
+                continue
+            why = _unread_variable(value, arr)
+            if why is not None:
+                notes.append(("variable", key, why))
+            elif arr.size == 1:
+                conditions[key] = arr.reshape(-1)[0].item()
+            else:
+                if arr.ndim > 1 and sorted(arr.shape)[-2] != 1:
+                    raise DataError(
+                        f"{path}: variable {key!r} has shape {arr.shape}; a member "
+                        "file holds 1-D signals (or n x 1 columns)"
+                    )
+                if arr.size * 8 > limit:  # as float64, before the copy is made
+                    raise _too_big(
+                        f"{path}: signal {key!r} ({arr.size} samples as float64)",
+                        arr.size * 8,
+                        limit,
+                        "takes",
+                    )
+                if arr.dtype.kind == "b":
+                    notes.append(("variable", key, _READ_AS_01))
+                signals[key] = arr.reshape(-1).astype(np.float64)
+        return signals, fs, conditions
+    table, where = _read_table(path, {})
+    fs = None
+    if time is not None and time not in table.columns:
+        raise _no_time_column(path, time, [str(c) for c in table.columns], "column")
+    if time is None:
+        time = next((c for c in _TIME_NAMES if c in table.columns), None)
+    if time is not None:
+        fs = _time_rate(path, table.pop(time), where)
+    signals, conditions = {}, {}
+    for c in table.columns:
+        column = table[c]
+        if pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
+            signals[str(c)] = column.to_numpy(dtype=np.float64)
+        elif column.nunique(dropna=False) == 1:
+            conditions[str(c)] = column.iloc[0]
+        elif pd.api.types.is_bool_dtype(column):
+            notes.append(("column", str(c), _READ_AS_01))
+            signals[str(c)] = column.to_numpy(dtype=np.float64)
+        else:
+            raise DataError(
+                f"{path}: column {c!r} holds text that changes from row to row; a member "
+                "file holds numeric signal columns, a time column and constant labels"
+            )
+    return signals, fs, conditions
+
+
+def _without_clashes(kept: list, fail) -> list:
+    """Skip the members where a name is a signal while most members hold it as a label.
+
+    Or the reverse (a label where most members hold a signal): one odd file must not stop
+    the others being read.
+    """
+    from collections import Counter
+
+    as_signal = Counter(s for _, _, a, _ in kept for s in a)
+    as_label = Counter(c for _, _, _, cd in kept for c in cd)
+    clash = {n for n in as_label if n in as_signal}
+    if not clash:
+        return kept
+    out = []
+    for member, path, arrays, conds in kept:
+        odd = next(
+            (
+                n
+                for n in sorted(clash)
+                if (n in conds and as_signal[n] >= as_label[n])
+                or (n in arrays and as_label[n] > as_signal[n])
+            ),
+            None,
+        )
+        if odd is None:
+            out.append((member, path, arrays, conds))
+            continue
+        here, there = ("a label", "a signal") if odd in conds else ("a signal", "a label")
+        others = as_signal[odd] if odd in conds else as_label[odd]
+        fail(
+            member,
+            odd,
+            path,
+            f"{path.name}: {odd!r} is {here} here but {there} in {others} other "
+            "member file(s)",
+        )
+    return out
+
+
+class _NameConditions:
+    """Condition values a member gets from its file name.
+
+    A regular expression's groups (``label_from_name``) and a labels table's row
+    (``labels``).
+    """
+
+    _KEYS = ("file", "member", "name", "filename", "path")
+
+    def __init__(self, label_from_name: Any, labels: Any) -> None:
+        self.pattern = self._pattern(label_from_name)
+        self.table, self.source = self._table(labels)
+        self.used: set = set()
+
+    @staticmethod
+    def _pattern(regex: Any) -> re.Pattern | None:
+        if regex is None:
+            return None
+        try:
+            pattern = re.compile(regex)
+        except (re.error, TypeError) as exc:
+            raise DataError(
+                f"label_from_name (--label-from-name) {regex!r} is not a regular "
+                f"expression ({_why(exc)})"
+            ) from None
+        if not pattern.groupindex and pattern.groups != 1:
+            raise DataError(
+                f"label_from_name (--label-from-name) {pattern.pattern!r} has "
+                f"{pattern.groups} groups; it needs one group (...) for the label, or "
+                r"named groups (?P<label>...) (?P<load>\d+) for condition columns, "
+                r"e.g. '^\d+_([A-Za-z]+)'"
+            )
+        return pattern
+
+    def _table(self, labels: Any) -> tuple[dict | None, str]:
+        if labels is None:
+            return None, ""
+        if isinstance(labels, pd.DataFrame):
+            table, source = labels, "the labels table"
+        else:
+            table, source = read_table(labels), f"labels table {labels}"
+        lower = {str(c).lower(): c for c in table.columns}
+        key = next((lower[k] for k in self._KEYS if k in lower), None)
+        if key is None:
+            raise DataError(
+                f"{source}: no column names the member files; expected one of "
+                f"{list(self._KEYS)} (the file name, e.g. a.csv, or its member id a), "
+                f"found {[str(c) for c in table.columns]}"
+            )
+        if table.shape[1] < 2:
+            raise DataError(
+                f"{source}: only the column {key!r}; add the label / condition columns "
+                "beside it (e.g. file,fault)"
+            )
+        # keyed by member id: "a.csv" and "a" name the same member
+        names = table[key].astype(str).map(lambda v: Path(v.strip()).name.split(".")[0])
+        dup = names[names.duplicated()].unique().tolist()
+        if dup:
+            raise DataError(
+                f"{source}: member file(s) {dup[:5]} are listed more than once; give "
+                "each member one row"
+            )
+        rows = table.drop(columns=[key]).to_dict(orient="records")
+        out = {}
+        for name, row in zip(names, rows, strict=True):
+            out[name] = {str(k): v for k, v in row.items()}
+        return out, source
+
+    def conditions(self, path: Path) -> dict:
+        """The conditions ``path``'s name gives; DataError when it gives none."""
+        extra: dict = {}
+        if self.pattern is not None:
+            match = self.pattern.search(path.name)
+            if match is None:
+                raise DataError(
+                    f"{path.name}: its name does not match label_from_name "
+                    f"(--label-from-name) {self.pattern.pattern!r}, so it has no label; "
+                    "rename the file or widen the expression"
+                )
+            found = match.groupdict() if self.pattern.groupindex else {"label": match[1]}
+            # a group that took no part in the match gives no value
+            extra.update({k: v for k, v in found.items() if v is not None})
+        if self.table is not None:
+            key = stem = path.name.split(".")[0]
+            if key not in self.table:
+                raise DataError(
+                    f"{path.name} is not listed in {self.source}; add a row for it "
+                    f"(by file name {path.name!r} or member id {stem!r})"
+                    f"{did_you_mean(path.name, self.table)}"
+                )
+            self.used.add(key)
+            for name, value in self.table[key].items():
+                if name in extra and str(extra[name]) != str(value):
+                    raise DataError(
+                        f"{path.name}: condition {name!r} is {extra[name]!r} by its name "
+                        f"(label_from_name) but {value!r} in {self.source}; keep one"
+                    )
+                extra[name] = value
+        return extra
+
+    @staticmethod
+    def merge(path: Path, conditions: dict, extra: dict) -> dict:
+        """The file's own ``conditions`` and ``extra``; a clash is a DataError."""
+        for name, value in extra.items():
+            own = conditions.get(name)
+            if own is not None and str(own) != str(value):
+                raise DataError(
+                    f"{path.name}: condition {name!r} is {own!r} in the file but "
+                    f"{value!r} from its name or the labels table; keep one"
+                )
+        return {**conditions, **extra}
+
+    def warn_unused(self) -> None:
+        """A DataWarning for labels-table rows that name no member file read."""
+        if self.table is None:
+            return
+        unused = [k for k in self.table if k not in self.used]
+        if unused:
+            warnings.warn(
+                f"{self.source}: {len(unused)} row(s) name no member file read: "
+                f"{unused[:5]}{' ...' if len(unused) > 5 else ''}; check the names",
+                DataWarning,
+                stacklevel=3,
+            )
+
+
+def read_members(
+    files: Any,
+    *,
+    fs: float | None = None,
+    signals: Any = None,
+    time: str | None = None,
+    label_from_name: Any = None,
+    labels: Any = None,
+    on_error: str = "raise",
+    return_errors: bool = False,
+    progress: bool | None = None,
+):
+    r"""Build an ensemble from member files: one recording per file.
+
+    A member file is a CSV / Parquet table (numeric columns are signals, a ``time``
+    column gives the sampling rate, constant text columns are condition variables such
+    as the label), or a ``.mat`` / ``.npz`` file (numeric vectors are signals, a scalar
+    ``fs`` gives the sampling rate, other scalars are conditions). The member id is the
+    file name without its extension.
+
+    Member files are untrusted input, read by :func:`read_table`, :func:`read_mat` and
+    :func:`read_npz` with their checks (sizes declared before reading against
+    ``max_bytes("member")``, header-less CSV files, columns mixing numbers and text),
+    plus:
+
+    - a time column must increase uniformly: a missing, repeated or decreasing time
+      stamp, or a step that differs from the median step by more than 1 % of it (or by
+      more than one unit of the last decimal the stamps are written with, when that is
+      larger: stamps rounded to microseconds stay uniform at 25.6 kHz), is an error
+      naming the file and the line. The rate is the number of steps over the span;
+    - a signal must fit the ceiling as float64 samples;
+    - a complex variable of a ``.mat`` / ``.npz`` file is an error naming it (store the
+      real and imaginary parts as two signals); a true/false vector (or CSV column) is
+      read as a signal of 0.0 and 1.0, and a variable that is neither a numeric vector
+      nor a scalar (a MATLAB struct or cell array, text, an empty or structured array)
+      is skipped: a :class:`pdmkit.errors.DataWarning` names each, once for all the
+      files that hold it;
+    - in a folder (or a glob pattern's matches), a sub-folder named like a member file
+      (``x.csv/``) is that member's error; other sub-folders are not read, and a
+      DataWarning names them.
+
+    With ``on_error="skip"`` a file that cannot be read or fails a check, a member
+    lacking a signal named in ``signals``, a signal with NaN or inf samples, or a
+    sampling rate that differs from ``fs`` (default: the most common rate of the files)
+    leaves that member out and adds a row to the errors table (with the reason); the
+    other members are read as if the bad file were not there.
+
+    Parameters
+    ----------
+    files : path, glob pattern or sequence of them
+        Member files; a directory stands for all the files in it.
+    fs : float, optional
+        Expected sampling rate in Hz (required when no file states its own).
+    signals : sequence of str, optional
+        Signals every member must have (default: all found; a member lacking one gets
+        None there).
+    time : str, optional
+        The time column of CSV / Parquet members (or time variable of ``.mat`` /
+        ``.npz`` members, in seconds) when it is not named ``time``, ``t``, ``Time``
+        or ``TIME``; a member without it is an error naming the file.
+    label_from_name : str or re.Pattern, optional
+        A regular expression searched in each member's file name: its one group
+        becomes the condition ``label``, or its named groups (``(?P<fault>...)``)
+        conditions of their names, so a label need not be repeated on every row of a
+        member file. A file whose name does not match is an error naming it.
+    labels : path or DataFrame, optional
+        A table (CSV / Parquet, read by :func:`read_table`) with a column ``file``
+        (or ``member``, ``name``, ``filename``, ``path``) naming each member file
+        (``a.csv``) or member id (``a``), and condition columns beside it. A member
+        file the table does not list is an error naming it; rows naming no file read
+        give a DataWarning. A condition given twice with different values (in the
+        file, by its name, in the table) is an error.
+    on_error : {"raise", "skip"}, default "raise"
+    return_errors : bool, default False
+        Also return the errors table (columns ``member``, ``signal``, ``source``,
+        ``error``).
+    progress : bool, optional
+        A progress bar over the files; default only when stderr is a terminal.
+
+    Returns
+    -------
+    Ensemble, or (Ensemble, DataFrame) with ``return_errors``
+
+    Raises
+    ------
+    pdmkit.errors.DataError
+        With ``on_error="raise"``: the first bad file (the message names it and says
+        what was expected and found). Always: no file matched, or no member was left.
+
+    Warns
+    -----
+    pdmkit.errors.DataWarning
+        A variable or column read as 0/1 or skipped, or a sub-folder not read.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> t = np.arange(100) / 50.0
+    >>> pd.DataFrame({"time": t, "vib": np.sin(t), "fault": "ir"}).to_csv(
+    ...     d / "a.csv", index=False)
+    >>> pd.DataFrame({"time": t / 2, "vib": np.cos(t), "fault": "ok"}).to_csv(
+    ...     d / "b.csv", index=False)
+    >>> _ = (d / "c.csv").write_bytes(b"\x00\x01garbage")
+    >>> ens, errors = read_members(d, fs=50.0, on_error="skip", return_errors=True)
+    >>> ens.member_ids.tolist(), ens.conditions["fault"].tolist()
+    (['a'], ['ir'])
+    >>> errors["member"].tolist()
+    ['b', 'c']
+    >>> print(errors["error"].iloc[0])
+    b.csv is sampled at 100 Hz; expected 50 Hz (fs as given); member skipped
+
+    The label from the file names, and a time column named otherwise:
+
+    >>> e = pathlib.Path(tempfile.mkdtemp())
+    >>> for name in ("run1_IR.csv", "run2_OR.csv"):
+    ...     pd.DataFrame({"sec": t, "vib": np.sin(t)}).to_csv(e / name, index=False)
+    >>> ens = read_members(e, time="sec", label_from_name=r"_([A-Z]+)[.]csv")
+    >>> ens.conditions["label"].tolist(), ens.fs["vib"]
+    (['IR', 'OR'], 50.0)
+    """
+    import glob
+
+    if on_error not in ("raise", "skip"):
+        raise ValueError(f"on_error must be 'raise' or 'skip'; got {on_error!r}")
+    patterns = [files] if isinstance(files, str | os.PathLike) else list(files)
+    paths: list[Path] = []
+    folders: list[Path] = []  # sub-folders not named like a member file: not read
+    for p in patterns:
+        p = Path(p)
+        if p.is_dir():
+            found = sorted(q for q in p.iterdir() if not q.name[0] == ".")
+        elif any(ch in str(p) for ch in "*?["):
+            found = sorted(Path(q) for q in glob.glob(str(p)))
+        else:
+            paths.append(p)  # a folder named here is the member's error
+            continue
+        for q in found:
+            if q.is_file() or _member_like(q):  # a folder 'x.csv' is the member's error
+                paths.append(q)
+            elif q.is_dir():
+                folders.append(q)
+    if folders:
+        shown = ", ".join(str(q) for q in folders[:3])
+        more = f" and {len(folders) - 3} more" if len(folders) > 3 else ""
+        warnings.warn(
+            f"{len(folders)} sub-folder(s) not read as members: {shown}{more}; a member "
+            "is one file, and only the files directly in a folder are read. Name the "
+            f"files inside a sub-folder to read them too (e.g. {folders[0] / '*'})",
+            DataWarning,
+            stacklevel=2,
+        )
+    if not paths:
+        raise DataNotFoundError(f"no member files match {[str(p) for p in patterns]}")
+    wanted = (
+        None
+        if signals is None
+        else [signals]
+        if isinstance(signals, str)
+        else list(signals)
+    )
+    errors: list[dict] = []
+
+    def fail(member: str, signal: Any, path: Path, message: str) -> None:
+        if on_error == "raise":
+            raise DataError(message)
+        errors.append(
+            {
+                "member": member,
+                "signal": signal,
+                "source": str(path),
+                "error": f"{message}; member skipped",
+            }
+        )
+
+    read: list[tuple[str, Path, dict, float | None, dict]] = []
+    noted: dict[tuple[str, str, str], list[Path]] = {}
+
+    named = _NameConditions(label_from_name, labels)
+    for path in _progress_bar(paths, desc="reading members", enable=progress):
+        member = path.name.split(".")[0]
+        notes: list[tuple[str, str, str]] = []
+        try:
+            extra = named.conditions(path)
+            arrays, rate, conds = _member_arrays(path, notes, time)
+            conds = named.merge(path, conds, extra)
+        except DataError as exc:
+            fail(member, None, path, str(exc))
+            continue
+        for note in notes:
+            noted.setdefault(note, []).append(path)
+        if not arrays:
+            fail(member, None, path, f"{path.name} holds no numeric signal")
+            continue
+        missing = [s for s in wanted or () if s not in arrays]
+        if missing:
+            fail(
+                member,
+                missing[0],
+                path,
+                f"{path.name} lacks signal(s) {missing}; it has {sorted(arrays)}",
+            )
+            continue
+        bad = [s for s, x in arrays.items() if not np.isfinite(x).all()]
+        if bad:
+            x = arrays[bad[0]]
+            fail(
+                member,
+                bad[0],
+                path,
+                f"signal {bad[0]!r} of {path.name} holds {int((~np.isfinite(x)).sum())} "
+                f"NaN/inf value(s) (first at sample {int(np.argmax(~np.isfinite(x)))})",
+            )
+            continue
+        read.append((member, path, arrays, rate, conds))
+
+    named.warn_unused()
+    for (what, name, done), where in noted.items():
+        files = (
+            str(where[0])
+            if len(where) == 1
+            else f"{len(where)} member files ({', '.join(p.name for p in where[:3])}"
+            + (", ...)" if len(where) > 3 else ")")
+        )
+        warnings.warn(f"{files}: {what} {name!r} {done}", DataWarning, stacklevel=2)
+    rates = [r for _, _, _, r, _ in read if r is not None]
+    expected, whose = fs, "fs as given"
+    if expected is None and rates:
+        values, counts = np.unique(np.round(rates, 6), return_counts=True)
+        expected, whose = (
+            float(values[np.argmax(counts)]),
+            "the most common rate of the files",
+        )
+    if expected is None and read:
+        raise DataError(
+            f"none of the {len(read)} member files states its sampling rate (no time "
+            "column, no fs variable); pass fs="
+        )
+    kept = []
+    for member, path, arrays, rate, conds in read:
+        if rate is not None and abs(rate - expected) > 1e-3 * expected:
+            fail(
+                member,
+                None,
+                path,
+                f"{path.name} is sampled at {rate:g} Hz; expected {expected:g} Hz "
+                f"({whose})",
+            )
+            continue
+        kept.append((member, path, arrays, conds))
+    kept = _without_clashes(kept, fail)
+    kept = [(m, a, c) for m, _, a, c in kept]
+    if not kept:
+        first = f"; e.g. {errors[0]['error']}" if errors else ""
+        raise DataError(f"no member could be read from {len(paths)} file(s){first}")
+    names = wanted or list(dict.fromkeys(s for _, a, _ in kept for s in a))
+    ids = [m for m, _, _ in kept]
+    if len(set(ids)) != len(ids):
+        dup = sorted({m for m in ids if ids.count(m) > 1})
+        raise DataError(f"member files share the names {dup[:5]}; rename them")
+    ens = Ensemble(
+        {s: [a.get(s) for _, a, _ in kept] for s in names},
+        fs=expected,
+        conditions=pd.DataFrame([c for _, _, c in kept]) if kept else None,
+        member_ids=ids,
+    )
+    order = {str(p): i for i, p in enumerate(paths)}
+    errors.sort(key=lambda e: order.get(e["source"], -1))
+    table = pd.DataFrame(errors, columns=list(_MEMBER_ERRORS))
+    return (ens, table) if return_errors else ens
