@@ -47,10 +47,6 @@ LONG_MODULES: dict[str, str] = {
     "_persist.py": (
         "the safe model format (encode, decode, registry); registry and codecs to split"
     ),
-    "models/frequency/_fractional.py": (
-        "fractional models, fits in two domains and the condition classifier; fits to "
-        "their own module"
-    ),
     "experiments/_identify.py": (
         "the identify workflow, its checks and report; report to its own module"
     ),
@@ -93,7 +89,7 @@ LONG_FUNCTIONS: dict[str, str] = {
     "experiments/_rul_leak.py:_run_leak": (
         "the leak RUL workflow's stages; to split like _rul"
     ),
-    "models/frequency/_fractional.py:fit_fractional_frf": (
+    "models/frequency/_fractional_fit.py:fit_fractional_frf": (
         "grid, starts and simplex fit of seed 004; to split"
     ),
     "experiments/_sensors.py:compare_sensors": "per-sensor loop with its report; to split",
@@ -126,7 +122,7 @@ LONG_FUNCTIONS: dict[str, str] = {
     "experiments/_seed_recipes.py:seed_air_leak_rul": (
         "the seed's RUL recipe end to end; to split"
     ),
-    "models/frequency/_fractional.py:_fit_time_domain": (
+    "models/frequency/_fractional_fit.py:_fit_time_domain": (
         "time-domain fit with starts; to split"
     ),
     "models/frequency/_greybox.py:fit_frf_params": (

@@ -33,16 +33,18 @@ Examples
 """
 
 from pdmkit.models.frequency._fractional import (
-    FractionalConditionClassifier,
-    FractionalFit,
     FractionalTF,
-    fit_fractional_frf,
-    fit_fractional_simplex,
-    fit_fractional_tf,
     gl_simulate,
     gl_weights,
     model_distance,
     oustaloup,
+)
+from pdmkit.models.frequency._fractional_classify import FractionalConditionClassifier
+from pdmkit.models.frequency._fractional_fit import (
+    FractionalFit,
+    fit_fractional_frf,
+    fit_fractional_simplex,
+    fit_fractional_tf,
 )
 from pdmkit.models.frequency._frf import (
     FRF,
