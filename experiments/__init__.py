@@ -86,7 +86,7 @@ _LAZY = {
     "run_features": "_table_workflows",
     "run_rank": "_table_workflows",
     "run_sensors": "_table_workflows",
-    "ClassificationResult": "_classify",
+    "ClassificationResult": "_classify_result",
     "MODELS": "_classify",
     "SELECTIONS": "_classify",
     "classify": "_classify",

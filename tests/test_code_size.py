@@ -37,9 +37,6 @@ LONG_MODULES: dict[str, str] = {
     "models/pneumatic/_twin.py": (
         "the piston's parameters and physics in one place; parameters to their own module"
     ),
-    "experiments/_classify.py": (
-        "classifier pipelines, splits and scores; splits to their own module"
-    ),
     "models/ode/_modelfile.py": (
         "the model-file contract, its checks and the child-process loader; the child "
         "check to its own module"
