@@ -41,9 +41,6 @@ LONG_MODULES: dict[str, str] = {
         "the model-file contract, its checks and the child-process loader; the child "
         "check to its own module"
     ),
-    "_persist.py": (
-        "the safe model format (encode, decode, registry); registry and codecs to split"
-    ),
     "experiments/_identify.py": (
         "the identify workflow, its checks and report; report to its own module"
     ),
@@ -99,7 +96,7 @@ LONG_FUNCTIONS: dict[str, str] = {
     ),
     "experiments/_classify.py:classify": "selection, model, split and scores; to split",
     "models/ident/_hammerstein.py:fit": "initialisation and LM of the HW model; to split",
-    "_persist.py:decode": "the decoder's type cases; one function per case",
+    "_persist_tree.py:decode": "the decoder's type cases; one function per case",
     "ensembles/_pneumatic.py:simulate_leak_runs": (
         "leak schedule, units and simulation; to split"
     ),
