@@ -45,7 +45,8 @@ def _cmd_mismatch(args: argparse.Namespace) -> int:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
-    from pdmkit.experiments._identify import format_fit, format_hz, run_identify
+    from pdmkit.experiments._identify import run_identify
+    from pdmkit.experiments._identify_report import format_fit, format_hz
 
     summary = run_identify(
         args.data,

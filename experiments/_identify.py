@@ -35,16 +35,19 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pdmkit._checks import check_fs, check_magnitude, uniform_step
 from pdmkit._outputs import OutputRun, to_jsonable
-from pdmkit.ensembles import read_mat, read_npz, read_table
 from pdmkit.errors import ConvergenceWarning, DataError, DataWarning, ModelError
+from pdmkit.experiments._identify_report import (
+    _mode_rows,
+    build_identify_report,
+    format_fit,
+)
+from pdmkit.experiments._records import read_record
 from pdmkit.experiments._report import Report
-from pdmkit.models.frequency import fit_fractional_tf, frf_comparison
+from pdmkit.models.frequency import fit_fractional_tf
 from pdmkit.models.ident import (
     STRUCTURES,
     HammersteinWiener,
-    fit_percent,
     identify,
     modes_from_poles,
     n4sid,
@@ -212,34 +215,6 @@ def parse_order(text: str | int | dict | None) -> int | dict | None:
     return out
 
 
-def format_fit(percent: float | None, digits: int = 2) -> str:
-    """A fit percentage as text; None (a simulation that diverged) said so.
-
-    Examples
-    --------
-    >>> format_fit(81.234), format_fit(None)
-    ('81.23 %', "undefined (the model's simulation diverges)")
-    """
-    if percent is None or not np.isfinite(percent):
-        return "undefined (the model's simulation diverges)"
-    return f"{percent:.{digits}f} %"
-
-
-def format_hz(values, digits: int = 4) -> str:
-    """Frequencies as ``"5.18 Hz, 6.63 Hz"``; a missing (None, NaN) value is ``"?"``.
-
-    Examples
-    --------
-    >>> format_hz([5.181, None, float("nan")])
-    '5.181 Hz, ? Hz, ? Hz'
-    """
-    out = []
-    for v in values or []:
-        ok = v is not None and isinstance(v, int | float) and math.isfinite(v)
-        out.append(f"{v:.{digits}g} Hz" if ok else "? Hz")
-    return ", ".join(out)
-
-
 def parse_band(text: str | tuple | list | None) -> tuple[float, float] | None:
     """Read ``--band F1,F2`` (Hz) as a pair ``(F1, F2)`` with ``0 <= F1 < F2``.
 
@@ -260,165 +235,6 @@ def parse_band(text: str | tuple | list | None) -> tuple[float, float] | None:
     if not (math.isfinite(f1) and math.isfinite(f2) and 0 <= f1 < f2):
         raise DataError(f"--band needs 0 <= F1 < F2 (Hz); got F1={f1:g}, F2={f2:g}.")
     return f1, f2
-
-
-# --------------------------------------------------------------------------- reading
-def _numeric(x, path, name: str, role: str) -> np.ndarray:
-    if isinstance(x, pd.Series):
-        x = pd.to_numeric(x, errors="coerce").to_numpy(dtype=float)
-    try:
-        x = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        raise DataError(
-            f"{path}: {role} {name!r} is not numeric (found {type(x).__name__})."
-        ) from None
-    bad = np.flatnonzero(~np.isfinite(x))
-    if bad.size:
-        raise DataError(
-            f"{path}: {role} {name!r} has {bad.size} missing or non-numeric value(s), "
-            f"the first in row {int(bad[0])}; clean or interpolate them."
-        )
-    check_magnitude(x, f"{path}: {role} {name!r}")
-    if role in ("input", "output") and x.size and np.ptp(x) == 0:
-        raise DataError(
-            f"{path}: {role} column {name!r} is constant ({x[0]:g}); there is nothing "
-            "to identify from it."
-        )
-    return x
-
-
-def _column(table: pd.DataFrame, name: str, path, role: str) -> np.ndarray:
-    if name not in table.columns:
-        raise DataError(
-            f"{path}: no {role} column {name!r}; the table has {list(table.columns)}."
-        )
-    return _numeric(table[name], path, name, role)
-
-
-def _signals(data: dict) -> dict[str, tuple]:
-    """Names of the 1-D signals in a ``.mat``/``.npz`` dict -> (variable, channel)."""
-    out: dict[str, tuple] = {}
-    for key, val in data.items():
-        arr = np.asarray(val) if not isinstance(val, dict) else None
-        if arr is None or arr.dtype.kind not in "biuf" or arr.size < 2:
-            continue
-        arr = np.squeeze(arr)
-        if arr.ndim == 1:
-            out[key] = (key, None)
-        elif arr.ndim == 2:
-            for i in range(min(arr.shape)):
-                out[f"{key}{i + 1}"] = (key, i)
-                out[f"{key}[{i}]"] = (key, i)
-    return out
-
-
-def _variable(data: dict, name: str, path, role: str) -> np.ndarray:
-    """One signal of a ``.mat``/``.npz`` file.
-
-    Named ``Name``, or ``Name2`` (1-based) or ``Name[1]`` (0-based) for a row/column of a
-    2-D variable.
-    """
-    names = _signals(data)
-    if name not in names:
-        shown = [k for k in names if "[" not in k]
-        multi = [
-            f"{k} ({min(np.shape(np.squeeze(v)))} channels: {k}1..)"
-            for k, v in data.items()
-            if not isinstance(v, dict) and np.ndim(np.squeeze(np.asarray(v))) == 2
-        ]
-        hint = f"; 2-D variables: {', '.join(multi)}" if multi else ""
-        raise DataError(f"{path}: no {role} variable {name!r}; the file has {shown}{hint}.")
-    key, ch = names[name]
-    arr = np.squeeze(np.asarray(data[key]))
-    if ch is not None:
-        arr = arr[ch] if arr.shape[0] <= arr.shape[1] else arr[:, ch]
-    return _numeric(arr, path, name, role)
-
-
-def _file_rate(data: dict, path) -> float | None:
-    for key in ("fs", "Fs", "FS", "fsamp"):
-        if key in data and np.size(data[key]) == 1:
-            return check_fs(float(np.squeeze(data[key])), f"{path}: {key}")
-    for key in ("Ts", "ts", "dt", "Ts_s"):
-        if key in data and np.size(data[key]) == 1:
-            return 1.0 / check_fs(float(np.squeeze(data[key])), f"{path}: {key}")
-    for key in ("time", "t"):
-        if key in data and np.size(data[key]) > 1:
-            t = _numeric(np.ravel(data[key]), path, key, "time")
-            return 1.0 / uniform_step(t, str(path))
-    return None
-
-
-def read_record(
-    path: str | os.PathLike, input: str | None, output: str, fs: float | None = None
-) -> tuple[np.ndarray | None, np.ndarray, float]:
-    """Input, output and sampling rate from a CSV/Parquet table or a ``.mat``/``.npz``.
-
-    Tables go through :func:`pdmkit.ensembles.read_table`, MATLAB and NumPy files
-    through :func:`~pdmkit.ensembles.read_mat` / :func:`~pdmkit.ensembles.read_npz`.
-    In a ``.mat``/``.npz`` file a row (or column) of a 2-D variable is a signal of
-    its own, named ``Name1``, ``Name2``, ... (1-based, as the F-16 benchmark names
-    its accelerometers) or ``Name[0]``, ... (0-based). The sampling rate is ``fs``
-    when given, else the file's ``fs``/``Fs`` (or ``1/Ts``) variable, else its
-    uniform ``time`` column or variable.
-
-    Parameters
-    ----------
-    path : path
-    input : str or None
-        Input signal name (None: no input, an AR model).
-    output : str
-    fs : float, optional
-
-    Returns
-    -------
-    (u, y, fs)
-
-    Examples
-    --------
-    >>> import pathlib, tempfile
-    >>> import numpy as np
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "rig.npz"
-    >>> np.savez(path, force=np.arange(8.0), acc=np.arange(16.0).reshape(2, 8), fs=50.0)
-    >>> u, y, rate = read_record(path, "force", "acc2")
-    >>> y[:3], rate
-    (array([ 8.,  9., 10.]), 50.0)
-    """
-    suffix = Path(path).suffix.lower()
-    if suffix in (".mat", ".npz"):
-        data = read_mat(path) if suffix == ".mat" else read_npz(path)
-        y = _variable(data, output, path, "output")
-        u = None if input is None else _variable(data, input, path, "input")
-        rate = check_fs(fs) if fs is not None else _file_rate(data, path)
-        if rate is None:
-            raise DataError(
-                f"{path}: no sampling rate: the file has no fs/Fs, Ts or time "
-                f"variable (it has {sorted(data)}); pass --fs."
-            )
-    else:
-        table = read_table(path)
-        if len(table) == 0:
-            raise DataError(f"{path}: the table has no rows.")
-        rate = _sampling_rate(table, fs, path)
-        y = _column(table, output, path, "output")
-        u = None if input is None else _column(table, input, path, "input")
-    if u is not None and u.shape != y.shape:
-        raise DataError(
-            f"{path}: input {input!r} has {u.size} samples but output {output!r} "
-            f"{y.size}; they must be one record."
-        )
-    return u, y, rate
-
-
-def _sampling_rate(table: pd.DataFrame, fs, path) -> float:
-    if fs is not None:
-        return check_fs(fs)
-    if "time" not in table.columns:
-        raise DataError(
-            f"{path}: no 'time' column to take the sampling rate from; add one (s) or "
-            "pass fs (--fs)."
-        )
-    return 1.0 / uniform_step(_column(table, "time", path, "time"), str(path))
 
 
 # --------------------------------------------------------------------------- prepare
@@ -543,18 +359,6 @@ def _poles_zeros(model) -> tuple[np.ndarray, np.ndarray] | None:
     if isinstance(model, _HammersteinWienerResult):
         return np.atleast_1d(np.asarray(model.model.poles_)), np.zeros(0)
     return None
-
-
-def _mode_rows(table: pd.DataFrame) -> list[dict]:
-    return [
-        {
-            "frequency_hz": r.natural_frequency_hz,
-            "damping": r.damping,
-            "pole": [r.pole_real, r.pole_imag],
-            **({"reason": r.reason} if "reason" in table.columns else {}),
-        }
-        for r in table.itertuples()
-    ]
 
 
 def _n_poles(model) -> int:
@@ -686,138 +490,6 @@ def identify_summary(model, *, band=None, **sources: Any) -> dict:
         k: (os.fspath(v) if v is not None else None) for k, v in sources.items()
     }
     return to_jsonable(out)
-
-
-# --------------------------------------------------------------------------- report
-def _frf_figure(model, u, y, fs: float, band):
-    """Magnitude, phase (model aligned to the data's branch) and coherence, log axis."""
-    import matplotlib.pyplot as plt
-
-    cmp = frf_comparison(u, y, fs, model.frequency_response, band=band)
-    f = cmp["freq"]
-    fig, (a1, a2, a3) = plt.subplots(
-        3, 1, figsize=(7, 6.5), sharex=True, gridspec_kw={"height_ratios": [3, 2, 1.3]}
-    )
-    a1.loglog(f, np.abs(cmp["H"]), color="0.55", lw=0.8, label="H1 estimate (data)")
-    a1.loglog(f, np.abs(cmp["G"]), color="C0", label="model")
-    a1.set_ylabel("|G|")
-    a1.legend(loc="best", fontsize="small")
-    a2.semilogx(f, cmp["phase_data_deg"], color="0.55", lw=0.8)
-    a2.semilogx(f, cmp["phase_model_deg"], color="C0")
-    a2.set_ylabel("phase [deg]")
-    a3.semilogx(f, cmp["coherence"], color="C2", lw=0.8)
-    a3.set_ylim(0, 1.05)
-    a3.set_ylabel("coherence")
-    a3.set_xlabel("frequency [Hz]")
-    a1.set_xlim(f[0], f[-1])
-    from matplotlib.ticker import LogLocator, ScalarFormatter
-
-    for ax in (a1, a2, a3):
-        ax.grid(True, which="both", lw=0.3, alpha=0.5)
-    a3.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-    a3.xaxis.set_major_formatter(ScalarFormatter())
-    a3.xaxis.set_minor_formatter(ScalarFormatter() if f[-1] / f[0] < 10 else "")
-    return fig, cmp
-
-
-def build_identify_report(
-    model, summary: dict, u, y, fs: float, title: str, *, band=None, fit_data=None
-) -> Report:
-    """HTML report: summary, modes, pole map, FRF vs H1 estimate, simulation vs data.
-
-    The FRF figure shows magnitude, phase and coherence (Welch, as
-    :func:`scipy.signal.coherence`) on a log frequency axis over ``band`` (default
-    the first non-zero line to Nyquist); the model's phase is unwrapped and moved by
-    whole turns onto the data's branch at the first frequency
-    (:func:`pdmkit.models.frequency.frf_comparison`). ``fit_data`` is the ``(u, y)`` the
-    model was fitted to (band-filtered with a band; default ``u, y``): the simulation
-    and residual tests use it.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from scipy import signal
-    >>> from pdmkit.models.ident import arx
-    >>> rng = np.random.default_rng(0)
-    >>> u = rng.normal(size=1000)
-    >>> y = signal.lfilter([0, 0.1], [1, -1.6, 0.9], u)
-    >>> m = arx(u, y, 2, 1, fs=100.0)
-    >>> rep = build_identify_report(m, identify_summary(m), u, y, 100.0, "demo")
-    >>> rep.to_html().count("data:image/png")
-    3
-    """
-    import matplotlib.pyplot as plt
-
-    rep = Report(title)
-    rep.add_heading("Summary")
-    fn = format_hz(summary.get("natural_frequencies_hz"))
-    text = (
-        f"Structure {summary['structure']} with order {summary['order']}: simulation fit "
-        f"{format_fit(summary['fit_percent'])} on the estimation data"
-        f"{' (filtered to the band)' if band is not None else ''}; modes at "
-        f"{fn or 'none'}."
-    )
-    for key in ("decimation", "band", "order_search"):
-        note = (summary.get(key) or {}).get("note")
-        if note:
-            text += " " + note[0].upper() + note[1:]
-    rep.add_text(text)
-    for w in summary.get("checks") or []:
-        rep.add_text("Warning: " + w)
-    if summary.get("modes") is not None:
-        modes = pd.DataFrame(summary["modes"])
-        if len(modes):
-            rep.add_table(
-                modes.drop(columns="pole"), caption="Modes", float_format="{:.5g}"
-            )
-        else:
-            rep.add_text("No resonance among the poles (see the table below).")
-        dropped = pd.DataFrame(summary.get("not_modes") or [])
-        if len(dropped):
-            rep.add_table(
-                dropped.drop(columns="pole"),
-                caption="Poles that are not modes, and why",
-                float_format="{:.5g}",
-            )
-    elif hasattr(model, "to_pandas"):
-        rep.add_table(model.to_pandas(), caption="Modes", float_format="{:.5g}")
-    if hasattr(model, "plot"):
-        rep.add_heading("Pole map")
-        ax = model.plot()
-        rep.add_figure(ax, caption="Poles (x) and zeros (o) in the z-plane")
-    if hasattr(model, "frequency_response"):
-        rep.add_heading("Frequency response")
-        fig, _ = _frf_figure(model, u, y, fs, band)
-        rep.add_figure(
-            fig,
-            caption="Model frequency response over the H1 estimate (scipy.signal.csd / "
-            "welch) with the coherence; model phase on the data's branch",
-        )
-    rep.add_heading("Simulation")
-    u_ref, y_ref = (u, y) if fit_data is None else fit_data
-    with np.errstate(all="ignore"):
-        y_sim = model.simulate(u_ref)
-        fit_now = fit_percent(y_ref, y_sim)
-    t = np.arange(len(y_ref)) / fs
-    fig, ax = plt.subplots(figsize=(7, 3))
-    ax.plot(t, y_ref, color="0.5", lw=0.8, label="measured")
-    ax.plot(t, y_sim, color="C1", lw=0.8, label=f"simulated (fit {format_fit(fit_now, 1)})")
-    ax.set_xlabel("time [s]")
-    ax.legend(loc="best", fontsize="small")
-    rep.add_figure(
-        fig,
-        caption="Simulated vs measured output"
-        + (" (both filtered to the band)" if band is not None else ""),
-    )
-    if hasattr(model, "residual_test"):
-        with np.errstate(all="ignore"):
-            res = model.residual_test(u_ref, y_ref)
-        rep.add_json(
-            to_jsonable(res),
-            caption="Residual tests (Ljung-Box whiteness, input cross-correlation)",
-        )
-    rep.add_json(summary, caption="summary.json")
-    return rep
 
 
 # --------------------------------------------------------------------------- run

@@ -232,7 +232,7 @@ def test_unstable_model_warns_with_a_stable_alternative():
 
 # ------------------------------------------------------------------ FRF figure
 def test_frf_figure_log_axis_coherence_and_one_phase_branch(fast_record):
-    from pdmkit.experiments._identify import _frf_figure
+    from pdmkit.experiments._identify_report import _frf_figure
     from pdmkit.models.ident import oe
 
     u, y, fs = fast_record
