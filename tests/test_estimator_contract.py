@@ -72,6 +72,8 @@ DATA_FREE_ONLY: dict[str, str] = {
     "(fit(u, y) as fit(X, y), but rows are time steps, not independent samples)",
     "pdmkit.models.RecursiveARX": "a recursive (online) estimator of one time series; "
     "rows are time steps, not independent samples",
+    "pdmkit.models.ParityEquations": _ONE_RECORD + "channel-to-channel ARX relations "
+    "between measured outputs",
 }
 
 #: estimator -> the arguments it needs (no default can stand for them)
@@ -79,6 +81,7 @@ ARGUMENTS: dict[str, dict] = {
     "pdmkit.models.FractionalConditionClassifier": {"freq": np.linspace(1.0, 50.0, 20)},
     "pdmkit.rul.CovariateSurvivalModel": {"covariates": ["s0"]},
     "pdmkit.models.RecursiveARX": {"na": 2},
+    "pdmkit.models.ParityEquations": {"pairs": [(0, 1)]},
 }
 
 

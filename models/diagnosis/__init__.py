@@ -7,7 +7,11 @@ time series, the anomaly measure of seed ``002`` (uniform, maximum-entropy and S
 partitions, symbol-state probabilities, :class:`SymbolicAnomaly`; Ray 2004, Rajagopalan
 & Ray 2006, Kennel & Buhl 2003), and the anomaly measures seed 002 compares it with
 (:class:`PCAAnomaly`, :class:`RBFAnomaly`, :class:`MLPAnomaly`; Chin, Ray &
-Rajagopalan 2005).
+Rajagopalan 2005). Residual generators of seed ``000`` (sec. 2.4-2.5):
+channel-to-channel ARX relations between two measured outputs
+(:func:`channel_to_channel`), parity equations on them (:class:`ParityEquations`,
+:func:`parity_residual`) and the input reconstructed by an inverted model
+(:func:`reconstruct_input`).
 
 Examples
 --------
@@ -20,6 +24,13 @@ Examples
 
 from pdmkit.models.diagnosis._anomaly import MLPAnomaly, PCAAnomaly, RBFAnomaly
 from pdmkit.models.diagnosis._masks import DiagnosticMask, DiagnosticMatrix, MaskResult
+from pdmkit.models.diagnosis._residual_generators import (
+    ParityEquations,
+    ParityResult,
+    channel_to_channel,
+    parity_residual,
+    reconstruct_input,
+)
 from pdmkit.models.diagnosis._symbolic import (
     SymbolicAnomaly,
     max_entropy_partition,
@@ -36,9 +47,14 @@ __all__ = [
     "MLPAnomaly",
     "MaskResult",
     "PCAAnomaly",
+    "ParityEquations",
+    "ParityResult",
     "RBFAnomaly",
     "SymbolicAnomaly",
+    "channel_to_channel",
     "max_entropy_partition",
+    "parity_residual",
+    "reconstruct_input",
     "sfnn_fraction",
     "sfnn_partition",
     "state_probabilities",

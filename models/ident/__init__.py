@@ -7,8 +7,11 @@ identification (:func:`n4sid`), the order by AIC/BIC/MDL (:func:`select_order`,
 an :class:`IdentifiedModel` (poles, :func:`physical_modes`, simulation, prediction,
 residual tests). Recursive ARX with pole tracking over time (:class:`RecursiveARX`,
 :func:`track_poles`; seed ``000``) and Hammerstein-Wiener models
-(:class:`HammersteinWiener`; seed ``001`` section 8.2). Ljung, *System Identification*,
-2nd ed., 1999.
+(:class:`HammersteinWiener`; seed ``001`` section 8.2). Identification in closed loop
+(seed ``003``): :func:`direct_identification`, :func:`indirect_identification` (the
+:class:`KnownController` removed), :func:`joint_identification` and the nonparametric
+:func:`closed_loop_frf`, each plant a :class:`ClosedLoopModel`. Ljung, *System
+Identification*, 2nd ed., 1999.
 
 Examples
 --------
@@ -23,6 +26,14 @@ Examples
 """
 
 from pdmkit.models.ident._arx import ar, arx
+from pdmkit.models.ident._closed_loop import (
+    ClosedLoopModel,
+    KnownController,
+    closed_loop_frf,
+    direct_identification,
+    indirect_identification,
+    joint_identification,
+)
 from pdmkit.models.ident._hammerstein import (
     DeadZone,
     HammersteinWiener,
@@ -55,10 +66,12 @@ __all__ = [
     "CANCEL_TOL",
     "CRITERIA",
     "STRUCTURES",
+    "ClosedLoopModel",
     "DeadZone",
     "HammersteinWiener",
     "IdentifiedModel",
     "Identity",
+    "KnownController",
     "OrderSelection",
     "PiecewiseLinear",
     "PoleTracks",
@@ -69,8 +82,12 @@ __all__ = [
     "armax",
     "arx",
     "bj",
+    "closed_loop_frf",
+    "direct_identification",
     "fit_percent",
     "identify",
+    "indirect_identification",
+    "joint_identification",
     "modes_from_poles",
     "n4sid",
     "nonlinearity",

@@ -10,6 +10,14 @@ paths from a broken tooth to the motor current and the output-bearing accelerome
 whose current / accelerometer transfer function changes with the condition
 (:data:`MOTOR_CONDITIONS`); :class:`MotorRecord` is one simulated record.
 
+:class:`RotorRig`: the two-disk rotor of seed ``000`` on a rigid and a hydrodynamic
+short bearing (:func:`short_bearing_coefficients`), with unbalance, misalignment, rub
+and looseness switching on during a run (:data:`ROTOR_FAULTS`; :class:`RotorRecord`).
+
+:class:`BallbotRig`: the unstable, under-actuated ball-balancing robot of seed ``003``
+(planar S-Mobile) with its known stabilising controller (:class:`BallbotController`),
+exact linearisation, closed-loop chirp runs (:func:`chirp_reference`,
+:class:`BallbotRecord`).
 
 Examples
 --------
@@ -20,12 +28,32 @@ Examples
 
 from pdmkit.models.rigs._massbeam import FatigueRun, MassBeamRig, beam_fe_modes
 from pdmkit.models.rigs._motor import MOTOR_CONDITIONS, MotorGearboxRig, MotorRecord
+from pdmkit.models.rigs._rotor import (
+    ROTOR_FAULTS,
+    RotorRecord,
+    RotorRig,
+    short_bearing_coefficients,
+)
+from pdmkit.models.rigs._unstable import (
+    BallbotController,
+    BallbotRecord,
+    BallbotRig,
+    chirp_reference,
+)
 
 __all__ = [
     "MOTOR_CONDITIONS",
+    "ROTOR_FAULTS",
+    "BallbotController",
+    "BallbotRecord",
+    "BallbotRig",
     "FatigueRun",
     "MassBeamRig",
     "MotorGearboxRig",
     "MotorRecord",
+    "RotorRecord",
+    "RotorRig",
     "beam_fe_modes",
+    "chirp_reference",
+    "short_bearing_coefficients",
 ]
