@@ -54,6 +54,8 @@ def fit_percent(y, y_hat) -> float:
     """
     y = np.asarray(y, dtype=float)
     y_hat = np.asarray(y_hat, dtype=float)
+    # one output given as a column (n, 1) or as a vector (n,) is the same output
+    y, y_hat = (a[:, 0] if a.ndim == 2 and a.shape[1] == 1 else a for a in (y, y_hat))
     if y.shape != y_hat.shape:
         raise DataError(f"fit_percent: y has shape {y.shape}, y_hat {y_hat.shape}.")
     if y.ndim == 1:

@@ -280,3 +280,18 @@ def test_plot_returns_axes(system):
     import matplotlib.pyplot as plt
 
     plt.close("all")
+
+
+def test_n4sid_takes_one_output_as_a_column_or_a_vector():
+    """A (n, 1) output is the same output as (n,): same model, same fit (helper report)."""
+    from scipy import signal as _signal
+
+    from pdmkit.models.ident import n4sid
+
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=2000)
+    y = _signal.lfilter([0, 0.2], [1, -1.5, 0.7], u) + 0.01 * rng.normal(size=2000)
+    flat = n4sid(u, y, 2, fs=10.0)
+    column = n4sid(u, y[:, None], 2, fs=10.0)
+    assert np.allclose(np.sort_complex(flat.poles), np.sort_complex(column.poles))
+    assert flat.fit_percent == pytest.approx(column.fit_percent) and flat.fit_percent > 95
