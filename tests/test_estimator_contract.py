@@ -156,3 +156,22 @@ def test_table_estimator_refuses_to_predict_before_fit(name: str) -> None:
     )
     with pytest.raises(NotFittedError):
         getattr(estimator, method)(_history())
+
+
+#: estimators whose ``fit`` takes the output before the input, with the reason
+OUTPUT_FIRST: dict[str, str] = {
+    "pdmkit.models.RecursiveARX": "fit(y, u=None): pole tracking runs on the output "
+    "alone (AR) far more often than with an input (ARX), so the output comes first "
+    "and the input is optional (said in its docstring)",
+}
+
+
+@pytest.mark.parametrize("name", sorted(ESTIMATORS))
+def test_fit_takes_the_input_before_the_output(name: str) -> None:
+    """One argument order: ``fit(u, y)`` / ``fit(X, y)``, the exceptions listed."""
+    params = list(inspect.signature(ESTIMATORS[name].fit).parameters)[1:]
+    if "u" in params and "y" in params:
+        output_first = params.index("y") < params.index("u")
+        assert output_first == (name in OUTPUT_FIRST), (name, params)
+    else:
+        assert name not in OUTPUT_FIRST

@@ -253,7 +253,11 @@ class RecursiveARX(BaseEstimator):
         return float("inf") if lam >= 1 else 1.0 / (1.0 - lam)
 
     def fit(self, y, u=None) -> RecursiveARX:
-        """Run the recursion over the record ``y`` (and input ``u`` for ARX)."""
+        """Run the recursion over the record ``y`` (and input ``u`` for ARX).
+
+        The output comes first and the input is optional: tracking mostly runs on the
+        output alone (AR). pdmkit's other models take ``fit(u, y)``.
+        """
         na, nb, nk, lam, fs, every = self._check()
         y = _as_signal(y, "y")
         if nb:
