@@ -224,7 +224,7 @@ def _private_folder(path: Path, out: str | os.PathLike | None) -> Path | None:
     return None
 
 
-def check_output_folder(
+def check_output_folder(  # noqa: C901
     out: str | os.PathLike | None,
     command: str,
     *,

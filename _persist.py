@@ -274,7 +274,7 @@ def _parse_json(blob: bytes, where: str, member: str) -> Any:
         raise ModelError(f"{where}: {member} is not valid JSON ({exc})") from None
 
 
-def _read_members(path: Path, expect_sha256: str | None) -> tuple[dict, dict[str, bytes]]:
+def _read_members(path: Path, expect_sha256: str | None) -> tuple[dict, dict[str, bytes]]:  # noqa: C901
     from pdmkit._config import max_bytes
 
     where = str(path)

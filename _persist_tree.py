@@ -203,7 +203,7 @@ class _Encoder:
         self.arrays[key] = a
         return key
 
-    def encode(self, value: Any, path: str) -> Any:
+    def encode(self, value: Any, path: str) -> Any:  # noqa: C901
         import pandas as pd
 
         if value is None or isinstance(value, bool | str):
@@ -412,7 +412,7 @@ class _Decoder:
             raise ModelError(f"{self.where}: state.json refers to a missing {what} {key!r}")
         return store[key]
 
-    def decode(self, node: Any) -> Any:
+    def decode(self, node: Any) -> Any:  # noqa: C901, PLR0915
         import pandas as pd
 
         if node is None or isinstance(node, bool | int | float | str):

@@ -242,7 +242,7 @@ class Ensemble:
 
     __slots__ = ("_conditions", "_fs", "_signals")
 
-    def __init__(
+    def __init__(  # noqa: C901
         self,
         signals: Mapping[str, Any],
         fs: float | Mapping[str, float],

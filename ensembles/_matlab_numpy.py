@@ -129,7 +129,7 @@ def _inflated(f: IO[bytes], n: int) -> Iterator[bytes]:
                 break
 
 
-def _check_mat_sizes(path: Path, limit: int) -> set[str]:
+def _check_mat_sizes(path: Path, limit: int) -> set[str]:  # noqa: C901
     """Refuse a .mat file whose variables declare or decompress to more than ``limit``.
 
     Walks the top-level elements of a v5 file without scipy: a compressed variable is

@@ -195,7 +195,7 @@ def _no_time_column(path: Path, time: str, names: list, what: str) -> DataError:
     )
 
 
-def _member_contents(
+def _member_contents(  # noqa: C901
     path: Path, notes: list, time: str | None = None
 ) -> tuple[dict, float | None, dict]:
     suffix = path.suffix.lower()
@@ -456,7 +456,7 @@ class _NameConditions:
             )
 
 
-def read_members(
+def read_members(  # noqa: C901, PLR0915
     files: Any,
     *,
     fs: float | None = None,

@@ -490,7 +490,7 @@ def run_demo(
     return summary
 
 
-def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
+def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:  # noqa: PLR0915
     """:func:`run_demo` with its files registered with ``run`` (not yet written)."""
     from pdmkit.features import extract_ensemble, rank_features
 

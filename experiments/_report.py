@@ -246,7 +246,7 @@ class Report:
         for part in parts:
             self._blocks.append(f"<p>{html.escape(part)}</p>")
 
-    def add_table(
+    def add_table(  # noqa: C901
         self,
         df: pd.DataFrame | pd.Series,
         caption: str | None = None,

@@ -584,7 +584,7 @@ def run_rul(
     return summary
 
 
-def _rul(
+def _rul(  # noqa: PLR0915
     sink,
     dataset,
     model,

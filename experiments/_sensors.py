@@ -97,7 +97,7 @@ def _number(value: Any) -> float | None:
     return float(value)
 
 
-def load_sensor_costs(path: str | os.PathLike | None = None) -> SensorCosts:
+def load_sensor_costs(path: str | os.PathLike | None = None) -> SensorCosts:  # noqa: C901
     """Read sensor costs from a TOML file.
 
     Parameters
@@ -541,7 +541,7 @@ def _sensor_columns(
     return by_signal
 
 
-def compare_sensors(
+def compare_sensors(  # noqa: PLR0915
     table: pd.DataFrame,
     label: str,
     sensors: Mapping[str, Sequence[str]],

@@ -285,7 +285,7 @@ def _take(values: np.ndarray, index: np.ndarray) -> np.ndarray:
     return np.take_along_axis(values, index[..., None], axis=-1)[..., 0]
 
 
-def _segment_features(seg, before, fs, delta, levels, windows) -> dict[str, np.ndarray]:
+def _segment_features(seg, before, fs, delta, levels, windows) -> dict[str, np.ndarray]:  # noqa: PLR0915
     """Indicators of each segment instance.
 
     seg (m, C, L) the segments; before (m, C, k) the samples just before each (its start

@@ -499,7 +499,7 @@ def _lifetime_column(table: pd.DataFrame, given, candidates: Sequence[str], what
     return next((c for c in candidates if c in table.columns), None)
 
 
-def rank_features(
+def rank_features(  # noqa: C901
     table: pd.DataFrame,
     labels=None,
     *,

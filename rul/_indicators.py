@@ -481,7 +481,7 @@ class HealthIndicator(BaseEstimator):
     ) -> None:
         keep_init_args(self, locals())
 
-    def fit(self, table: pd.DataFrame, y=None):
+    def fit(self, table: pd.DataFrame, y=None):  # noqa: PLR0915
         """Select and fuse the candidates on run-to-failure training units.
 
         Returns

@@ -199,7 +199,7 @@ class _Orders:
         return max(self.hi - self.lo, 1e-6)
 
 
-def fit_fractional_frf(
+def fit_fractional_frf(  # noqa: C901, PLR0915
     freq,
     H,
     *,
@@ -649,7 +649,7 @@ def _simplex_starts(s, Hr, fixed, bounds, n_starts, power):
     return [t for _, t in cands[: max(1, int(n_starts))]]
 
 
-def fit_fractional_simplex(
+def fit_fractional_simplex(  # noqa: C901
     freq,
     H,
     *,

@@ -184,7 +184,7 @@ def _reflect(a: np.ndarray, domain: str) -> tuple[np.ndarray, int]:
     return new / new[0], int(bad.sum())
 
 
-def fit_tf(
+def fit_tf(  # noqa: C901, PLR0915
     freq,
     H,
     nb: int,

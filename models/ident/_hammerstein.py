@@ -392,7 +392,7 @@ class HammersteinWiener(BaseEstimator):
         return self._out(self._linear(self._in(U, th_in), b, f), th_out)
 
     # -------------------------------------------------------------- API
-    def fit(self, u, y):
+    def fit(self, u, y):  # noqa: C901
         """Fit all blocks to input ``u`` and output ``y`` (1-D, or one row per record).
 
         Returns

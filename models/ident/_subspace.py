@@ -108,7 +108,7 @@ def _bd_x0(A, C, u, y):
     return B, D, x0
 
 
-def n4sid(
+def n4sid(  # noqa: PLR0915
     u,
     y,
     nx: int,

@@ -1143,7 +1143,7 @@ def _force_gain(model, velocity: str, scales: Scales) -> dict:
     return {"force_gain": best[0], "force_input": best[1], "force_unit": best[2]}
 
 
-def attach_candidates(
+def attach_candidates(  # noqa: C901
     model,
     scales: Scales,
     ids: Sequence[str] | None = None,

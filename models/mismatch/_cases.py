@@ -142,7 +142,7 @@ def _excitation(system: str, n: int, ts: float, rng: np.random.Generator) -> dic
     return {name: u}
 
 
-def _true_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict[str, float]:
+def _true_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict[str, float]:  # noqa: C901
     """Effect parameters at magnitude ``m`` in (0, 1]."""
     t = eff.target
     i, c = eff.id, eff.candidate
@@ -294,7 +294,7 @@ def _with_params_source(source: str, params: dict[str, float]) -> str:
     return re.sub(r"^PARAMS = \{.*\}$", f"PARAMS = {{{text}}}", source, count=1, flags=re.M)
 
 
-def generate_concealed_case(
+def generate_concealed_case(  # noqa: C901, PLR0915
     effect: str,
     strength: float,
     seed: int,

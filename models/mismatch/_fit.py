@@ -547,7 +547,7 @@ DEADLINE: contextvars.ContextVar[float] = contextvars.ContextVar(
 )
 
 
-def _lm(
+def _lm(  # noqa: C901, PLR0915
     problem: _Problem,
     jobs: Sequence[_Job],
     max_iter: int,

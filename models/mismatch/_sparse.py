@@ -305,7 +305,7 @@ def _influences(model, target: str, X: Mapping[str, np.ndarray], U, P) -> list[s
     return out
 
 
-def library_terms(
+def library_terms(  # noqa: C901
     model,
     target: str,
     X: Mapping[str, np.ndarray],
@@ -568,7 +568,7 @@ def stlsq_path(
     return [(k, v[0], v[1]) for k, v in out.items()]
 
 
-def fit_sparse(
+def fit_sparse(  # noqa: C901
     problem,
     model,
     values: Mapping[str, float],

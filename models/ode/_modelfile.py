@@ -166,7 +166,7 @@ class OdeModel:
     {'h': 0.75}
     """
 
-    def __init__(
+    def __init__(  # noqa: C901
         self,
         states: Mapping[str, str],
         inputs: Mapping[str, str],
@@ -822,7 +822,7 @@ def _frame_text(frame: Any) -> str:
     return f" (line {line}:{f' `{code}`' if code else ''})"
 
 
-def _check_in_child(
+def _check_in_child(  # noqa: C901, PLR0915
     source: str, origin: str, rows: list[dict[str, float]], timeout: float
 ) -> None:
     """Import the file and evaluate ``rhs`` in a child process with a time limit.

@@ -70,7 +70,7 @@ def _check_time(time) -> tuple[np.ndarray, float]:
 DERIVATIVE_ATTACH = ("velocity", "velocity_position", "level", "state")
 
 
-def integrate_batch(
+def integrate_batch(  # noqa: C901, PLR0915
     model,
     effects: Sequence,
     theta: Sequence[Mapping[str, Any]],

@@ -434,7 +434,7 @@ def _offset(run: _Run, n_res: int, lo=None, hi=None) -> float:
     return float(Jd @ Jd) / max(s2, 1e-300)
 
 
-def _levenberg_marquardt(
+def _levenberg_marquardt(  # noqa: C901, PLR0915
     prob: _Problem,
     runs: list[_Run],
     n_sub: int,
@@ -640,7 +640,7 @@ def _check_bounds(names: list[str], known: PneumaticParams, bounds) -> tuple:
     )
 
 
-def _check_recording(recording, signals: list[str], member: int):
+def _check_recording(recording, signals: list[str], member: int):  # noqa: C901
     """-> (fs, {signal: 1-D float array}, {other signal: array} for windowing)."""
     if isinstance(recording, ResponseData):
         n = recording.n_members
@@ -1109,7 +1109,7 @@ def _setup_problem(
 
 
 # ---------------------------------------------------------------------------- public
-def estimate_parameters(
+def estimate_parameters(  # noqa: PLR0915
     recording,
     *,
     free: Sequence[str] = DEFAULT_FREE,
