@@ -25,11 +25,7 @@ linearisation:
 from __future__ import annotations
 
 import os
-import time
 
-from threadpoolctl import threadpool_limits
-
-from pdmkit._outputs import OutputRun, to_jsonable
 from pdmkit.experiments.studies._closed_loop_checks import emps_check, f16_check
 from pdmkit.experiments.studies._closed_loop_pipeline import (
     AMPLITUDES_DEG,
@@ -41,6 +37,7 @@ from pdmkit.experiments.studies._closed_loop_report import (
     build_closed_loop_report,
     closed_loop_summary,
 )
+from pdmkit.experiments.studies._write import write_study
 
 __all__ = ["AMPLITUDES_DEG", "SEED_THETA_X", "run_unstable_closed_loop", "seed_error"]
 
@@ -82,19 +79,11 @@ def run_unstable_closed_loop(
     >>> round(s["truth"]["unstable_pole"], 2)  # doctest: +SKIP
     7.39
     """
-    started = time.perf_counter(), time.process_time()
-    run = OutputRun(out_dir, "study", json_path=json_path)
-    # every matrix here is small: BLAS threads only add overhead (and on a busy machine
-    # a multi-threaded QR of a few hundred columns can take 50 times longer)
-    with run, threadpool_limits(1, user_api="blas"):
+
+    def compute():
         result = _study(seed, quick)
         result["real_data"] = {"emps": emps_check(), "f16": f16_check()}
         summary = closed_loop_summary(result, quick, seed)
-        summary["wall_s"] = round(time.perf_counter() - started[0], 2)
-        summary["cpu_s"] = round(time.process_time() - started[1], 2)
-        summary = to_jsonable(summary)
-        report = build_closed_loop_report(result, summary)
-        run.add_json("summary.json", summary)
-        run.add_report("report.html", report)
-        run.commit()
-    return summary
+        return summary, lambda written: build_closed_loop_report(result, written)
+
+    return write_study(out_dir, json_path, compute)

@@ -31,10 +31,11 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._config import data_dir
-from pdmkit._outputs import OutputRun, to_jsonable
+from pdmkit._outputs import to_jsonable
 from pdmkit._progress import progress
 from pdmkit.ensembles import read_table
 from pdmkit.experiments.studies._mass_beam_report import build_report
+from pdmkit.experiments.studies._write import write_study
 from pdmkit.models.diagnosis import (
     MLPAnomaly,
     PCAAnomaly,
@@ -261,13 +262,12 @@ def run_mass_beam(
     >>> out = pathlib.Path(tempfile.mkdtemp())
     >>> s = run_study("mass-beam", out, quick=True)   # doctest: +SKIP
     """
-    run = OutputRun(out_dir, "study", json_path=json_path)
-    with run:
+
+    def compute():
         summary, parts = _study(seed, quick)
-        run.add_report("report.html", build_report(summary, parts))
-        run.add_json("summary.json", summary)
-        run.commit()
-    return summary
+        return summary, lambda written: build_report(written, parts)
+
+    return write_study(out_dir, json_path, compute)
 
 
 def _study(seed: int, quick: bool):

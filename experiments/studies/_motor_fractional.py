@@ -27,10 +27,11 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._config import data_dir
-from pdmkit._outputs import OutputRun, to_jsonable
+from pdmkit._outputs import to_jsonable
 from pdmkit._progress import progress
 from pdmkit.ensembles import load_silverbox
 from pdmkit.experiments.studies._motor_report import build_report
+from pdmkit.experiments.studies._write import write_study
 from pdmkit.models.frequency import fit_fractional_simplex, frf_estimate, model_distance
 from pdmkit.models.rigs import MOTOR_CONDITIONS, MotorGearboxRig
 
@@ -200,13 +201,12 @@ def run_motor_fractional(
     >>> out = pathlib.Path(tempfile.mkdtemp())
     >>> s = run_study("motor-fractional", out, quick=True)   # doctest: +SKIP
     """
-    run = OutputRun(out_dir, "study", json_path=json_path)
-    with run:
+
+    def compute():
         summary, parts = _study(seed, quick)
-        run.add_report("report.html", build_report(summary, parts))
-        run.add_json("summary.json", summary)
-        run.commit()
-    return summary
+        return summary, lambda written: build_report(written, parts)
+
+    return write_study(out_dir, json_path, compute)
 
 
 def _study(seed: int, quick: bool):

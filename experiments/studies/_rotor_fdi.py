@@ -33,11 +33,7 @@ fault the matrix names for the longest time (at least 3 s).
 from __future__ import annotations
 
 import os
-import time
 
-from threadpoolctl import threadpool_limits
-
-from pdmkit._outputs import OutputRun, to_jsonable
 from pdmkit._progress import progress
 from pdmkit.experiments.studies._rotor_pipeline import (
     FORGETTING_FACTORS,
@@ -48,6 +44,7 @@ from pdmkit.experiments.studies._rotor_pipeline import (
     evaluate,
 )
 from pdmkit.experiments.studies._rotor_report import build_rotor_report, rotor_summary
+from pdmkit.experiments.studies._write import write_study
 from pdmkit.models.rigs import RotorRig
 
 __all__ = ["FORGETTING_FACTORS", "ROTOR_MATRIX", "SYMPTOMS", "run_rotor_fdi"]
@@ -87,10 +84,8 @@ def run_rotor_fdi(
     >>> s["all_isolated"]  # doctest: +SKIP
     True
     """
-    started = time.perf_counter(), time.process_time()
-    run = OutputRun(out_dir, "study", json_path=json_path)
-    # small matrices only: BLAS threads add overhead, a lot of it on a busy machine
-    with run, threadpool_limits(1, user_api="blas"):
+
+    def compute():
         rig = RotorRig()
         duration = 30.0 if quick else 60.0
         lambdas = (
@@ -108,11 +103,10 @@ def run_rotor_fdi(
         setup = _setup(rig, reference, quick)
         result = evaluate(rig, setup, records, reference, lambdas)
         summary = rotor_summary(rig, setup, result, lambdas, quick, seed)
-        summary["wall_s"] = round(time.perf_counter() - started[0], 2)
-        summary["cpu_s"] = round(time.process_time() - started[1], 2)
-        summary = to_jsonable(summary)
-        report = build_rotor_report(rig, setup, result, records, reference, summary)
-        run.add_json("summary.json", summary)
-        run.add_report("report.html", report)
-        run.commit()
-    return summary
+
+        def report(written: dict):
+            return build_rotor_report(rig, setup, result, records, reference, written)
+
+        return summary, report
+
+    return write_study(out_dir, json_path, compute)
