@@ -44,7 +44,7 @@ import time
 
 from pdmkit.ensembles import PNEUMATIC_SENSORS, fault_labels, simulate_fault_ensemble
 from pdmkit.experiments import classify, compare_sensors
-from pdmkit.experiments._demo import (
+from pdmkit.experiments._twin_recipes import (
     OPERATING,
     _feature_columns,
     _forest_top,

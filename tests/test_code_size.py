@@ -41,7 +41,6 @@ LONG_MODULES: dict[str, str] = {
         "the model-file contract, its checks and the child-process loader; the child "
         "check to its own module"
     ),
-    "experiments/_demo.py": "the demo's sections; each section to its own function module",
     "ensembles/_ensemble.py": "the Ensemble class and its views; views and frames to split",
     "_outputs.py": (
         "everything written into --out; the output-folder checks to their own module"
