@@ -43,7 +43,7 @@ TORCH_CLASSES = (
 #: The pdmkit classes a model file may rebuild, by exact ``module.qualname``.
 PDMKIT_CLASSES = (
     "pdmkit.features._ranking.FeatureRanking",
-    "pdmkit.features._ranking.SelectTopRanked",
+    "pdmkit.features._selection.SelectTopRanked",
     "pdmkit.rul._base.Unit",
     "pdmkit.rul._boosting.BoostingRULModel",
     "pdmkit.rul._conformal.ConformalRUL",
@@ -59,12 +59,22 @@ PDMKIT_CLASSES = (
     "pdmkit.rul._similarity.ResidualSimilarityModel",
     "pdmkit.rul._survival.CovariateSurvivalModel",
     "pdmkit.rul._survival.ReliabilitySurvivalModel",
-    "pdmkit.rul._wiener.GammaProcessDegradationModel",
+    "pdmkit.rul._gamma.GammaProcessDegradationModel",
     "pdmkit.rul._wiener.WienerDegradationModel",
     "pdmkit.rul._wiener_noise.NoisyWienerDegradationModel",
 )
 
 
+#: Where a class lived when earlier releases saved it -> where it lives now: a model
+#: file written before a module was split still loads (the old name, the same class).
+MOVED_CLASSES = {
+    "pdmkit.features._ranking.SelectTopRanked": (
+        "pdmkit.features._selection.SelectTopRanked"
+    ),
+    "pdmkit.rul._wiener.GammaProcessDegradationModel": (
+        "pdmkit.rul._gamma.GammaProcessDegradationModel"
+    ),
+}
 #: scikit-learn's compiled helpers that fitted estimators hold (beside the estimators
 #: themselves, which come from ``sklearn.utils.discovery.all_estimators``).
 SKLEARN_HELPERS = (
@@ -121,6 +131,7 @@ def object_registry() -> dict[str, type]:
 
     names = [*PDMKIT_CLASSES, *SKLEARN_HELPERS]
     registry = {name: _resolve_exact(name) for name in names}
+    registry |= {old: registry[new] for old, new in MOVED_CLASSES.items()}
     for _, cls in all_estimators():
         registry[_qualname(cls)] = cls
     for cls in vars(_dist_metrics).values():

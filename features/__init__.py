@@ -115,7 +115,7 @@ _LAZY = {
     "hw_features": "_model_features",
     "FeatureRanking": "_ranking",
     "METHODS": "_ranking",
-    "SelectTopRanked": "_ranking",
+    "SelectTopRanked": "_selection",
     "rank_features": "_ranking",
     "spectral": "_spectral",
     "harmonic": "_stats",

@@ -50,6 +50,7 @@ from pdmkit.rul._boosting import BoostingRULModel
 from pdmkit.rul._conformal import ConformalRUL
 from pdmkit.rul._degradation import ExponentialDegradationModel, LinearDegradationModel
 from pdmkit.rul._diagnostics import OOD_THRESHOLD, ood_scores, shutdown_endings
+from pdmkit.rul._gamma import GammaProcessDegradationModel
 from pdmkit.rul._indicators import (
     HealthIndicator,
     RegimeNormalizer,
@@ -75,7 +76,7 @@ from pdmkit.rul._similarity import (
     ResidualSimilarityModel,
 )
 from pdmkit.rul._survival import CovariateSurvivalModel, ReliabilitySurvivalModel
-from pdmkit.rul._wiener import GammaProcessDegradationModel, WienerDegradationModel
+from pdmkit.rul._wiener import WienerDegradationModel
 from pdmkit.rul._wiener_noise import NoisyWienerDegradationModel
 
 __all__ = [

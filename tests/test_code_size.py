@@ -45,13 +45,6 @@ LONG_MODULES: dict[str, str] = {
     "_outputs.py": (
         "everything written into --out; the output-folder checks to their own module"
     ),
-    "features/_ranking.py": (
-        "supervised and prognostic rankings and the selector; prognostic metrics to "
-        "their own module"
-    ),
-    "rul/_wiener.py": (
-        "Wiener and gamma-process models; the gamma process to its own module"
-    ),
 }
 
 #: "module:function" -> why it is still longer than MAX_FUNCTION_LINES

@@ -266,3 +266,35 @@ def test_unsafe_attributes_are_refused_at_save(tmp_path):
     with pytest.raises(ModelError, match=r"ResidualSimilarityModel\['hook_'\]"):
         save_model(model, tmp_path / "m.pdmkit")
     assert not (tmp_path / "m.pdmkit").exists()
+
+
+def test_a_model_saved_before_its_module_was_split_still_loads(tmp_path):
+    """Issue 16 moved classes between private modules; older files name the old place."""
+    from pdmkit.rul import GammaProcessDegradationModel
+
+    rng = np.random.default_rng(0)
+    t = np.arange(30.0)
+    hi = [0.05 * t + 0.01 * rng.random(30).cumsum() for _ in range(3)]
+    table = pd.DataFrame(
+        {"unit": np.repeat([1, 2, 3], 30), "time": np.tile(t, 3), "hi": np.concatenate(hi)}
+    )
+    model = GammaProcessDegradationModel(threshold=1.5).fit(table)
+    path = save_model(model, tmp_path / "new.pdmkit")
+    # the same file as the release before the split wrote it: the old class path, and
+    # the manifest's checksums of that content
+    old = tmp_path / "old.pdmkit"
+    with zipfile.ZipFile(path) as src:
+        members = {name: src.read(name) for name in src.namelist()}
+    members["state.json"] = members["state.json"].replace(
+        b"pdmkit.rul._gamma.", b"pdmkit.rul._wiener."
+    )
+    manifest = json.loads(members["manifest.json"])
+    manifest["class"] = manifest["class"].replace("rul._gamma.", "rul._wiener.")
+    manifest["sha256"]["state.json"] = hashlib.sha256(members["state.json"]).hexdigest()
+    members["manifest.json"] = json.dumps(manifest).encode()
+    with zipfile.ZipFile(old, "w") as dst:
+        for name, data in members.items():
+            dst.writestr(name, data)
+    loaded = load_model(old)
+    assert type(loaded) is GammaProcessDegradationModel
+    assert loaded.predict(table).to_pandas().equals(model.predict(table).to_pandas())
