@@ -29,7 +29,7 @@ import pandas as pd
 
 from pdmkit._progress import progress as _progress
 from pdmkit.ensembles._ensemble import Ensemble
-from pdmkit.errors import DataError
+from pdmkit.errors import DataError, ModelError
 
 __all__ = [
     "PNEUMATIC_FAULTS",
@@ -206,11 +206,20 @@ def _operating_points(points, n: int, rng: np.random.Generator) -> dict[str, np.
     return {"mass_load": load[which], "p_supply": _P_AMBIENT + supply[which] * 1e5}
 
 
-def _fault_settings(labels: np.ndarray, rng: np.random.Generator) -> dict[str, np.ndarray]:
+def _fault_settings(
+    labels: np.ndarray, rng: np.random.Generator, at_mark: bool = False
+) -> dict[str, np.ndarray]:
+    """Settings per label, drawn from the faulty or the healthy ranges.
+
+    ``at_mark``: the settings that are not faulty at the middle of their healthy range
+    (the mark a knob is set to) instead of drawn from it.
+    """
     n = len(labels)
     values = {}
     for code, setting in PNEUMATIC_FAULTS.items():
         v = rng.uniform(*setting.healthy, size=n)
+        if at_mark:
+            v = np.full(n, 0.5 * (setting.healthy[0] + setting.healthy[1]))
         faulty = np.array([code in str(lab).split("+") for lab in labels])
         if faulty.any():
             ranges = np.array(setting.faulty)
@@ -401,8 +410,12 @@ SEED_LABELS: dict[str, str] = {
 }
 
 #: Supply pressure (bar gauge) of the seed ensemble: nominal, and the "pressure" fault
-#: place of the seed's combined labels (the other value of table 3.2).
-SEED_SUPPLY_BAR = {"nominal": 6.0, "fault": 5.0}
+#: place of the seed's combined labels (the other value of table 3.2, "5, 6 bar"), as the
+#: rig's reservoir transmitter reads them: 5.99 bar for the nominal codes and 5.49 for
+#: the pressure-fault codes (means of the 15 one-code combined labels, 5.45-5.53 for
+#: the five "pressure+..." ones; ``sb/sensor_pressure/PressureAllFeatures.mat`` of the
+#: author's repository). (Before, pdmkit took table 3.2's 5 bar.)
+SEED_SUPPLY_BAR = {"nominal": 6.0, "fault": 5.5}
 _SEED_PLACES = (*sorted(PNEUMATIC_FAULTS), "supply_pressure")
 _SEED_SINGLE = ("healthy", "throttle_1", "throttle_2", "damper_bottom", "damper_upper")
 
@@ -435,13 +448,88 @@ def seed_labels() -> list[str]:
     return list(SEED_LABELS)
 
 
-#: Run-to-run spread (relative standard deviation) of a rig recorded again at the same
-#: setting. The seed does not report it; its ~20 recordings of a fault code were taken
-#: back to back, over minutes, in which a pressure regulator holds its set point to
-#: about 1-2 % under changing flow and seal friction and solenoid switching time drift
-#: by a similar amount as the rig warms up. 2 % it is; it moves the seed recipes' numbers
-#: by several points (``benchmarks/seed_study.py --jitter``; docs/seed_study.md).
+#: Run-to-run spread (relative standard deviation) of the seal friction and the valve's
+#: switching delay of a rig recorded again at the same setting. The seed does not report
+#: it; its ~20 recordings of a fault code were taken back to back, over minutes, in which
+#: seal friction and solenoid switching time drift by about 1-2 % as the rig warms up.
+#: 2 % it is. The rig's recordings bound it from above, not below: on the twin, 2 %
+#: spreads a code's FlowContraction RMS by 0.07 % (relative std over the 20 repeats),
+#: the rig's spread by 0.19 % (median over its 15 one-code labels,
+#: ``sb/sensor_flow/FlowsFeaturesAll.mat`` of the author's repository).
 SEED_JITTER = 0.02
+
+#: Run-to-run spread (relative standard deviation of the gauge pressure) of the
+#: regulated supply, measured on the rig: its reservoir reading's 10 s mean spreads by
+#: 0.0023 bar within a fault code (median over the 15 one-code labels of the author's
+#: ``sb/sensor_pressure/PressureAllFeatures.mat``), of which the transmitter's own noise
+#: makes 0.0016 bar (0.16 bar / sqrt(10000 samples)); the rest, 0.0017 bar at 6 bar, is
+#: 0.03 %. (Before, the supply got the 2 % of SEED_JITTER: fifty times the rig's.)
+SEED_SUPPLY_REPEATABILITY = 3e-4
+
+
+#: Fault codes of healthy and of each single fault in the seed's data set (its 4840
+#: recordings of 242 codes): the author's feature tables label 260, 1340, 1080, 980 and
+#: 880 recordings healthy, valve1, valve2, damp_small_bot and damp_small_up, and 20 each
+#: of the 15 combined labels (the ``Label`` column of ``sb/sensor_proximity/
+#: ProximityAllFeatures.mat``, github.com/xvoron/thesis): 13, 67, 54, 49 and 44 codes of
+#: 20 recordings. (Before, pdmkit shared them evenly: 46, 46, 45, 45, 45.)
+SEED_SINGLE_CODES = {
+    "healthy": 13,
+    "throttle_1": 67,
+    "throttle_2": 54,
+    "damper_bottom": 49,
+    "damper_upper": 44,
+}
+
+#: Of those codes, the ones recorded at the low supply (their reservoir reads 5.5 bar
+#: as the pressure-fault codes' do: 20, 200, 140, 120 and 100 recordings of
+#: ``PressureAllFeatures.mat`` under 5.75 bar): the seed labels them by their knob
+#: fault alone, so a low supply is no sign of the "pressure" labels.
+SEED_SINGLE_LOW_SUPPLY_CODES = {
+    "healthy": 1,
+    "throttle_1": 10,
+    "throttle_2": 7,
+    "damper_bottom": 6,
+    "damper_upper": 5,
+}
+
+
+def _shares(total: int, weights) -> np.ndarray:
+    """``total`` split in proportion to ``weights`` (largest remainders), each >= 1."""
+    weights = np.asarray(weights, dtype=float)
+    exact = max(total, len(weights)) * weights / weights.sum()
+    out = np.floor(exact).astype(int)
+    order = np.argsort(-(exact - out), kind="stable")
+    out[order[: max(total, len(weights)) - out.sum()]] += 1
+    while np.any(out < 1):  # the smallest shares take one from the largest
+        out[np.argmax(out)] -= 1
+        out[np.argmin(out)] += 1
+    return out
+
+
+#: The seed's recordings were made on one rig (sections 3.3, 7.2.1) whose knobs were set
+#: to the marks of a fault code: the rig's healthy recordings of the residual set
+#: (``mb/featuretables/residual_featuretable.mat``, 100 recordings at 6.25 kg, 6 bar)
+#: spread their position residual's RMS by 0.1 mm (standard deviation; mean 3.5 mm),
+#: which rules out a +-0.5 division spread of the knobs (1.7 mm on the twin) and a
+#: +-20 % friction or valve delay from code to code (0.5-0.8 mm).
+_ONE_RIG = (
+    "friction_coulomb",
+    "friction_viscous",
+    "c_a_in",
+    "c_a_out",
+    "c_b_in",
+    "c_b_out",
+    "valve_delay",
+)
+
+
+def _one_rig(n: int) -> dict[str, np.ndarray]:
+    """The parameters nobody labels at the nominal twin's values, for ``n`` members."""
+    from pdmkit.models import PneumaticParams
+
+    nominal = PneumaticParams()
+    return {k: np.full(n, float(getattr(nominal, k))) for k in _ONE_RIG}
 
 
 def _seed_design(
@@ -452,9 +540,9 @@ def _seed_design(
     labels = seed_labels()
     n_codes = max(len(labels), round(n_members / repeats))
     # the 15 combined labels were each one fault code in the seed's combined-fault
-    # data set; the remaining codes are shared evenly by healthy and the single faults
-    per_single = np.full(len(_SEED_SINGLE), (n_codes - 15) // len(_SEED_SINGLE))
-    per_single[: (n_codes - 15) % len(_SEED_SINGLE)] += 1
+    # data set; the remaining codes go to healthy and the single faults as in the
+    # seed's data set (SEED_SINGLE_CODES), at least one each
+    per_single = _shares(n_codes - 15, [SEED_SINGLE_CODES[lab] for lab in _SEED_SINGLE])
     code_labels = [
         lab for lab, k in zip(_SEED_SINGLE, per_single, strict=True) for _ in range(k)
     ] + [lab for lab in labels if "+" in lab]
@@ -467,9 +555,13 @@ def _seed_design(
         where = np.flatnonzero(code_labels == lab)
         load_index[where] = (rng.permutation(len(where)) + rng.integers(4)) % 4
     loads = np.asarray(_LOADS_KG)[load_index]
-    pressure_fault = np.array(["supply_pressure" in lab.split("+") for lab in code_labels])
-    supply = np.where(pressure_fault, SEED_SUPPLY_BAR["fault"], SEED_SUPPLY_BAR["nominal"])
-    knobs = _fault_settings(code_labels, rng)
+    low = np.array(["supply_pressure" in lab.split("+") for lab in code_labels])
+    for lab in _SEED_SINGLE:  # single-fault codes recorded at the low supply
+        where = np.flatnonzero(code_labels == lab)
+        share = SEED_SINGLE_LOW_SUPPLY_CODES[lab] / SEED_SINGLE_CODES[lab]
+        low[rng.permutation(where)[: round(share * len(where))]] = True
+    supply = np.where(low, SEED_SUPPLY_BAR["fault"], SEED_SUPPLY_BAR["nominal"])
+    knobs = _fault_settings(code_labels, rng, at_mark=variation == "rig")
     # members: codes repeated round-robin, so every label appears once n >= 20
     member_code = np.arange(n_members) % n_codes
     rng.shuffle(member_code)
@@ -477,7 +569,9 @@ def _seed_design(
     cols["mass_load"] = loads[member_code]
     cols["p_supply"] = _P_AMBIENT + supply[member_code] * 1e5
     unlabelled = ("mass_load", "p_supply")
-    if variation == "code":
+    if variation == "rig":
+        cols.update(_one_rig(n_members))
+    elif variation == "code":
         drawn = _operating_conditions(n_codes, rng)
         cols.update({k: v[member_code] for k, v in drawn.items() if k not in unlabelled})
     else:
@@ -490,7 +584,9 @@ def _seed_design(
         spread = (1.0 + jitter * noise).clip(0.5, 1.5)
         for row, k in enumerate(("friction_coulomb", "friction_viscous", "valve_delay")):
             cols[k] = cols[k] * spread[row]
-        gauge = (cols["p_supply"] - _P_AMBIENT) * spread[3]
+        gauge = (cols["p_supply"] - _P_AMBIENT) * (
+            1.0 + SEED_SUPPLY_REPEATABILITY * noise[3]
+        )
         cols["p_supply"] = _P_AMBIENT + gauge
     frame = pd.DataFrame(cols)
     frame.insert(0, "fault", code_labels[member_code])
@@ -504,7 +600,7 @@ def simulate_seed_ensemble(
     n_members: int = 400,
     *,
     repeats: int = 20,
-    variation: str = "code",
+    variation: str = "rig",
     jitter: float = SEED_JITTER,
     signals: Sequence[str] | None = None,
     t_end: float = 10.0,
@@ -512,6 +608,8 @@ def simulate_seed_ensemble(
     seed: int = 0,
     batch_size: int = 250,
     members=None,
+    acquisition: str = "seed_rig",
+    test_cycle: str = "twin",
 ) -> Ensemble:
     """Simulate the seed's data set: fault codes grouped into the seed's 20 labels.
 
@@ -525,21 +623,26 @@ def simulate_seed_ensemble(
     size (242 codes).
 
     * each of the 15 combined labels is one code (the seed's combined-fault data set
-      has one code per pair); the other codes are shared evenly by healthy and the
-      four single faults (45 or 46 each at full size);
+      has one code per pair); the other codes go to healthy and the four single
+      faults in the proportions of the seed's data set (13, 67, 54, 49 and 44 codes at
+      full size, ``SEED_SINGLE_CODES``);
     * a code's faulty knobs are drawn from the faulty ranges of
-      :data:`PNEUMATIC_FAULTS`, its other knobs from their healthy ranges; its load
+      :data:`PNEUMATIC_FAULTS`, its other knobs are at their marks (the middle of
+      their healthy ranges; drawn from those ranges for the other variations); its load
       cycles through the four loads of table 3.2 within its label; its supply is
-      6 bar, or 5 bar when the supply pressure is a fault place of its label
-      (:data:`SEED_SUPPLY_BAR`);
-    * the parameters nobody labels (friction, valve coefficients, valve delay; the
-      ranges of :func:`simulate_fault_ensemble`) are drawn per code when
-      ``variation="code"`` (a code's repeats are recorded back to back on one rig, so
-      they differ only by sensor noise and ``jitter``) or per recording when
-      ``variation="member"`` (every recording on a slightly different rig: harder);
+      6 bar, or 5.5 bar when the supply pressure is a fault place of its label or the
+      code is one of the single-fault codes the seed recorded at the low supply
+      (:data:`SEED_SUPPLY_BAR`, ``SEED_SINGLE_LOW_SUPPLY_CODES``);
+    * the parameters nobody labels (friction, valve coefficients, valve delay) are
+      the nominal twin's for every code when ``variation="rig"`` (one rig, as the
+      seed's: its healthy recordings' residual spreads by 0.1 mm), drawn per code
+      from the ranges of :func:`simulate_fault_ensemble` when ``variation="code"``,
+      or per recording when ``variation="member"`` (every recording on a slightly
+      different rig: harder);
     * every recording gets a run-to-run spread of relative size ``jitter`` of the
-      Coulomb and viscous friction, the valve delay and the supply pressure above
-      ambient (:data:`SEED_JITTER`): a rig recorded twice at one setting does not
+      Coulomb and viscous friction and the valve delay (:data:`SEED_JITTER`), and the
+      rig's measured 0.03 % of the supply pressure above ambient
+      (``SEED_SUPPLY_REPEATABILITY``): a rig recorded twice at one setting does not
       repeat itself exactly.
 
     Parameters
@@ -549,10 +652,13 @@ def simulate_seed_ensemble(
     repeats : int, default 20
         Recordings per fault code; the number of codes is
         ``max(20, round(n_members / repeats))``.
-    variation : {"code", "member"}, default "code"
-        Whether the unlabelled parameters vary per fault code or per recording.
+    variation : {"rig", "code", "member"}, default "rig"
+        One rig with its knobs at their marks, or the unlabelled parameters (and
+        the knobs within their healthy ranges) varying per fault code or per
+        recording.
     jitter : float, default SEED_JITTER (0.02)
-        Relative run-to-run spread; 0 repeats a code exactly but for sensor noise.
+        Relative run-to-run spread of friction and valve delay; 0 repeats a code
+        exactly (the supply too) but for sensor noise.
     signals : sequence of str, optional
         Sensor signals to record (default all fifteen of seed table 3.1).
     t_end, fs : float
@@ -567,6 +673,13 @@ def simulate_seed_ensemble(
         is drawn per block of ``batch_size`` member numbers, so a part made of whole
         blocks (a slice whose start and stop are multiples of ``batch_size``) records
         exactly what the whole ensemble records.
+    acquisition : {"seed_rig", "typical"}, default "seed_rig"
+        The sensors' healthy imperfections
+        (:func:`pdmkit.models.default_sensor_specs`): the seed rig's own acquisition as
+        its recordings show it, or the twin's typical datasheet values.
+    test_cycle : {"twin", "seed_rig"}, default "twin"
+        The valve program: the twin's five 2 s cycles, or the seed rig's single cycle
+        (:data:`SEED_TEST_CYCLE`: up from 1 s to 6 s).
 
     Returns
     -------
@@ -588,7 +701,7 @@ def simulate_seed_ensemble(
     >>> ens.conditions["seed_label"].nunique(), ens.conditions["fault_code"].nunique()
     (20, 20)
     >>> sorted(set(ens.conditions["supply_bar"]))
-    [5.0, 6.0]
+    [5.5, 6.0]
     """
     if isinstance(n_members, bool) or not isinstance(n_members, int | np.integer):
         raise DataError(f"n_members must be an integer >= 20; got {n_members!r}")
@@ -603,8 +716,8 @@ def simulate_seed_ensemble(
         or repeats < 1
     ):
         raise DataError(f"repeats must be a positive integer; got {repeats!r}")
-    if variation not in ("code", "member"):
-        raise DataError(f"variation must be 'code' or 'member'; got {variation!r}")
+    if variation not in ("rig", "code", "member"):
+        raise DataError(f"variation must be 'rig', 'code' or 'member'; got {variation!r}")
     if (
         isinstance(jitter, bool)
         or not isinstance(jitter, int | float)
@@ -622,7 +735,9 @@ def simulate_seed_ensemble(
     labels = ("fault", "seed_label", "fault_code", "supply_bar")
     params = [c for c in design.columns if c not in labels]
     cols = {c: design[c].to_numpy(float) for c in params}
-    data = _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size)
+    cols.update(_test_cycle(test_cycle, len(design)))
+    specs = _acquisition_specs(acquisition)
+    data = _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size, specs)
     conditions = pd.DataFrame(
         {
             "fault": design["fault"].to_numpy(),
@@ -640,10 +755,21 @@ def simulate_seed_ensemble(
     return Ensemble(data, fs=fs, conditions=conditions, member_ids=list(ids))
 
 
-def _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size):
+def _acquisition_specs(acquisition: str):
+    """The sensors' healthy specs of an acquisition (see default_sensor_specs)."""
+    from pdmkit.models import default_sensor_specs
+
+    try:
+        return default_sensor_specs(acquisition)
+    except ModelError as exc:
+        raise DataError(str(exc).replace("default_sensor_specs: ", "")) from None
+
+
+def _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size, specs=None):
     """Simulate members in blocks of ``batch_size`` member numbers, one noise seed each.
 
     A part of the design made of whole blocks records what the whole design records.
+    ``specs``: sensor specs (scalar fields) for every member, default the twin's.
     """
     numbers = np.array([int(i[-5:]) for i in ids])
     block = numbers // batch_size
@@ -661,6 +787,7 @@ def _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size):
             seed=[seed, int(b)],
             batch_size=len(rows),
             desc="",
+            specs=specs,
         )
         for name in signals:
             out.setdefault(name, []).append(part[name])
@@ -995,6 +1122,7 @@ def pneumatic_residuals(
     t_end: float | None = None,
     reference: str = "operating_point",
     nominal_point: tuple[float, float] = (0.0, 6.0),
+    test_cycle: str = "twin",
 ) -> Ensemble:
     """Residuals of recordings against the nominal twin (seed section 8.3).
 
@@ -1020,6 +1148,9 @@ def pneumatic_residuals(
         One healthy reference per operating point, or one for all (the seed's).
     nominal_point : (float, float), default (0.0, 6.0)
         Load (kg) and supply (bar gauge) of the single reference.
+    test_cycle : {"twin", "seed_rig"}, default "twin"
+        The reference's valve program (the recordings'; see
+        :func:`simulate_seed_ensemble`).
 
     Returns
     -------
@@ -1070,6 +1201,7 @@ def pneumatic_residuals(
         mass_load=points["load_kg"].to_numpy(float),
         p_supply=_P_AMBIENT + points["supply_bar"].to_numpy(float) * 1e5,
         **healthy,
+        **_test_cycle(test_cycle, len(points)),
     )
     rate = {fs[name] for name in signals}
     if len(rate) != 1:
@@ -1116,6 +1248,35 @@ SEED_SINGLE_FAULTS = (
 )
 
 
+#: The valve program of the seed rig's recordings: one up command from 1 s to 6 s of the
+#: 10 s recording, then down (the author's ``sb/legacy/MeasurementScript.m``: sOffset =
+#: 1 s, eTime = 5 s; the recorded command ``outValveWP`` of ``data11_1_*.mat`` switches
+#: at 0.998 s and 5.999 s). The same DAQ task writes the command and samples the sensors
+#: (``DaqMeasurement.m``), so every recording starts at the same phase of the cycle. The
+#: twin's own program is five 2 s cycles from 0.1 s (``test_cycle="twin"``).
+SEED_TEST_CYCLE = {"cycle_start": 1.0, "cycle_period": 10.0, "cycle_duty": 0.5}
+
+
+def _test_cycle(test_cycle: str, n: int) -> dict[str, np.ndarray]:
+    """Valve-program parameters of ``n`` members: the twin's (none) or the seed rig's."""
+    if test_cycle == "twin":
+        return {}
+    if test_cycle != "seed_rig":
+        raise DataError(f"test_cycle must be 'twin' or 'seed_rig'; got {test_cycle!r}")
+    return {k: np.full(n, v) for k, v in SEED_TEST_CYCLE.items()}
+
+
+#: Fault codes per class of the seed's residual set (see
+#: :func:`simulate_seed_single_fault_ensemble`).
+SEED_RESIDUAL_SET_CODES = {
+    "healthy": 5,
+    "throttle_1": 8,
+    "throttle_2": 7,
+    "damper_bottom": 8,
+    "damper_upper": 5,
+}
+
+
 def simulate_seed_single_fault_ensemble(
     n_members: int = 660,
     *,
@@ -1124,16 +1285,24 @@ def simulate_seed_single_fault_ensemble(
     jitter: float | None = None,
     t_end: float = 10.0,
     seed: int = 0,
+    variation: str = "rig",
+    test_cycle: str = "twin",
 ):
     """The seed's smaller data set (8.2.1) on the twin: single faults at one point.
 
     The set of the seed's residual classification (8.3; the author's ``data11``: 660
     recordings). Built like :func:`simulate_seed_ensemble` (fault codes of
     ``repeats`` recordings, faulty knobs from :data:`~pdmkit.ensembles.PNEUMATIC_FAULTS`,
-    unlabelled parameters per code, run-to-run ``jitter``), but with only healthy and
-    the four single faults (the ``ClassNames`` of the author's ``train_model.m``) and
+    one rig with its other knobs at their marks, run-to-run ``jitter``), but with only
+    healthy and the four single faults (the ``ClassNames`` of the author's
+    ``train_model.m``), in the proportions of the author's set (100, 160, 140, 160 and
+    100 recordings of healthy, valve1, valve2, damp_small_bot, damp_small_up in
+    ``mb/featuretables/residual_featuretable.mat``: 5, 8, 7, 8 and 5 codes of 20), and
     every recording at ``operating_point`` (load kg, supply bar gauge): only the
-    ``LeverPosition`` signal.
+    ``LeverPosition`` signal. ``variation="code"`` draws the unlabelled parameters and
+    the knobs that are not faulty per code instead (pdmkit's reading before);
+    ``test_cycle="seed_rig"`` records the rig's valve program (:data:`SEED_TEST_CYCLE`)
+    instead of the twin's.
 
     Examples
     --------
@@ -1148,17 +1317,27 @@ def simulate_seed_single_fault_ensemble(
         raise DataError(
             f"n_members must be >= {len(SEED_SINGLE_FAULTS)}; got {n_members!r}"
         )
+    if variation not in ("rig", "code"):
+        raise DataError(f"variation must be 'rig' or 'code'; got {variation!r}")
     rng = np.random.default_rng([seed, 83])
     n_codes = max(len(SEED_SINGLE_FAULTS), round(n / int(repeats)))
-    code_labels = np.array([SEED_SINGLE_FAULTS[i % 5] for i in range(n_codes)])
-    knobs = _fault_settings(code_labels, rng)
+    per_class = _shares(n_codes, [SEED_RESIDUAL_SET_CODES[c] for c in SEED_SINGLE_FAULTS])
+    code_labels = np.repeat(np.array(SEED_SINGLE_FAULTS), per_class)
+    knobs = _fault_settings(code_labels, rng, at_mark=variation == "rig")
     member_code = np.arange(n) % n_codes
     rng.shuffle(member_code)
     cols = {k: v[member_code] for k, v in knobs.items()}
-    drawn = _operating_conditions(n_codes, rng)
-    cols.update(
-        {k: v[member_code] for k, v in drawn.items() if k not in ("mass_load", "p_supply")}
-    )
+    if variation == "rig":
+        cols.update(_one_rig(n))
+    else:
+        drawn = _operating_conditions(n_codes, rng)
+        cols.update(
+            {
+                k: v[member_code]
+                for k, v in drawn.items()
+                if k not in ("mass_load", "p_supply")
+            }
+        )
     load_kg, supply_bar = (float(v) for v in operating_point)
     cols["mass_load"] = np.full(n, load_kg)
     gauge = np.full(n, supply_bar * 1e5)
@@ -1167,10 +1346,12 @@ def simulate_seed_single_fault_ensemble(
         spread = (1.0 + jitter * noise).clip(0.5, 1.5)
         for row, k in enumerate(("friction_coulomb", "friction_viscous", "valve_delay")):
             cols[k] = cols[k] * spread[row]
-        gauge = gauge * spread[3]
+        gauge = gauge * (1.0 + SEED_SUPPLY_REPEATABILITY * noise[3])
     cols["p_supply"] = _P_AMBIENT + gauge
+    cols.update(_test_cycle(test_cycle, n))
     ids = np.array([f"seed{i:05d}" for i in range(n)])
-    data = _simulate_members(cols, ids, seed, t_end, 1000.0, ["LeverPosition"], 250)
+    specs = _acquisition_specs("seed_rig")
+    data = _simulate_members(cols, ids, seed, t_end, 1000.0, ["LeverPosition"], 250, specs)
     labels = code_labels[member_code]
     conditions = pd.DataFrame(
         {

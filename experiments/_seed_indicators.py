@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pdmkit.ensembles import SEED_SINGLE_FAULTS
+from pdmkit._outputs import to_jsonable
+from pdmkit.ensembles import SEED_SINGLE_FAULTS, pneumatic_residuals
 from pdmkit.errors import DataError
 
 __all__ = [
@@ -195,8 +196,6 @@ class SeedResult:
 
     def to_dict(self) -> dict[str, Any]:
         """The result as plain JSON-able values."""
-        from pdmkit._outputs import to_jsonable
-
         return to_jsonable(
             {
                 "recipe": self.recipe,
@@ -326,8 +325,6 @@ def seed_feature_table(
     >>> seed_feature_table(ens).filter(like="_stats/Mean").columns.tolist()
     ['FlowContraction_stats/Mean']
     """
-    from pdmkit.ensembles import pneumatic_residuals
-
     have = set(ensemble.signal_names)
     if sensors is None:
         sensors = [s for s, r in SEED_SENSOR_RECIPES.items() if set(r.signals) <= have]

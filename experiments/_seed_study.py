@@ -52,6 +52,7 @@ from typing import Any
 import pandas as pd
 
 from pdmkit._progress import progress
+from pdmkit.ensembles import simulate_seed_ensemble
 from pdmkit.errors import DataError
 from pdmkit.experiments._seed_indicators import (
     SeedResult,
@@ -143,8 +144,6 @@ def seed_ensemble_parts(n_members: int, *, part_size: int = 242, **options):
     >>> [len(p) for p in parts]
     [25, 15]
     """
-    from pdmkit.ensembles import simulate_seed_ensemble
-
     starts = range(0, n_members, part_size)
     for start in progress(starts, desc="seed data set", total=len(starts)):
         yield simulate_seed_ensemble(
@@ -159,7 +158,7 @@ def run_seed_study(
     n_members: int = 4840,
     *,
     repeats: int = 20,
-    variation: str = "code",
+    variation: str = "rig",
     jitter: float | None = None,
     part_size: int = 242,
     leak_runs: int = 25,
@@ -168,6 +167,7 @@ def run_seed_study(
     t_end: float = 10.0,
     split: str = "seed",
     seed: int = 0,
+    test_cycle: str = "twin",
 ) -> dict[str, Any]:
     """The whole seed study on the twin: data set, every recipe, the sensor table.
 
@@ -193,6 +193,9 @@ def run_seed_study(
     t_end : float, default 10.0
     split : {"seed", "code"}, default "seed"
     seed : int, default 0
+    test_cycle : {"twin", "seed_rig"}, default "twin"
+        The valve program of every recording
+        (:func:`pdmkit.ensembles.simulate_seed_ensemble`).
 
     Returns
     -------
@@ -221,6 +224,7 @@ def run_seed_study(
             **({} if jitter is None else {"jitter": jitter}),
             t_end=t_end,
             seed=seed,
+            test_cycle=test_cycle,
         )
     ]
     table = pd.concat(parts)
@@ -234,7 +238,7 @@ def run_seed_study(
     )
     # the seed's residual study has its own, smaller data set (8.2.1, 8.3)
     results["residual_classification"] = seed_residual_classification(
-        split=split, t_end=t_end, seed=seed
+        split=split, t_end=t_end, seed=seed, test_cycle=test_cycle
     )
     sensors = seed_sensor_table(table, split=split, seed=seed)
     seconds["classification"] = round(time.perf_counter() - stage, 1)
@@ -265,5 +269,6 @@ def run_seed_study(
             "split": split,
             "seed": int(seed),
             "t_end": float(t_end),
+            "test_cycle": test_cycle,
         },
     }

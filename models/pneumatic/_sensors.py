@@ -3,7 +3,12 @@
 Each sensor turns noise-free model quantities (SI) into the reading the real sensor
 reports, in its unit, then a :class:`SensorSpec` adds what can go wrong with a sensor:
 gain error, offset, drift, noise, quantisation and dropout (seed 8.1.1: "noise" and
-"offset" sensor faults, drift and complete signal loss).
+"offset" sensor faults, drift and complete signal loss), and for the two proximity
+switches the repeatability of their switching point.
+
+Two sets of healthy imperfections (:func:`default_sensor_specs`): ``"typical"``, the
+twin's long-standing assumed datasheet values, and ``"seed_rig"``, the seed rig's own
+acquisition as its recordings show it (:data:`SEED_RIG_ACQUISITION`).
 """
 
 from __future__ import annotations
@@ -20,6 +25,36 @@ from scipy import signal as sps
 from pdmkit.errors import ModelError, did_you_mean
 
 __all__ = ["SENSOR_NAMES", "SENSOR_UNITS", "SensorSpec", "default_sensor_specs"]
+
+#: The seed rig's acquisition of its analogue channels, measured in the author's
+#: recordings (github.com/xvoron/thesis, ``models/models_datastore/data11_1_1..3.mat``:
+#: three healthy 10 s recordings of fault code 1100001 at 6.25 kg, 6 bar):
+#: signal -> (resolution, standard deviation at rest), in the signal's unit. The
+#: resolution is the spacing of the recorded values; the rest spread is that of the
+#: last second (piston at rest at the bottom, reservoir refilled), the mean of the
+#: three recordings. The channels on the rig's NI 9221 module (12 bit over its
+#: +-62.5 V nominal range: 30.5 mV per count, ``sb/legacy/MeasurementScript.m``) read
+#: one count times each transmitter's scale (``sb/legacy/Conversion_*.m``): the
+#: reservoir pressure transmitter 6.25 bar/V -> 0.1907 bar (recorded: 0.19066), the
+#: flow sensors 5 l/min/V -> 0.1525 l/min (0.15253), the accelerometers 3.0 g/V
+#: (333 mV/g) -> 0.0916 g (0.09162), the strain gauge's load cell 200 N/V -> 6.1 N
+#: (6.101). The standard deviation at rest is about one count: the module's input
+#: noise over the transmitters' 0.4-2 V and 0-10 V signals.
+SEED_RIG_ACQUISITION: dict[str, tuple[float, float]] = {
+    "AirPressure": (0.19066, 0.168),
+    "FlowExtrusion": (0.15253, 0.129),
+    "FlowContraction": (0.15253, 0.125),
+    # recorded in g and N; here in m/s^2 (g = 9.81 as Conversion_Acc.m) and in Pa at
+    # the default strain_area of 1e-4 m^2
+    "AccelerometerMoving_axisZ": (0.091621 * 9.81, 0.0809 * 9.81),
+    "AccelerometerStatic_axisZ": (0.091619 * 9.81, 0.0794 * 9.81),
+    "StrainGauge": (6.101e4, 5.544e4),
+}
+
+#: Repeat accuracy of the switching point of the rig's proximity switches, m (Festo
+#: SMT-8M-A-PS-24V-E-0,3-M8D, part 574334: "Repetition accuracy 0.2 mm"; its datasheet
+#: is ``doc/sensors/574334datasheet.pdf`` of the author's repository).
+SMT_8M_REPEATABILITY = 2e-4
 
 #: Reference atmosphere for standard flow (ISO 8778 / ISO 6358 "ANR"): 20 degC, 100 kPa.
 P_STD = 1.0e5
@@ -73,6 +108,9 @@ class SensorSpec:
         y = quantization * round(y / quantization)          (if quantization > 0)
         y[lost] = dropout_fill   with P(lost) = dropout     (each sample independently)
 
+    ``switch_repeatability`` is for the proximity switches only (they threshold the
+    position, m, see the module notes): the spread of the switching point.
+
     Every field is a float or an array of shape ``(n_members,)`` so that each member
     of a simulated ensemble can carry its own sensor fault.
 
@@ -92,6 +130,13 @@ class SensorSpec:
         Value recorded for lost samples (0, as a dead analogue channel reads; NaN allowed).
     quantization : float
         Resolution (LSB); 0 = none.
+    switch_repeatability : float
+        Proximity switches only: repeat accuracy of the switching point in m (the
+        full width of its spread, as datasheets state it, e.g. 0.2 mm for the rig's
+        Festo SMT-8M-A, part 574334). Each approach of the piston switches at a point
+        drawn uniformly within +-half of it around the nominal point and releases at
+        the same point (no hysteresis stated); 0 = the exact point every time.
+        Ignored by the analogue sensors.
 
     Examples
     --------
@@ -109,6 +154,7 @@ class SensorSpec:
     dropout: Any = 0.0
     dropout_fill: Any = 0.0
     quantization: Any = 0.0
+    switch_repeatability: Any = 0.0
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -125,6 +171,7 @@ class SensorSpec:
         checks = [
             ("noise_std", lambda v: v >= 0, ">= 0"),
             ("quantization", lambda v: v >= 0, ">= 0"),
+            ("switch_repeatability", lambda v: v >= 0, ">= 0"),
             ("dropout", lambda v: (v >= 0) & (v <= 1), "in [0, 1]"),
             ("gain_error", lambda v: v > -1, "> -1"),
         ]
@@ -218,17 +265,32 @@ class SensorSpec:
         return y[0] if one_d else y
 
 
-def default_sensor_specs() -> dict[str, SensorSpec]:
+def default_sensor_specs(acquisition: str = "typical") -> dict[str, SensorSpec]:
     """Healthy sensor imperfections of the fifteen sensors of seed table 3.1.
 
-    Noise levels and resolutions are typical datasheet values for such sensors
-    (assumed; the seed's ``models/sensors.pdf`` is not available), except the encoder
-    resolution of about 7 um that the seed states (section 4.6).
+    ``"typical"``: noise levels and resolutions typical of datasheets for such sensors
+    (assumed), except the encoder resolution of about 7 um that the seed states
+    (section 4.6). ``"seed_rig"``: the same, with the channels of
+    :data:`SEED_RIG_ACQUISITION` as the seed rig's recordings show them (white noise
+    and the recorded resolution; the noise is the rest spread less the resolution's
+    own ``q / sqrt(12)``), and the proximity switches' switching point repeating to the
+    0.2 mm of the rig's switches (Festo SMT-8M-A-PS-24V-E-0,3-M8D, part 574334, the
+    datasheet in the author's repository: "Repetition accuracy 0.2 mm").
+
+    Parameters
+    ----------
+    acquisition : {"typical", "seed_rig"}, default "typical"
+        Which set.
 
     Returns
     -------
     dict of str to SensorSpec
         Keyed by the datastore signal names of table 3.1 (see :data:`SENSOR_UNITS`).
+
+    Raises
+    ------
+    pdmkit.errors.ModelError
+        An unknown ``acquisition``.
 
     Examples
     --------
@@ -236,9 +298,12 @@ def default_sensor_specs() -> dict[str, SensorSpec]:
     >>> specs = default_sensor_specs()
     >>> len(specs), specs["LeverPosition"].quantization
     (15, 7e-06)
+    >>> rig = default_sensor_specs("seed_rig")
+    >>> rig["AirPressure"].quantization, rig["ProximitySensor_upper"].switch_repeatability
+    (0.19066, 0.0002)
     """
     S = SensorSpec
-    return {
+    specs = {
         "LeverPosition": S(quantization=7e-6),
         "LeverVelocity": S(noise_std=2e-3),
         "AccelerometerMoving_axisZ": S(noise_std=0.1),
@@ -255,6 +320,19 @@ def default_sensor_specs() -> dict[str, SensorSpec]:
         "ProximitySensor_upper": S(),
         "ProximitySensor_bottom": S(),
     }
+    if acquisition == "typical":
+        return specs
+    if acquisition != "seed_rig":
+        raise ModelError(
+            f"default_sensor_specs: acquisition must be 'typical' or 'seed_rig'; got "
+            f"{acquisition!r}."
+        )
+    for name, (resolution, rest_std) in SEED_RIG_ACQUISITION.items():
+        noise = math.sqrt(max(rest_std**2 - resolution**2 / 12.0, 0.0))
+        specs[name] = S(noise_std=round(noise, 6), quantization=round(resolution, 6))
+    for name in ("ProximitySensor_upper", "ProximitySensor_bottom"):
+        specs[name] = S(switch_repeatability=SMT_8M_REPEATABILITY)
+    return specs
 
 
 def resolve_specs(sensor_specs: Mapping[str, SensorSpec] | None) -> dict[str, SensorSpec]:
@@ -389,6 +467,42 @@ def ideal_readings(
     return out
 
 
+def _switch(x, point, spec: SensorSpec, rng: np.random.Generator) -> np.ndarray:
+    """0/1 output of a switch that is on while ``x >= point`` (members x samples).
+
+    With ``spec.switch_repeatability`` > 0 every approach switches at its own point,
+    drawn uniformly within +-half the repeatability around ``point``, and releases at
+    that point; the next approach, once the piston has left that zone, draws again.
+    """
+    point = np.broadcast_to(np.asarray(point, dtype=np.float64), (x.shape[0], 1))
+    spread = np.broadcast_to(
+        np.asarray(spec.switch_repeatability, dtype=np.float64).reshape(-1, 1),
+        (x.shape[0], 1),
+    )
+    on = x >= point
+    if not np.any(spread > 0):
+        return on.astype(np.float64)
+    out = np.zeros(x.shape)
+    for i in np.flatnonzero(spread[:, 0] > 0):
+        xi, k, n = x[i], 0, x.shape[1]
+        while k < n:
+            here = point[i, 0] + spread[i, 0] * (rng.random() - 0.5)
+            # off until the piston reaches this approach's point, then on until it
+            # falls back below it
+            rise = np.flatnonzero(xi[k:] >= here)
+            if rise.size == 0:
+                break
+            start = k + int(rise[0])
+            fall = np.flatnonzero(xi[start:] < here)
+            k = start + int(fall[0]) if fall.size else n
+            out[i, start:k] = 1.0
+            # the next approach starts once the piston has left the switching zone
+            away = np.flatnonzero(xi[k:] < point[i, 0] - 0.5 * spread[i, 0])
+            k = k + int(away[0]) if away.size else n
+    out[spread[:, 0] <= 0] = on[spread[:, 0] <= 0]
+    return out
+
+
 def _seed_sequence(seed) -> np.random.SeedSequence:
     """The seed (int / None / SeedSequence / Generator) as a SeedSequence."""
     if isinstance(seed, np.random.SeedSequence):
@@ -429,13 +543,13 @@ def sensor_outputs(
             spec = _spec_rows(specs[name], rows)
             if name.startswith("ProximitySensor"):
                 # the spec acts on the sensed position (m); the switch thresholds it
-                sensed = spec.replace(dropout=0.0, quantization=0.0).apply(
-                    part["position"], fs, stream[name]
-                )
+                sensed = spec.replace(
+                    dropout=0.0, quantization=0.0, switch_repeatability=0.0
+                ).apply(part["position"], fs, stream[name])
                 if name.endswith("upper"):
-                    on = (sensed >= stroke - dist).astype(np.float64)
-                else:
-                    on = (sensed <= dist).astype(np.float64)
+                    on = _switch(sensed, stroke - dist, spec, stream[name])
+                else:  # on below the point: the same switch on the mirrored position
+                    on = _switch(-sensed, -dist, spec, stream[name])
                 if np.any(np.asarray(spec.dropout) > 0):
                     on = SensorSpec(
                         dropout=spec.dropout, dropout_fill=spec.dropout_fill

@@ -221,3 +221,52 @@ def test_seed_accepts_seed_sequences_and_generators() -> None:
     simulate_piston(t_end=0.05, sensors=["MIC_Ambient"], seed=np.random.default_rng(1))
     with pytest.raises(ModelError, match="seed must be"):
         simulate_piston(t_end=0.05, sensors=["MIC_Ambient"], seed="abc")
+
+
+# ------------------------------------------------------------ the seed rig's acquisition
+def test_seed_rig_resolution_is_one_count_of_its_12_bit_module() -> None:
+    # NI 9221: 12 bit over its +-62.5 V nominal range; the transmitters' scales of the
+    # author's Conversion_*.m: pressure 6.25 bar/V, flow 50 l/min / 10 V, acc 1/0.333 g/V
+    count = 125.0 / 4096
+    rig = default_sensor_specs("seed_rig")
+    assert rig["AirPressure"].quantization == pytest.approx(6.25 * count, rel=1e-3)
+    assert rig["FlowContraction"].quantization == pytest.approx(5.0 * count, rel=1e-3)
+    acc = rig["AccelerometerMoving_axisZ"].quantization / 9.81
+    assert acc == pytest.approx(count / 0.333, rel=1e-3)
+    # the typical set is unchanged (the twin's other users keep it)
+    assert default_sensor_specs()["AirPressure"].quantization == 1e-3
+    with pytest.raises(ModelError, match="acquisition"):
+        default_sensor_specs("rig")
+
+
+def test_seed_rig_pressure_reading_at_rest_is_the_recorded_one() -> None:
+    # a steady 6 bar through the rig's acquisition: values on a grid of one count, a
+    # spread of 0.168 bar (the author's recordings, last second at rest)
+    spec = default_sensor_specs("seed_rig")["AirPressure"]
+    y = spec.apply(np.full((4, 10_000), 6.05), fs=FS, rng=0)
+    steps = np.diff(np.unique(np.round(y, 6)))
+    np.testing.assert_allclose(steps, 0.19066, rtol=1e-6)
+    assert y.std(axis=1) == pytest.approx(np.full(4, 0.168), rel=0.03)
+
+
+def test_switch_repeatability_spreads_the_switching_point_uniformly() -> None:
+    # a slow ramp up and down through the upper switch's point, 400 approaches: each
+    # switches once on and once off, at points uniform within +-0.1 mm (std 0.2/sqrt(12))
+    from pdmkit.models.pneumatic._sensors import _switch
+
+    up = np.linspace(0.150, 0.160, 5001)  # 2 um a sample
+    ramp = np.concatenate([up, up[::-1]])
+    x = np.tile(np.tile(ramp, 4), (100, 1))
+    spec = SensorSpec(switch_repeatability=2e-4)
+    on = _switch(x, 0.155, spec, np.random.default_rng(0))
+    edges = np.diff(on, axis=1)
+    assert (edges == 1).sum() == (edges == -1).sum() == 400  # no chatter
+    rows, cols = np.nonzero(edges == 1)
+    points = x[rows, cols + 1]
+    assert np.abs(points - 0.155).max() <= 1.0e-4 + 2e-6
+    assert points.std() == pytest.approx(2e-4 / np.sqrt(12), rel=0.15)
+    assert stats.kstest((points - 0.155) / 2e-4 + 0.5, "uniform").pvalue > 0.001
+    exact = _switch(x, 0.155, SensorSpec(), np.random.default_rng(0))
+    np.testing.assert_array_equal(exact, (x >= 0.155).astype(float))
+    with pytest.raises(ModelError, match="switch_repeatability"):
+        SensorSpec(switch_repeatability=-1.0)
