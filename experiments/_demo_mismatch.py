@@ -26,6 +26,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from pdmkit.ensembles import load_dataset
+from pdmkit.errors import DataError
+
 __all__ = ["DemoMismatch", "demo_mismatch_cases"]
 
 #: The concealed effect of the demo and where it hides.
@@ -158,8 +161,6 @@ def cascaded_tanks_case(max_seconds: float | None = None) -> DemoMismatch | None
     DemoMismatch or None
         None when ``$PDMKIT_DATA/cascaded_tanks`` is not there.
     """
-    from pdmkit.ensembles import load_dataset
-    from pdmkit.errors import DataError
     from pdmkit.models.ode import showcase_model
 
     try:

@@ -230,3 +230,108 @@ def _defining_module(package: str, name: str) -> str:
                 return _defining_module(target, name)
             return target
     return _lazy_map(package).get(name, package)
+
+
+# ------------------------------------------------------------ imports inside functions
+#: Third-party packages that cost a good part of a second to import, or start machinery
+#: (the import-weight test's list, plus the optional extras).
+HEAVY = {
+    "sklearn", "scipy", "pandas", "pyarrow", "torch", "matplotlib", "tqdm", "dask",
+    "distributed", "control", "starlette", "uvicorn", "plotly", "selenium", "lifelines",
+}  # fmt: skip
+#: Modules that must import lightly: what ``pdmkit``, ``pdmkit --help`` and
+#: ``import pdmkit.<layer>`` load (``tests/test_import_weight.py`` holds their weight).
+LIGHT_ROOTS = (
+    "pdmkit",
+    "pdmkit._entry",
+    "pdmkit.errors",
+    "pdmkit._progress",
+    "pdmkit.experiments._cli",
+    *(f"pdmkit.{layer}" for layer in LAYERS),
+)
+
+#: (importer, imported module) -> why the import stays inside a function
+LAZY_DEBT: dict[tuple[str, str], str] = {}
+
+
+def _module_level(module: str) -> tuple[set[str], set[str], list[tuple[str, int]]]:
+    """(pdmkit modules imported at module level, heavy packages imported at module
+    level, [(pdmkit module imported inside a function, line)]) of ``module``; names
+    taken from a package resolve to the module defining them (lazy maps too)."""
+    tree = ast.parse(SOURCES[module].read_text(encoding="utf-8"))
+    inner = {
+        node.lineno
+        for f in ast.walk(tree)
+        if isinstance(f, ast.FunctionDef | ast.AsyncFunctionDef)
+        for node in ast.walk(f)
+        if isinstance(node, ast.Import | ast.ImportFrom)
+    }
+    heavy = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import | ast.ImportFrom) and node.lineno not in inner:
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""] * (not node.level)
+            )
+            heavy |= {n.split(".")[0] for n in names} & HEAVY
+    top, in_functions = set(), []
+    for target, name, line in _imports(module):
+        if target not in SOURCES:
+            continue
+        defining = target
+        if SOURCES[target].name == "__init__.py" and name is not None:
+            defining = _defining_module(target, name)
+        if line in inner:
+            in_functions.append((defining, line))
+        else:  # importing a.b.c runs a/__init__ and a/b/__init__ too
+            parts = defining.split(".")
+            top |= {".".join(parts[:k]) for k in range(2, len(parts) + 1)} & set(SOURCES)
+            top.add(target)
+    return top, heavy, in_functions
+
+
+def test_imports_inside_functions_only_keep_modules_light() -> None:
+    """An import of pdmkit's own code inside a function hides coupling from the reader
+    (and from the module's import list); it is kept only where it defers weight:
+
+    * it loads a heavy package (scipy, scikit-learn, torch, ...) that the importing
+      module does not load already, e.g. ``pdmkit.models`` from a workflow that only
+      sometimes fits a model; or
+    * the importing module must stay light (what ``import pdmkit``, ``pdmkit --help``
+      and ``import pdmkit.<layer>`` load) and the target is not loaded with it yet.
+
+    Any other one belongs at the top of the module.
+    """
+    info = {m: _module_level(m) for m in SOURCES}
+    closures: dict[str, set[str]] = {}
+
+    def closure(m: str) -> set[str]:
+        if m not in closures:
+            seen, stack = {m}, [m]
+            while stack:
+                for t in info[stack.pop()][0]:
+                    if t not in seen:
+                        seen.add(t)
+                        stack.append(t)
+            closures[m] = seen
+        return closures[m]
+
+    def heavy(m: str) -> set[str]:
+        return set().union(*(info[x][1] for x in closure(m)))
+
+    light = set().union(*(closure(root) for root in LIGHT_ROOTS))
+    found = defaultdict(list)
+    for m in SOURCES:
+        for target, line in info[m][2]:
+            defers_heavy = bool(heavy(target) - heavy(m))
+            keeps_light = m in light and target not in closure(m)
+            in_cycle = any(m in c and target in c for c in CYCLE_DEBT)
+            if not (defers_heavy or keeps_light or in_cycle):
+                found[(m, target)].append(f"{m}:{line} imports {target} in a function")
+    new = {k: v for k, v in found.items() if k not in LAZY_DEBT}
+    assert not new, "imports that belong at the top of their module:\n" + "\n".join(
+        line for v in new.values() for line in v
+    )
+    mended = sorted(set(LAZY_DEBT) - set(found))
+    assert not mended, f"mended, remove from LAZY_DEBT: {mended}"

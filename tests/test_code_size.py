@@ -23,10 +23,6 @@ LONG_MODULES: dict[str, str] = {
         "the twin's batched estimation: problem, stepper, LM, intervals; the LM to "
         "share models/_optim.py with mismatch's (issue 16)"
     ),
-    "models/mismatch/_candidates.py": (
-        "the 22 candidate effects, one class each; to split by where they attach "
-        "(velocity, input, level, output)"
-    ),
     "ensembles/_pneumatic.py": (
         "the twin's five data-set generators; to split (fault ensembles, the seed's "
         "sets, leak runs)"

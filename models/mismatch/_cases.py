@@ -21,7 +21,16 @@ import numpy as np
 
 from pdmkit.errors import ModelError
 from pdmkit.models._xp import NumpyNamespace
-from pdmkit.models.mismatch._candidates import CANDIDATE_IDS, CANDIDATES, Effect, Scales
+from pdmkit.models.mismatch._candidates import (
+    CANDIDATE_IDS,
+    CANDIDATES,
+    Effect,
+    Scales,
+    attach_candidates,
+)
+from pdmkit.models.mismatch._discover import discover_mismatch
+from pdmkit.models.mismatch._fit import Recording, _nominal_scales
+from pdmkit.models.mismatch._sparse import SparseTerms, Term
 from pdmkit.models.ode import (
     integrate_batch,
     load_model_source,
@@ -277,8 +286,6 @@ class ConcealedCase:
 
 def _sparse_truth(model, system: str, target: str, X, u, sc: Scales) -> Effect:
     """The hidden data-driven term of a ``sparse`` case (its coefficient is c0)."""
-    from pdmkit.models.mismatch._sparse import SparseTerms, Term
-
     label, sign = _SPARSE_TRUTH[system, target]
     term = Term.parse(label)
     data = {**{s: X[:, j] for j, s in enumerate(model.states)}, **u}
@@ -344,8 +351,6 @@ def generate_concealed_case(  # noqa: C901, PLR0915
     >>> case.target, list(case.data.columns), case.model.free
     ('v', ['time', 'F', 'x'], ['k'])
     """
-    from pdmkit.models.mismatch._fit import Recording, _nominal_scales
-
     if not (isinstance(strength, int | float) and 0 < strength < 5):
         raise ModelError(
             f"generate_concealed_case: strength must be in (0, 5); got {strength!r}."
@@ -413,8 +418,6 @@ def generate_concealed_case(  # noqa: C901, PLR0915
         else:
             cand = CANDIDATES[effect, attach]
             probe = Effect(cand, tgt, partner, {})
-            from pdmkit.models.mismatch._candidates import attach_candidates
-
             opts = next(
                 e.options
                 for e in attach_candidates(true_model, sc, [effect])
@@ -523,8 +526,6 @@ def example_result(seed: int = 1):
     >>> example_result().verdict["effect"]
     'none'
     """
-    from pdmkit.models.mismatch._discover import discover_mismatch
-
     case = generate_concealed_case("none", 0.2, seed=seed, n_samples=300)
     return discover_mismatch(case.model, case.data, effects=["sensor_offset"])
 
@@ -579,8 +580,6 @@ def score_concealed_cases(
     import time as _time
 
     import pandas as pd
-
-    from pdmkit.models.mismatch._discover import discover_mismatch
 
     if "candidates" in options:
         options["effects"] = options.pop("candidates")

@@ -43,8 +43,8 @@ from typing import Any
 
 import numpy as np
 
+from pdmkit._progress import progress_bar
 from pdmkit.errors import ConvergenceWarning, ModelError
-from pdmkit.models._residuals import dm_test
 from pdmkit.models.mismatch._candidates import SPARSE_ID, Scales, attach_candidates
 from pdmkit.models.mismatch._fit import (
     DEADLINE,
@@ -76,7 +76,9 @@ from pdmkit.models.mismatch._select import (
     _simpler_rival,
     _white,
     _within_reach,
+    p_value,
 )
+from pdmkit.models.mismatch._sparse import fit_sparse
 from pdmkit.models.mismatch._verdict import (
     MismatchResult,
     _result,
@@ -298,8 +300,6 @@ class _Stages:
 
     def __init__(self, max_seconds: float | None, enable: bool | None):
         import time
-
-        from pdmkit._progress import progress_bar
 
         self.start = time.perf_counter()
         self.max_seconds = max_seconds
@@ -550,15 +550,13 @@ def _sparse_terms(f: _Fits, nominal: _Job, base: _Scored, ref: _Scored, signific
     equations, the equation that became the verdict or None, whether an equation beat the
     named explanation without whitening the residual)``.
     """
-    from pdmkit.models.mismatch._sparse import fit_sparse
-
     sjobs = fit_sparse(f.problem, f.model, nominal.values(), f.sc, f.x_scale, x0=nominal.x0)
     scored = [_Scored(j, j.tag, j.effects, n_sub=f.problem.n_sub) for j in sjobs]
     if not scored:
         return scored, None, False
     f.score(scored)
     for s in scored:
-        s.p_value = dm_test(base.e_val, s.e_val)[1]
+        s.p_value = p_value(base, s)
     cand = min(scored, key=lambda s: s.rmse_val)
     # it replaces an accepted named effect only when it also whitens the residual (the
     # named one did not): a closer fit alone is not a better explanation of real data
@@ -585,7 +583,7 @@ def _single_effects(f: _Fits, s: _Setup, nominal, ranked, kept, n_sub_of, o: _Op
     f.score(checked, everyone=scored)
     base, singles = scored[0], scored[1:]
     for x in checked[1:]:
-        x.p_value = dm_test(base.e_val, x.e_val)[1]
+        x.p_value = p_value(base, x)
     refitted = [x for x in singles if x.refit]
     chosen = (
         _choose(refitted, o.tie_tolerance, o.min_improvement, s.rec.ts) if singles else None

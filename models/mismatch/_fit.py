@@ -937,8 +937,13 @@ def decimate(rec: Recording, factor: int) -> Recording:
     )
 
 
-#: records of up to this many fitted samples are simulated whole
+#: records of up to this many fitted samples are simulated whole ...
 PIECES_FROM = 3000
+#: ... unless the model integrates (a pole at zero: a position driven by a force), whose
+#: free-run error drifts without bound: from this many samples such a record is fitted
+#: in pieces too, so that no drift runs longer than a piece (one long drift leaves the
+#: fit with many local minima: open-loop friction fits on EMPS stopped in them)
+PIECES_FROM_INTEGRATING = 1000
 #: at most this many samples in the fitted pieces of a long record
 PIECES_BUDGET = 16000
 #: a piece lasts this many of the model's slowest time constants ...
@@ -953,10 +958,12 @@ def choose_pieces(
     """Where a long record is cut into pieces for the fit (multiple shooting).
 
     Returns ``(starts, length)`` or ``None`` (fit the record whole): records of up to
-    :data:`PIECES_FROM` samples, and models whose right-hand side reads the time,
-    are fitted whole. A piece lasts :data:`PIECE_TIME_CONSTANTS` of the model's
-    slowest decaying mode (at least :data:`PIECE_MIN` samples), so that its own
-    initial state, fitted with it, has faded long before its end; at most
+    :data:`PIECES_FROM` samples (:data:`PIECES_FROM_INTEGRATING` for a model with an
+    integrating mode, a zero eigenvalue of its state Jacobian), and models whose
+    right-hand side reads the time, are fitted whole. A piece lasts
+    :data:`PIECE_TIME_CONSTANTS` of the model's slowest decaying mode (at least
+    :data:`PIECE_MIN` samples), so that its own initial state, fitted with it, has
+    faded long before its end; at most
     :data:`PIECES_BUDGET` samples are fitted, in pieces spread evenly over the record.
 
     Examples
@@ -972,7 +979,7 @@ def choose_pieces(
     >>> int(starts[0]), len(starts) * length <= 16000
     (0, True)
     """
-    if n_fit <= PIECES_FROM:
+    if n_fit <= min(PIECES_FROM, PIECES_FROM_INTEGRATING):
         return None
     head = part(rec, 0, min(n_fit, _PREFIX))
     X = simulate_states(model, head, values, n_sub)
@@ -990,13 +997,16 @@ def choose_pieces(
         a, b = np.asarray(d0[s], dtype=float), np.asarray(d1[s], dtype=float)
         if not np.allclose(a, b, rtol=1e-12, atol=0.0, equal_nan=True):
             return None
-    rates = []
+    rates, integrating = [], []
     for J in state_jacobians(model, P, X, {k: v for k, v in head.inputs.items()}, 12):
         lam = np.linalg.eigvals(J)
-        fast = float(np.max(np.abs(lam)))
-        decay = -lam.real[-lam.real > 1e-6 * max(fast, 1e-300)]
+        fast = max(float(np.max(np.abs(lam))), 1e-300)
+        decay = -lam.real[-lam.real > 1e-6 * fast]
+        integrating.append(bool(np.any(np.abs(lam) <= 1e-9 * fast)))
         if decay.size:
             rates.append(float(np.min(decay)))
+    if n_fit <= PIECES_FROM and not (integrating and all(integrating)):
+        return None
     ts = rec.ts
     if rates:
         length = math.ceil(PIECE_TIME_CONSTANTS / float(np.median(rates)) / ts)

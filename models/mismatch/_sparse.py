@@ -30,6 +30,7 @@ import numpy as np
 
 from pdmkit.errors import ModelError
 from pdmkit.models.mismatch._candidates import Candidate, Effect, ParamSpec, Scales
+from pdmkit.models.mismatch._fit import _fd_jacobians, _fd_rows, _lm, _make_jobs
 
 __all__ = ["SparseTerms", "Term", "library_terms", "sparse_equation", "stlsq_path"]
 
@@ -47,6 +48,9 @@ _TARGET_KINDS = (
 )
 _VEL = ("velocity", "angular_velocity")
 _LEVEL = ("level", "pressure")
+#: relative cost change below which a refit of an equation stops (twice in a row): the
+#: selection compares equations by BIC, which a change this small does not reorder
+SPARSE_FTOL = 1e-4
 
 
 # ---------------------------------------------------------------------------- terms
@@ -464,8 +468,6 @@ def _jacobian(problem, job):
     they cannot explain (piece by piece), so a selection on ``(r, J)`` is the selection
     with the initial states refitted at every step.
     """
-    from pdmkit.models.mismatch._fit import _fd_jacobians, _fd_rows
-
     rows, steps, dx = _fd_rows(job, job.theta, job.x0)
     R = problem.residuals(problem.simulate(rows))
     R = np.where(np.isfinite(R), R, 0.0)
@@ -628,8 +630,6 @@ def fit_sparse(  # noqa: C901
     >>> "x**2*v" in res.verdict["params"]["equation"]
     True
     """
-    from pdmkit.models.mismatch._fit import _lm, _make_jobs
-
     rec = problem.rec
     base = {k: v for k, v in values.items() if not k.startswith("sparse@")}
     P = {k: base.get(f"p:{k}", v) for k, v in model.params.items()}
@@ -692,7 +692,7 @@ def fit_sparse(  # noqa: C901
                     x0=lin_x0,
                 )
                 jobs[-1].active = active
-            _lm(problem, jobs, max_iter)
+            _lm(problem, jobs, max_iter, ftol=SPARSE_FTOL)
             good = [j for j in jobs if math.isfinite(j.cost)]
             if not good:
                 break
@@ -720,8 +720,6 @@ def fit_sparse(  # noqa: C901
 
 def _linearise(problem, model, eff_all, point, coefs, sc, x_scale, x0):
     """``(job with every term, r, J, term columns)`` at ``point`` and ``coefs``."""
-    from pdmkit.models.mismatch._fit import _make_jobs
-
     key = eff_all.key
     vals = {**point, **{f"{key}.c{j}": float(c) for j, c in enumerate(coefs)}}
     job_all = _make_jobs(model, (eff_all,), sc, [{}], vals, x_scale, x0=x0)[0]
@@ -748,8 +746,6 @@ def _ranked_sets(lin, m: int, max_terms: int):
 
 def _prune(problem, model, job, sc, x_scale, m, max_iter):
     """Backward elimination: drop terms while that lowers the BIC."""
-    from pdmkit.models.mismatch._fit import _lm, _make_jobs
-
     while True:
         eff = job.effects[0]
         cand = eff.candidate
@@ -771,7 +767,7 @@ def _prune(problem, model, job, sc, x_scale, m, max_iter):
             jobs += _make_jobs(
                 model, (sub,), sc, [start], base, x_scale, tag=job.tag, x0=job.x0
             )
-        _lm(problem, jobs, max_iter)
+        _lm(problem, jobs, max_iter, ftol=SPARSE_FTOL)
         best = min(jobs, key=lambda j: _bic_lin(j.cost, m, j.n_fitted))
         if _bic_lin(best.cost, m, best.n_fitted) < _bic_lin(job.cost, m, job.n_fitted):
             job = best

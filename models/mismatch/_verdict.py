@@ -16,7 +16,6 @@ from typing import Any
 import numpy as np
 
 from pdmkit.errors import ModelError
-from pdmkit.models._residuals import dm_test
 from pdmkit.models.mismatch._candidates import SPARSE_ID, Effect, _position_partner
 from pdmkit.models.mismatch._fit import _Job, simulate_states
 from pdmkit.models.mismatch._locate import (
@@ -25,7 +24,7 @@ from pdmkit.models.mismatch._locate import (
     residual_windows,
     whiteness_test,
 )
-from pdmkit.models.mismatch._select import _rmse, _Scored, _structured
+from pdmkit.models.mismatch._select import _rmse, _Scored, _structured, p_value
 
 __all__ = ["MismatchResult", "add_warnings", "build_verdict", "candidate_table"]
 
@@ -619,7 +618,7 @@ def _result(model, s, problem, nominal, x_nominal, base, final, verdict, table, 
     nom_rmse, aug_rmse = fit["rmse_nominal"], fit["rmse_augmented"]
     white = where["whiteness"]
     verdict["confidence"] = {
-        "p_value": dm_test(base.e_val, final.e_val)[1] if final is not None else None,
+        "p_value": p_value(base, final) if final is not None else None,
         "improvement": 1.0 - aug_rmse / nom_rmse if nom_rmse > 0 else 0.0,
         "white_before": all(x["white"] for x in white["before"].values()),
         "white_after": (

@@ -19,6 +19,7 @@ import numpy as np
 
 from pdmkit.errors import ModelError
 from pdmkit.models._xp import NumpyNamespace, TorchNamespace, is_torch
+from pdmkit.models.ode._response import ResponseData
 
 __all__ = [
     "DERIVATIVE_ATTACH",
@@ -469,8 +470,6 @@ def simulate_ode(
     >>> np.round(r.outputs["h"][:, -1], 5), np.round(np.exp([-1.0, -2.0]), 5)
     (array([0.36788, 0.13534]), array([0.36788, 0.13534]))
     """
-    from pdmkit.models.ode._response import ResponseData
-
     where = "simulate_ode"
     if not isinstance(n_sub, int | np.integer) or n_sub < 1:
         raise ModelError(f"{where}: n_sub must be a positive integer; got {n_sub!r}.")

@@ -7,8 +7,9 @@ import pandas as pd
 import pytest
 
 from pdmkit.errors import ModelError
+from pdmkit.models.mismatch import dm_test
 from pdmkit.models.mismatch._cases import generate_concealed_case
-from pdmkit.models.mismatch._discover import discover_mismatch, dm_test
+from pdmkit.models.mismatch._discover import discover_mismatch
 from pdmkit.models.ode import showcase_model
 from pdmkit.models.ode._simulate import simulate_ode
 
