@@ -280,7 +280,8 @@ FEATURE_GROUPS: dict[str, FeatureGroup] = {g.name: g for g in _GROUP_LIST}
 #: The group names.
 GROUPS: tuple[str, ...] = tuple(FEATURE_GROUPS)
 _OPTION_GROUP = {opt: g.name for g in _GROUP_LIST for opt in g.options}
-assert len(_OPTION_GROUP) == sum(len(g.options) for g in _GROUP_LIST), "an option twice"
+if len(_OPTION_GROUP) != sum(len(g.options) for g in _GROUP_LIST):  # pragma: no cover
+    raise RuntimeError("an option name belongs to two feature groups")
 
 
 # --------------------------------------------------------------------------- checks
