@@ -5,12 +5,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from pdmkit._outputs import OutputRun
 from pdmkit.errors import DataError
+from pdmkit.experiments._messages import finish, say
 
 __all__ = [
     "EXIT_SKIPPED",
@@ -26,10 +26,6 @@ __all__ = [
     "progress_flag",
     "say",
 ]
-
-
-def say(message: str) -> None:
-    print(f"pdmkit: {message}", file=sys.stderr, flush=True)
 
 
 def input_paths(args: argparse.Namespace) -> list:
@@ -64,14 +60,6 @@ def add_output_options(parser: argparse.ArgumentParser, default: str) -> None:
     parser.add_argument(
         "--json", type=Path, metavar="PATH", help="also write summary.json here"
     )
-
-
-def finish(run: OutputRun, summary: dict, report, then=None) -> None:
-    """Register ``summary.json`` and ``report.html`` with the run and commit it."""
-    run.add_json("summary.json", summary)
-    run.add_report("report.html", report)
-    run.commit(then)
-    say(f"wrote {run.path('summary.json')} and {run.path('report.html')}")
 
 
 def parse_options(

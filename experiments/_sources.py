@@ -21,7 +21,8 @@ import pandas as pd
 
 from pdmkit._checks import parse_timestamps
 from pdmkit.errors import DataError, DataWarning, did_you_mean
-from pdmkit.experiments._cli_common import parse_options, say
+from pdmkit.experiments._cli_common import parse_options
+from pdmkit.experiments._messages import say
 
 __all__ = [
     "TableSource",

@@ -17,7 +17,7 @@ import pandas as pd
 
 from pdmkit._outputs import OutputRun
 from pdmkit.errors import DataError, DataWarning, did_you_mean
-from pdmkit.experiments._cli_common import finish, say
+from pdmkit.experiments._messages import finish, say
 from pdmkit.experiments._report import Report
 from pdmkit.experiments._sources import (
     TableSource,
