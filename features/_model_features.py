@@ -5,11 +5,11 @@ its parameters as indicators:
 
 - ``frf`` - H1 frequency response with coherence
   (:func:`pdmkit.models.frequency.frf_estimate`) and a rational fit
-  (:func:`~pdmkit.models.frequency.fit_tf`): resonance and gains (seeds 002, 003);
+  (:func:`~pdmkit.models.frequency.fit_tf`): resonance and gains (Khatkhate et al. 2007);
 - ``hw`` - Hammerstein-Wiener coefficients
-  (:class:`~pdmkit.models.ident._hammerstein.HammersteinWiener`; seed 001 section 8.2.1);
+  (:class:`~pdmkit.models.ident._hammerstein.HammersteinWiener`; Voronin's thesis, 8.2.1);
 - ``fractional`` - ``1/(a s^alpha + b s^beta + c)`` fitted to the empirical transfer
-  function (:func:`~pdmkit.models.frequency.fit_fractional_tf`; seed 004).
+  function (:func:`~pdmkit.models.frequency.fit_fractional_tf`).
 
 Public functions take ``u, y`` (1-D for one member or 2-D ``(members, samples)``; a
 1-D ``u`` is shared by all members) and return a DataFrame with columns
@@ -228,7 +228,7 @@ def hw_features(
     nk: int = 1,
     initial: str = "steady",
 ) -> pd.DataFrame:
-    """Hammerstein-Wiener coefficients per member (group ``"hw"``; seed 001, 8.2.1).
+    """Hammerstein-Wiener coefficients per member (group ``"hw"``; Voronin, 8.2.1).
 
     One :class:`~pdmkit.models.ident._hammerstein.HammersteinWiener` per member; the
     indicators are its coefficients (input nonlinearity, ``B``, ``F``, output
@@ -274,7 +274,7 @@ def fractional_features(
     nperseg: int | None = None,
     fmax: float | None = None,
 ) -> pd.DataFrame:
-    """Fractional-model parameters per member (group ``"fractional"``; seed 004).
+    """Fractional-model parameters per member (group ``"fractional"``).
 
     ``A, Alpha, B, Beta, C`` of ``1/(a s^alpha + b s^beta + c)`` fitted to the member's
     empirical transfer function (:func:`~pdmkit.models.frequency.fit_fractional_tf`,

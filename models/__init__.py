@@ -3,7 +3,7 @@
 ========================  ==============================================================
 subpackage                what it holds
 ========================  ==============================================================
-``models.pneumatic``      the pneumatic piston's digital twin (seed ``001``): parameters,
+``models.pneumatic``      the pneumatic piston's twin (Voronin's thesis): parameters,
                           right-hand side, batched integrator, sensor models, estimation
 ``models.ode``            user ODE model files, their batched simulation (plain or with
                           added terms), linearisation, the built-in showcase models
@@ -13,8 +13,8 @@ subpackage                what it holds
                           selection, recursive pole tracking, Hammerstein-Wiener
 ``models.frequency``      FRF estimation, rational and grey-box fits, balanced
                           reduction, fractional-order models
-``models.diagnosis``      diagnostic masks and matrices (seed ``000``), symbolic dynamics
-                          (seed ``002``)
+``models.diagnosis``      diagnostic masks and matrices (rotor monograph), symbolic dynamics
+                          (Khatkhate et al. 2007)
 ``models.rigs``           simulated rigs of the source studies (the mass-beam rig)
 ========================  ==============================================================
 

@@ -1,6 +1,6 @@
 """``pdmkit study unstable-closed-loop``: an unstable plant identified in closed loop.
 
-Seed ``003`` (S-Mobile) end to end on pdmkit's planar ballbot
+The S-Mobile identification paper end to end on pdmkit's planar ballbot
 (:class:`pdmkit.models.rigs.BallbotRig`), against the open-loop truth, the plant's exact
 linearisation:
 

@@ -17,7 +17,7 @@ from pdmkit.experiments.studies._closed_loop_pipeline import (
 
 __all__ = ["build_closed_loop_report", "closed_loop_summary"]
 
-SEED = "seed 003_52f4eabeea4d3f53.txt"
+SEED = "the S-Mobile identification paper"
 
 
 def closed_loop_summary(result: dict, quick: bool, seed: int) -> dict:
@@ -323,7 +323,7 @@ def _add_real_data(rep: Report, result: dict) -> None:
 
 def build_closed_loop_report(result: dict, summary: dict) -> Report:
     """The HTML report: the seed's numbers beside pdmkit's."""
-    rep = Report("Closed-loop identification of an unstable system (seed 003)")
+    rep = Report("Closed-loop identification of an unstable system")
     rep.add_text(
         "The seed's S-Mobile method on pdmkit's planar ballbot: an unstable, "
         "under-actuated plant under a known state feedback, excited by chirps on its "

@@ -1,4 +1,4 @@
-"""``pdmkit study mass-beam``: the fatigue-anomaly study of seed 002, end to end.
+"""``pdmkit study mass-beam``: the fatigue-anomaly study of Khatkhate, Ray & Keller (2007).
 
 Khatkhate, Ray & Keller (Applied Mathematical Modelling 31, 2007; seed
 ``002_5a7798ecf4750904.txt``) model a mass-beam rig (section 3), identify it (section
@@ -49,7 +49,7 @@ from pdmkit.models.rigs import MassBeamRig
 
 __all__ = ["run_mass_beam"]
 
-#: seed 002's published numbers, with where they are
+#: the paper's published numbers, with where they are
 SEED_RESONANCES = {
     "system 1 (m3)": (73.3, "section 3.1.2 (last paragraph), section 5"),
     "system 2, lower (m2)": (28.9, "section 3.1.2 (last paragraph)"),
@@ -57,7 +57,7 @@ SEED_RESONANCES = {
 }
 SEED_IDENTIFIED = {"system 1 (m3)": 71.0, "system 2, upper (m1)": 91.0}  # section 5
 SEED_LIFE_MIN = 32.0  # section 6: "total service life of 32 min" (16 files)
-#: seed 002 section 6 / figure 7: detection times as the text states them
+#: the paper's section 6 / figure 7: detection times as the text states them
 SEED_DETECTION = {
     "SDF, SFNN partition": "within 16 min (remaining life > 50 %)",
     "SDF, wavelet space": "within 16 min (remaining life > 50 %)",
@@ -68,7 +68,7 @@ SEED_DETECTION = {
 
 
 def _measures(quick: bool, seed: int) -> dict:
-    """The anomaly measures of seed 002's figure 7, and the partitions around SFNN."""
+    """The anomaly measures of the paper's figure 7, and the partitions around SFNN."""
     sfnn = {"r_tol": 0.1, "n_points": 1000 if quick else 3000, "seed": seed}
     if quick:
         sfnn.update(grid=8, sweeps=2)
@@ -233,7 +233,7 @@ def run_mass_beam(
     seed: int = 0,
     quick: bool = False,
 ) -> dict:
-    """Run the mass-beam study (seed 002); write ``summary.json`` and ``report.html``.
+    """Run the mass-beam study; write ``summary.json`` and ``report.html``.
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
-"""``pdmkit study motor-fractional``: seed 004's fractional-order diagnosis, end to end.
+"""``pdmkit study motor-fractional``: fractional-order diagnosis, end to end.
 
-Seed ``004_d897e6553e80b52a.txt`` (condition-based diagnosis of mechatronic systems
+The source paper (condition-based diagnosis of mechatronic systems
 with fractional calculus) estimates the transfer function from the output-bearing
 accelerometer to the motor current of a DC motor + gearbox (its "empirical estimation
 of the transfer function", EETF, eq. 7, 100-1000 rad/s) in four conditions (normal;
@@ -37,16 +37,16 @@ from pdmkit.models.rigs import MOTOR_CONDITIONS, MotorGearboxRig
 
 __all__ = ["run_motor_fractional"]
 
-#: seed 004 table 1: (train FOM, train IOM, test FOM, test IOM), each (mean, std)
+#: the paper's table 1: (train FOM, train IOM, test FOM, test IOM), each (mean, std)
 SEED_TABLE1 = {
     "normal": ((1.84, 0.15), (3.23, 0.18), (2.06, 0.23), (3.47, 0.27)),
     "gear2": ((1.12, 0.05), (2.26, 0.05), (1.05, 0.02), (2.17, 0.03)),
     "gear3": ((1.44, 0.34), (2.43, 0.38), (1.41, 0.09), (2.37, 0.10)),
     "gear4": ((0.74, 0.05), (1.36, 0.06), (0.89, 0.07), (1.51, 0.07)),
 }
-#: seed 004 table 2: rows actual case 1-4, columns estimated case 1-4 (k = 3)
+#: the paper's table 2: rows actual case 1-4, columns estimated case 1-4 (k = 3)
 SEED_TABLE2 = np.array([[56, 4, 0, 0], [0, 48, 12, 0], [0, 0, 60, 0], [0, 4, 0, 56]])
-N_TUNE, N_EVAL, N_CLASSIFY = 20, 10, 60  # seed 004 sections 4.2 and 5.1
+N_TUNE, N_EVAL, N_CLASSIFY = 20, 10, 60  # the paper's sections 4.2, 5.1
 IOM = {"alpha": 2.0, "beta": 1.0}
 
 
@@ -107,7 +107,7 @@ def _fit_table(freq, data, method, n_starts):
 
 
 def _features(freq, X, models):
-    """Seed 004's failure indices: mean square distance to each condition model."""
+    """The paper's failure indices: mean square distance to each condition model."""
     return np.column_stack(
         [np.log10(model_distance(X, models[c], freq)) for c in MOTOR_CONDITIONS]
     )
@@ -173,7 +173,7 @@ def run_motor_fractional(
     seed: int = 0,
     quick: bool = False,
 ) -> dict:
-    """Run the fractional motor-diagnosis study (seed 004); write the summary and report.
+    """Run the fractional motor-diagnosis study; write the summary and report.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""The HTML report of ``pdmkit study motor-fractional``: seed 004 beside pdmkit."""
+"""The HTML report of ``pdmkit study motor-fractional``: the paper beside pdmkit."""
 
 from __future__ import annotations
 
@@ -15,9 +15,10 @@ _CASES = [v[2].split(":")[0] for v in MOTOR_CONDITIONS.values()]
 
 def build_report(summary: dict, parts: dict) -> Report:
     """The study's report from its summary and the objects behind it."""
-    rep = Report("Study: fractional-order diagnosis of a motor and gearbox (seed 004)")
+    rep = Report("Study: fractional-order diagnosis of a motor and gearbox")
     rep.add_text(
-        "Seed 004 diagnoses a DC motor driving four gears from the transfer function "
+        "The fractional-calculus paper diagnoses a DC motor driving four gears from "
+        "the transfer function "
         "between the output-bearing accelerometer and the motor current (its EETF, "
         "eq. 7), fitted per condition with 1/(a s^alpha + b s^beta + c) by the simplex "
         "method (eqs. 8-9), and classifies new records by k-nearest neighbours on their "
@@ -171,7 +172,7 @@ def _table2_section(rep: Report, summary: dict, parts: dict, seed_table2) -> Non
         "tested once)."
     )
     rep.add_table(_confusion_frame(cl["confusion"]), caption="pdmkit, k = 3 (rows: actual)")
-    rep.add_table(_confusion_frame(seed_table2), caption="Seed 004 table 2, k = 3")
+    rep.add_table(_confusion_frame(seed_table2), caption="The paper's table 2, k = 3")
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     F, y = cl["features"], cl["labels"]
     for i in range(len(_CASES)):

@@ -1,6 +1,6 @@
 """``pdmkit study rotor-fdi``: parametric fault detection and isolation of a rotor.
 
-Seed ``000``
+The rotor-diagnostics monograph
 
 The seed monograph's method, end to end, on the simulated rotor rig
 (:class:`pdmkit.models.rigs.RotorRig`, its Tables 11-12):

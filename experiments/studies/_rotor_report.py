@@ -20,7 +20,7 @@ from pdmkit.models.rigs import ROTOR_FAULTS
 
 __all__ = ["build_rotor_report", "rotor_summary"]
 
-SEED = "seed 000_19c296ed8f94838d.txt"
+SEED = "the rotor-diagnostics monograph"
 
 #: the seed's natural frequencies of its simulated rotor (sec. 4.3.3, Fig. 55)
 SEED_MODES_HZ = (18.0, 38.0, 75.0)
@@ -338,7 +338,7 @@ def build_rotor_report(rig, setup, result, records, reference, summary) -> Repor
     """The HTML report: the seed's numbers and statements beside pdmkit's."""
     runs = result["runs"]
     onset = next((r.onset for r in records if r.onset is not None), 0.0)
-    rep = Report("Rotor fault detection and isolation (seed 000)")
+    rep = Report("Rotor fault detection and isolation")
     rep.add_text(
         "The parametric FDI method of the seed monograph (Tables 10-15, sections 2.4-2.8, "
         "3.4, 4.3, 5.3, appendix A) run end to end on pdmkit's simulated two-disk rotor "

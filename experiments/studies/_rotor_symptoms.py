@@ -1,9 +1,9 @@
 """Symptoms of the rotor study: from recursive AR estimates to diagnostic quantities.
 
-Seed ``000`` section 5.3 ("technical summary") is the recipe: identify an AR model on
-each probe signal, determine its poles, *sort them by value so that modes do not
-switch*, filter them (median, then Savitzky-Golay; Table 15), and put masks on them.
-The quantities here follow it:
+The rotor-diagnostics monograph's section 5.3 ("technical summary") is the recipe:
+identify an AR model on each probe signal, determine its poles, *sort them by value so
+that modes do not switch*, filter them (median, then Savitzky-Golay; Table 15), and put
+masks on them. The quantities here follow it:
 
 - **line prominence** at 1X and 2X (dB): how far the AR spectrum ``1 / |A(e^jw)|^2``
   rises at the synchronous frequency over its level 2 Hz either side. A synchronous

@@ -1,13 +1,13 @@
 """pdmkit.models.diagnosis: from tracked quantities and signals to symptoms and faults.
 
-Diagnostic masks with alarm delay and hysteresis, and the binary diagnostic matrix
-that isolates the fault from the symptoms (seed ``000``, sections 2.8 and 3.4:
-:class:`DiagnosticMask`, :class:`DiagnosticMatrix`); and symbolic dynamics of
-time series, the anomaly measure of seed ``002`` (uniform, maximum-entropy and SFNN
+Diagnostic masks with alarm delay and hysteresis, and the binary diagnostic matrix that
+isolates the fault from the symptoms (the rotor-diagnostics monograph, sections 2.8,
+3.4: :class:`DiagnosticMask`, :class:`DiagnosticMatrix`); and symbolic dynamics of time
+series, the anomaly measure of Khatkhate et al. 2007 (uniform, maximum-entropy and SFNN
 partitions, symbol-state probabilities, :class:`SymbolicAnomaly`; Ray 2004, Rajagopalan
-& Ray 2006, Kennel & Buhl 2003), and the anomaly measures seed 002 compares it with
-(:class:`PCAAnomaly`, :class:`RBFAnomaly`, :class:`MLPAnomaly`; Chin, Ray &
-Rajagopalan 2005). Residual generators of seed ``000`` (sec. 2.4-2.5):
+& Ray 2006, Kennel & Buhl 2003), and the anomaly measures Khatkhate et al. compare it
+with (:class:`PCAAnomaly`, :class:`RBFAnomaly`, :class:`MLPAnomaly`; Chin, Ray &
+Rajagopalan 2005). Residual generators of the rotor monograph (sec. 2.4-2.5):
 channel-to-channel ARX relations between two measured outputs
 (:func:`channel_to_channel`), parity equations on them (:class:`ParityEquations`,
 :func:`parity_residual`) and the input reconstructed by an inverted model

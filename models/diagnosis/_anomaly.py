@@ -1,12 +1,13 @@
-"""The anomaly measures seed 002 compares symbolic dynamics with: PCA, RBF and MLP.
+"""The anomaly measures set beside symbolic dynamics: PCA, RBF and MLP networks.
 
-Seed 002 (section 6, figure 7) measures the growth of a fatigue crack from the
-displacement of one mass with five methods: symbolic dynamics with the SFNN and the
-wavelet-space partitions (:class:`~pdmkit.models.diagnosis.SymbolicAnomaly`), principal
-component analysis (PCA), a radial-basis-function neural network (RBFNN) and a
-multilayer perceptron (MLPNN), citing Chin, Ray & Rajagopalan (Signal Processing 85,
-2005) for the details, which the seed does not reprint. pdmkit's versions, each fitted
-on the nominal record and scoring later records by how far they have moved from it:
+Khatkhate, Ray & Keller (2007, section 6, figure 7) measure the growth of a fatigue
+crack from the displacement of one mass with five methods: symbolic dynamics with the
+SFNN and the wavelet-space partitions
+(:class:`~pdmkit.models.diagnosis.SymbolicAnomaly`), principal component analysis (PCA),
+a radial-basis-function neural network (RBFNN) and a multilayer perceptron (MLPNN),
+citing Chin, Ray & Rajagopalan (Signal Processing 85, 2005) for the details, which the
+seed does not reprint. pdmkit's versions, each fitted on the nominal record and scoring
+later records by how far they have moved from it:
 
 - :class:`PCAAnomaly` - the record is cut into delay windows; the principal
   directions of their covariance (as many as explain ``variance`` of the nominal

@@ -1,7 +1,7 @@
 """Residual generators from identified models: channel-to-channel ARX, parity, input.
 
-Seed ``000`` (sections 2.4 and 2.5) generates residuals three ways when the excitation
-of a machine (its unbalance force) cannot be measured:
+The rotor-diagnostics monograph (sections 2.4, 2.5) generates residuals three ways when
+the excitation of a machine (its unbalance force) cannot be measured:
 
 - **channel to channel** (sec. 2.4.1, "joint signal analysis"): two measured outputs,
   e.g. the vertical vibration at both bearings, are taken as the input and output of
@@ -63,7 +63,7 @@ def channel_to_channel(
     criterion: str = "mdl",
     orders: Sequence[int] = tuple(range(2, 21, 2)),
 ) -> IdentifiedModel:
-    """ARX model from one measured output to another (seed 000, sec. 2.4.1).
+    """ARX model from one measured output to another (rotor monograph, sec. 2.4.1).
 
     Parameters
     ----------

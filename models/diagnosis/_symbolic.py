@@ -1,22 +1,23 @@
-"""Symbolic-dynamics anomaly measure (D-Markov machines; Ray 2004, seed 002 section 6).
+"""Symbolic-dynamics anomaly measure (D-Markov machines; Ray 2004).
 
 A signal is coarse-grained into symbols by a *maximum-entropy partition* of the nominal
 signal's range (cells at its quantiles, so every symbol is equally likely in the nominal
 condition); a D-Markov machine takes the last ``D`` symbols as its state. The
-probability vector of the states summarises the dynamics; a slow change of the system
-(a growing fatigue crack softening a beam) shifts it, and the *anomaly measure* is the
-distance of the current state-probability vector from the nominal one. Seed 002 reports
-this detecting the crack in its mass-beam rig earlier than PCA and neural networks,
-with partitioning in wavelet space (WS) or by symbolic false nearest neighbours.
+probability vector of the states summarises the dynamics; a slow change of the system (a
+growing fatigue crack softening a beam) shifts it, and the *anomaly measure* is the
+distance of the current state-probability vector from the nominal one. Khatkhate, Ray &
+Keller (2007, section 6) report this detecting the crack in its mass-beam rig earlier
+than PCA and neural networks, with partitioning in wavelet space (WS) or by symbolic
+false nearest neighbours.
 
 :class:`SymbolicAnomaly` implements three partitions of the nominal signal's range:
 ``"uniform"`` (cells of equal width), ``"max_entropy"`` (cells at its quantiles) and
 ``"sfnn"`` (:func:`sfnn_partition`: boundaries moved to minimise the fraction of
 symbolic false nearest neighbours, Kennel & Buhl, Phys. Rev. Lett. 91, 084102, 2003,
-seed 002 reference 15), each optionally in wavelet space (the signal replaced by its
-Ricker-wavelet coefficients at given scales before partitioning; Rajagopalan & Ray
-2006), the D-Markov state probabilities and the distance (L2, L1 or the angle between
-the vectors).
+Khatkhate et al.'s reference 15), each optionally in wavelet space (the signal replaced
+by its Ricker-wavelet coefficients at given scales before partitioning; Rajagopalan &
+Ray 2006), the D-Markov state probabilities and the distance (L2, L1 or the angle
+between the vectors).
 """
 
 from __future__ import annotations
@@ -250,7 +251,7 @@ def sfnn_partition(
     Starts from the maximum-entropy partition and moves one boundary at a time to the
     best of ``grid`` positions between its neighbours (in quantile coordinates of
     ``x``), for up to ``sweeps`` rounds or until no boundary moves; the statistic is
-    :func:`sfnn_fraction` with its sample fixed. Seed 002 (section 6, figure 7) uses
+    :func:`sfnn_fraction` with its sample fixed. Khatkhate et al. (2007, figure 7) use
     this SFNN partition for its symbolic-dynamics anomaly measure.
 
     Parameters
@@ -374,7 +375,7 @@ def _wavelet(x2d: np.ndarray, scales) -> np.ndarray:
 
 
 class SymbolicAnomaly(BaseEstimator):
-    """Anomaly measure from D-Markov state probabilities (seed 002, section 6).
+    """Anomaly measure from D-Markov state probabilities (Khatkhate et al. 2007, section 6).
 
     Parameters
     ----------

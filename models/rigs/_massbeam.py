@@ -1,4 +1,4 @@
-"""Physics model of the mass-beam fatigue rig of seed ``002`` (section 3).
+"""Physics model of the mass-beam fatigue rig of Khatkhate, Ray & Keller (2007, section 3).
 
 Khatkhate, Ray & Keller (2007) model their three-mass rig as two subsystems:
 
@@ -102,7 +102,7 @@ class MassBeamRig:
 
     # ------------------------------------------------------------------ system 1
     def stiffness1(self) -> float:
-        """System-1 stiffness (N/m), seed 002 eq. (2)."""
+        """System-1 stiffness (N/m), Khatkhate et al. eq. (2)."""
         L4, L5 = self.L4, self.L5
         return 3 * self.E4I4 / (L4 * (3 * L5**2 - 3 * L5 * L4 + L4**2))
 
@@ -123,8 +123,8 @@ class MassBeamRig:
         """Flexibility matrix ``[[a1, a2], [a3, a4]]`` (m/N) of system 2.
 
         Displacements of ``m1`` (at the centre of its length) and of ``m2`` under unit
-        forces at those points (seed 002, constants ``a1..a4``; ``a2 = a3`` by Maxwell's
-        reciprocity).
+        forces at those points (Khatkhate et al., constants ``a1..a4``; ``a2 = a3`` by
+        Maxwell's reciprocity).
         """
         L1, L2, L3, EI1, EI3 = self.L1, self.L2, self.L3, self.E1I1, self.E3I3
         a1 = (4 * L1**3 + 6 * L1**2 * L2 + 3 * L1 * L2**2) / (12 * EI1)
@@ -139,7 +139,7 @@ class MassBeamRig:
         return np.array([[a1, a2], [a2, a4]])
 
     def system2(self):
-        """``(A, B, C, D)`` of system 2, seed 002 eq. (8): states ``(y2, y2', y3, y3')``.
+        """``(A, B, C, D)`` of system 2 (eq. 8): states ``(y2, y2', y3, y3')``.
 
         ``P, Q, R, S`` are the entries of the inverse flexibility matrix; the input is
         shaker 2's force on ``m2``, the outputs the displacements of ``m1`` and ``m2``.
@@ -223,7 +223,7 @@ class MassBeamRig:
         warmup: float = 10.0,
         rng=None,
     ) -> np.ndarray:
-        """Displacement of ``m3`` (m) under shaker 1's sine, as seed 002 section 6 runs it.
+        """Displacement of ``m3`` (m) under shaker 1's sine, as in the paper's section 6.
 
         ``m3 x'' + c x' + k(x) x = F0 sin(2 pi f t) + w(t)``: the shaker's sine (0.85 V
         at 11.39 Hz in the seed; ``force_amplitude`` = 8.5 N assumes 10 N/V; from record
@@ -332,7 +332,7 @@ class MassBeamRig:
         rng=None,
         **record_options,
     ) -> FatigueRun:
-        """A fatigue run of system 1 to failure, recorded in files (seed 002, section 6).
+        """A fatigue run of system 1 to failure, recorded in files (section 6).
 
         The specimen (aluminium, ``width_mm`` x 11.1 mm, a hole of ``hole_mm``, table 1
         and section 2) cracks from both edges of its hole. The crack length ``a``
@@ -422,10 +422,10 @@ class MassBeamRig:
     ) -> list[float]:
         """System 2's two lowest resonances (rad/s) with the beams' own mass distributed.
 
-        :func:`beam_fe_modes` of beam 1 (steel, ``E1I1``, ``L1``) and beam 2
-        (aluminium, ``E3I3``, ``L3``) with table 1's bare masses ``m1`` at their joint
-        and ``m2`` at the tip (``L2 = 0``): the physics that the lumped model of eq. (8)
-        leaves out (seed 002 section 3 lumps the beam masses; it gives 28.9 and 87.8
+        :func:`beam_fe_modes` of beam 1 (steel, ``E1I1``, ``L1``) and beam 2 (aluminium,
+        ``E3I3``, ``L3``) with table 1's bare masses ``m1`` at their joint and ``m2`` at
+        the tip (``L2 = 0``): the physics that the lumped model of eq. (8) leaves out
+        (Khatkhate et al.'s section 3 lumps the beam masses; it gives 28.9 and 87.8
         rad/s).
 
         Examples

@@ -1,6 +1,7 @@
-"""Motor + gearbox rig of seed ``004`` (section 3): a DC motor driving a chain of gears.
+"""Motor + gearbox rig: a DC motor driving a chain of gears (fractional-calculus study).
 
-Seed 004 (fractional calculus for condition-based diagnosis) drives a gearbox of four
+*Condition-based diagnosis of mechatronic systems using a fractional calculus
+approach* (section 3) drives a gearbox of four
 rapid-prototyped gears with a DC motor, measures the motor current (a shunt resistor)
 and the vibration of the output bearing (an accelerometer), and describes each of its
 four conditions by where the vibration starts and which way it travels to the two
@@ -36,7 +37,7 @@ This model is that transmission-path picture as a cascade of linear elements
 So ``C_p = Y prod_{k <= p} S_k`` (current per unit source torque) and
 ``A_p = B prod_{k > p} S_k`` (accelerometer voltage), and the electrical transfer
 function each condition shows the seed's method is ``C_p / A_p``: the conditions
-differ by the path, as seed 004 explains them. The parameters are those of a small
+differ by the path, as the paper explains them. The parameters are those of a small
 (about 20 W) DC motor and plastic gears; the seed gives none, so they are assumptions,
 chosen with the stage resonances inside the seed's band of 100-1000 rad/s.
 
@@ -58,7 +59,7 @@ from pdmkit.errors import DataError, ModelError
 
 __all__ = ["MOTOR_CONDITIONS", "MotorGearboxRig", "MotorRecord"]
 
-#: seed 004's four cases: name -> (case number, source position, description)
+#: the paper's four cases: name -> (case number, source position, description)
 MOTOR_CONDITIONS: dict[str, tuple[int, int, str]] = {
     "normal": (1, 0, "Case 1: normal operation"),
     "gear2": (2, 1, "Case 2: broken tooth in gear 2"),
@@ -77,7 +78,7 @@ def _condition(condition: str) -> tuple[int, int, str]:
 
 @dataclass(frozen=True)
 class MotorGearboxRig:
-    """DC motor and a four-gear chain, the transmission paths of seed 004 (SI units).
+    """DC motor and a four-gear chain, the fractional-calculus paper's paths (SI).
 
     Parameters
     ----------
@@ -103,7 +104,7 @@ class MotorGearboxRig:
         Accelerometer path gain ``K_a`` (V per unit source torque per (rad/s)^2; it
         scales the EETF, here to values of order 1 as the seed's table 1 shows).
     teeth : tuple of 4 int
-        Teeth of gears 1..4 (seed 004: gear 2 has nine).
+        Teeth of gears 1..4 (the paper's gear 2 has nine).
     speed_hz : float
         Nominal motor speed (rev/s).
 
@@ -330,7 +331,7 @@ class MotorRecord:
         method: str = "h1",
         moving_average: int = 3,
     ):
-        """Seed 004's empirical transfer function ``F{I} / F{V}`` (eq. 7) in ``band``.
+        """The paper's empirical transfer function ``F{I} / F{V}`` (eq. 7) in ``band``.
 
         The accelerometer voltage is smoothed by a moving average (the seed filters it
         "using a moving average (MA) to reduce the effect of noise"), then

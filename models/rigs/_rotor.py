@@ -1,4 +1,4 @@
-"""Simulated rotor rig of seed ``000`` (parametric rotor fault detection and isolation).
+"""Simulated rotor rig of the rotor-diagnostics monograph (parametric rotor FDI).
 
 The seed's numerical model (section 4.1.1, Tables 11 and 12, model RM004K): a 10 mm
 steel shaft of three sections (220, 50 and 220 mm) on four nodes; two disks of 0.9 kg

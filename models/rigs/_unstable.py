@@ -1,10 +1,11 @@
 r"""An unstable, under-actuated plant under a known controller: the planar ballbot.
 
-Seed ``003`` identifies the S-Mobile, a body balanced on a sphere driven by omni-wheels,
-in closed loop: its dynamics ``M(q) q'' + C(q, q') q' + G(q) = F(q) u`` (eq. 1) are
-linearised (eq. 2), stabilised by a known state feedback ``u = -K x + N w`` with a
-set-point filter (eq. 3), and the closed loop's tilt response ``theta / theta_set`` is
-measured with chirps of 1.5 to 5 degrees through a 100 Hz CAN bus (sec. 4-5).
+The S-Mobile identification paper studies the S-Mobile, a body balanced on a sphere
+driven by omni-wheels, in closed loop: its dynamics ``M(q) q'' + C(q, q') q' + G(q) =
+F(q) u`` (eq. 1) are linearised (eq. 2), stabilised by a known state feedback ``u = -K x
++ N w`` with a set-point filter (eq. 3), and the closed loop's tilt response ``theta /
+theta_set`` is measured with chirps of 1.5 to 5 degrees through a 100 Hz CAN bus (sec.
+4-5).
 
 :class:`BallbotRig` is that plant in one plane (the ballbot of Fankhauser & Gwerder,
 *Modeling and control of a ballbot*, ETH 2010, planar model): coordinates ``psi`` (ball
