@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from pdmkit.errors import DataError
 from pdmkit.features._common import check_fs, nonfinite_rows, raise_nonfinite
@@ -116,7 +117,9 @@ def _ar_feature_rows(x: np.ndarray, fs: float, opts: dict) -> dict[str, np.ndarr
     return out
 
 
-def ar_features(signals, fs: float, *, order: int = AR_DEFAULT_ORDER, axis: int = -1):
+def ar_features(
+    signals: ArrayLike, fs: float, *, order: int = AR_DEFAULT_ORDER, axis: int = -1
+) -> pd.DataFrame:
     """AR-model indicators (resonances, damping, fit) of one signal or a batch.
 
     Parameters

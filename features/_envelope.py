@@ -22,6 +22,7 @@ from numbers import Real
 import numpy as np
 import scipy.fft
 import scipy.signal
+from numpy.typing import ArrayLike
 
 from pdmkit.errors import DataError
 from pdmkit.features._common import check_finite, check_fs, from_rows, to_rows
@@ -563,7 +564,13 @@ def _envelope_rows(
     return np.fft.rfftfreq(n, 1.0 / fs), spec
 
 
-def envelope_spectrum(x, fs: float, band=None, *, axis: int = -1) -> EnvelopeSpectrum:
+def envelope_spectrum(
+    x: ArrayLike,
+    fs: float,
+    band: tuple[float, float] | None = None,
+    *,
+    axis: int = -1,
+) -> EnvelopeSpectrum:
     """Envelope spectrum: band-pass, Hilbert envelope, amplitude spectrum.
 
     Parameters
@@ -688,7 +695,7 @@ def _envelope_feature_rows(
 
 
 def envelope_features(
-    x,
+    x: ArrayLike,
     fs: float,
     bearing: BearingGeometry,
     shaft_hz: float,

@@ -8,6 +8,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from pdmkit._checks import check_int
 from pdmkit.errors import DataError
@@ -109,7 +110,7 @@ def _as_members(signals, axis: int) -> np.ndarray:
 
 # --------------------------------------------------------------------------- extract
 def extract(
-    signals,
+    signals: ArrayLike,
     fs: float,
     groups: Sequence[str] = ("stats", "spectral"),
     *,

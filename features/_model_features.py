@@ -25,6 +25,7 @@ import warnings
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from pdmkit.errors import ConvergenceWarning, DataError
 from pdmkit.features._common import check_fs
@@ -131,8 +132,8 @@ def _warn_failed(group: str, failed: list[int], err: str) -> None:
 
 # ----------------------------------------------------------------------------- frf
 def frf_features(
-    u,
-    y,
+    u: ArrayLike,
+    y: ArrayLike,
     fs: float,
     *,
     nperseg: int | None = None,
@@ -201,7 +202,12 @@ def _camel(name: str) -> str:
     return "".join(part[:1].upper() + part[1:] for part in name.split("_"))
 
 
-def hw_feature_names(input_nl=None, output_nl="saturation", nb: int = 2, nf: int = 2):
+def hw_feature_names(
+    input_nl: str | None = None,
+    output_nl: str | None = "saturation",
+    nb: int = 2,
+    nf: int = 2,
+) -> list[str]:
     """Indicator names of the ``hw`` group for a model structure.
 
     Examples
@@ -217,12 +223,12 @@ def hw_feature_names(input_nl=None, output_nl="saturation", nb: int = 2, nf: int
 
 
 def hw_features(
-    u,
-    y,
+    u: ArrayLike,
+    y: ArrayLike,
     fs: float,
     *,
-    input_nl=None,
-    output_nl="saturation",
+    input_nl: str | None = None,
+    output_nl: str | None = "saturation",
     nb: int = 2,
     nf: int = 2,
     nk: int = 1,
@@ -267,8 +273,8 @@ def hw_features(
 
 # ----------------------------------------------------------------------------- fractional
 def fractional_features(
-    u,
-    y,
+    u: ArrayLike,
+    y: ArrayLike,
     fs: float,
     *,
     nperseg: int | None = None,

@@ -33,6 +33,7 @@ import numpy as np
 import scipy.fft
 import scipy.integrate
 import scipy.signal
+from numpy.typing import ArrayLike
 
 from pdmkit.errors import DataError
 from pdmkit.features._common import check_finite, check_fs, from_rows, to_rows
@@ -74,7 +75,7 @@ def resolve_spectral_options(
     noverlap=None,
     bands=None,
     n_peaks: int = 5,
-    detrend="constant",
+    detrend: str | bool = "constant",
     frange=None,
     name: str = "x",
 ) -> dict:
@@ -334,14 +335,14 @@ def _spectral_rows(x: np.ndarray, fs: float, options: dict) -> dict[str, np.ndar
 
 
 def spectral(
-    x,
+    x: ArrayLike,
     fs: float,
     *,
     nperseg: int | None = None,
     noverlap: int | None = None,
     bands: Sequence[tuple[float, float]] | None = None,
     n_peaks: int = 5,
-    detrend="constant",
+    detrend: str | bool = "constant",
     frange: tuple[float, float] | None = None,
     axis: int = -1,
 ) -> dict[str, np.ndarray | float]:

@@ -31,6 +31,7 @@ import warnings
 import numpy as np
 import scipy.fft
 import scipy.signal
+from numpy.typing import ArrayLike
 
 from pdmkit.errors import DataError
 from pdmkit.features._common import check_finite, check_fs, from_rows, to_rows
@@ -93,7 +94,7 @@ def _stats_rows(x: np.ndarray) -> dict[str, np.ndarray]:
         }
 
 
-def stats(x, axis: int = -1) -> dict[str, np.ndarray | float]:
+def stats(x: ArrayLike, axis: int = -1) -> dict[str, np.ndarray | float]:
     """Time-domain condition indicators of one signal or a batch of members.
 
     Parameters
@@ -253,7 +254,9 @@ def _harmonic_rows(x: np.ndarray, fs: float, n_harmonics: int = 6) -> dict[str, 
         }
 
 
-def harmonic(x, fs: float, *, n_harmonics: int = 6, axis: int = -1):
+def harmonic(
+    x: ArrayLike, fs: float, *, n_harmonics: int = 6, axis: int = -1
+) -> dict[str, np.ndarray | float]:
     """SINAD, SNR and THD (dB) as MATLAB's ``sinad``, ``snr`` and ``thd`` compute them.
 
     The record's mean is removed, a periodogram of the whole record is taken with a
