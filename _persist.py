@@ -274,9 +274,8 @@ def _parse_json(blob: bytes, where: str, member: str) -> Any:
         raise ModelError(f"{where}: {member} is not valid JSON ({exc})") from None
 
 
-def _read_members(path: Path, expect_sha256: str | None) -> tuple[dict, dict[str, bytes]]:  # noqa: C901
-    from pdmkit._config import max_bytes
-
+def _read_members(path: Path, expect_sha256: str | None) -> tuple[dict, dict[str, bytes]]:
+    """The manifest and the other members of a model file, every checksum verified."""
     where = str(path)
     if not path.is_file():
         raise DataNotFoundError(f"{path} does not exist; expected a pdmkit model file")
@@ -287,6 +286,18 @@ def _read_members(path: Path, expect_sha256: str | None) -> tuple[dict, dict[str
                 f"{where} has SHA-256 {found}, not the expected {expect_sha256}: it is "
                 "not the file that was saved. Do not load it"
             )
+    data = _read_zip_members(path, where)
+    if "manifest.json" not in data:
+        raise ModelError(f"{where} lacks manifest.json; not a pdmkit model file")
+    manifest = _parse_json(data.pop("manifest.json"), where, "manifest.json")
+    _check_manifest(manifest, data, where)
+    return manifest, data
+
+
+def _read_zip_members(path: Path, where: str) -> dict[str, bytes]:
+    """The members of the zip archive, by name, after its sizes and names are checked."""
+    from pdmkit._config import max_bytes
+
     budget = max_bytes("model")
     try:
         with zipfile.ZipFile(path) as zf:
@@ -307,7 +318,7 @@ def _read_members(path: Path, expect_sha256: str | None) -> tuple[dict, dict[str
                         f"over the {limit} a model's JSON may have (arrays belong in "
                         "arrays.npz); refused"
                     )
-            data = {n: zf.read(n) for n in names}
+            return {n: zf.read(n) for n in names}
     except (
         zipfile.BadZipFile,
         zipfile.LargeZipFile,
@@ -321,9 +332,10 @@ def _read_members(path: Path, expect_sha256: str | None) -> tuple[dict, dict[str
         ) from None
     except (ValueError, NotImplementedError, zlib.error) as exc:  # bad CRC, bad deflate
         raise ModelError(f"{where} is damaged ({exc}); save the model again") from None
-    if "manifest.json" not in data:
-        raise ModelError(f"{where} lacks manifest.json; not a pdmkit model file")
-    manifest = _parse_json(data.pop("manifest.json"), where, "manifest.json")
+
+
+def _check_manifest(manifest: Any, data: dict[str, bytes], where: str) -> None:
+    """Refuse a manifest of another format or version, or checksums that differ."""
     if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
         raise ModelError(f"{where}: manifest.json is not a pdmkit model manifest")
     if not isinstance(manifest.get("format_version"), int) or (
@@ -346,7 +358,6 @@ def _read_members(path: Path, expect_sha256: str | None) -> tuple[dict, dict[str
                 "one in manifest.json); the file was changed after it was saved. "
                 "Do not load it; save the model again"
             )
-    return manifest, data
 
 
 def _load_npz(blob: bytes, where: str) -> dict[str, np.ndarray]:

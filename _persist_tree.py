@@ -214,7 +214,7 @@ class _Encoder:
         self.arrays[key] = a
         return key
 
-    def encode(self, value: Any, path: str) -> Any:  # noqa: C901
+    def encode(self, value: Any, path: str) -> Any:
         import pandas as pd
 
         if value is None or isinstance(value, bool | str):
@@ -223,25 +223,8 @@ class _Encoder:
             return value if abs(value) < 2**53 else {"t": "int", "v": str(value)}
         if isinstance(value, float):
             return value if math.isfinite(value) else {"t": "float", "v": repr(value)}
-        if isinstance(value, np.generic):
-            arr = np.asarray(value)
-            if arr.dtype.kind not in "biufcUS":
-                raise self._refuse(value, path)
-            return {"t": "scalar", "key": self._array(arr.reshape(1))}
-        if isinstance(value, np.ndarray):
-            if value.dtype.kind in "biufcUSmM" or (
-                value.dtype.kind == "V" and not value.dtype.hasobject
-            ):
-                return {"t": "ndarray", "key": self._array(value)}
-            if value.dtype == object:
-                return {
-                    "t": "objarray",
-                    "shape": list(value.shape),
-                    "items": [
-                        self.encode(v, f"{path}[{i}]") for i, v in enumerate(value.ravel())
-                    ],
-                }
-            raise self._refuse(value, path)
+        if isinstance(value, np.generic | np.ndarray):
+            return self._numpy(value, path)
         if isinstance(value, list | tuple):
             items = [self.encode(v, f"{path}[{i}]") for i, v in enumerate(value)]
             return {"t": "tuple" if isinstance(value, tuple) else "list", "items": items}
@@ -272,6 +255,27 @@ class _Encoder:
         if frozen is not None:
             return frozen
         return self._object(value, path)
+
+    def _numpy(self, value: np.generic | np.ndarray, path: str) -> dict:
+        """A numpy scalar or array: into arrays.npz, or element-wise if of objects."""
+        if isinstance(value, np.generic):
+            arr = np.asarray(value)
+            if arr.dtype.kind not in "biufcUS":
+                raise self._refuse(value, path)
+            return {"t": "scalar", "key": self._array(arr.reshape(1))}
+        if value.dtype.kind in "biufcUSmM" or (
+            value.dtype.kind == "V" and not value.dtype.hasobject
+        ):
+            return {"t": "ndarray", "key": self._array(value)}
+        if value.dtype == object:
+            return {
+                "t": "objarray",
+                "shape": list(value.shape),
+                "items": [
+                    self.encode(v, f"{path}[{i}]") for i, v in enumerate(value.ravel())
+                ],
+            }
+        raise self._refuse(value, path)
 
     def _frame(self, value: Any, path: str) -> dict:
         import pandas as pd
@@ -413,6 +417,8 @@ def _tree_args_ok(args: Any) -> bool:
 
 
 class _Decoder:
+    """Rebuild an object tree from JSON nodes, checking every node it meets."""
+
     def __init__(self, arrays: dict[str, np.ndarray], tensors: dict[str, Any], where: str):
         self.arrays = arrays
         self.tensors = tensors
@@ -423,96 +429,150 @@ class _Decoder:
             raise ModelError(f"{self.where}: state.json refers to a missing {what} {key!r}")
         return store[key]
 
-    def decode(self, node: Any) -> Any:  # noqa: C901, PLR0915
-        import pandas as pd
-
+    def decode(self, node: Any) -> Any:
+        """The value a JSON node stands for; a node of no known type is refused."""
         if node is None or isinstance(node, bool | int | float | str):
             return node
         if not isinstance(node, dict) or "t" not in node:
             raise ModelError(f"{self.where}: state.json holds an unknown node {node!r:.80}")
         t = node["t"]
-        if t == "int":
-            return int(node["v"])
-        if t == "float":
-            return float(node["v"])
-        if t == "scalar":
-            return self._get(self.arrays, node["key"], "array")[0]
-        if t == "ndarray":
-            return self._get(self.arrays, node["key"], "array")
-        if t == "objarray":
-            items = [self.decode(v) for v in node["items"]]
-            out = np.empty(len(items), dtype=object)
-            out[:] = items
-            return out.reshape(node["shape"])
-        if t in ("list", "tuple"):
-            items = [self.decode(v) for v in node["items"]]
-            return tuple(items) if t == "tuple" else items
-        if t == "dict":
-            return {self.decode(k): self.decode(v) for k, v in node["items"]}
-        if t in ("dataframe", "series"):
-            raw = self._get(self.arrays, node["key"], "table")
-            if not isinstance(raw, np.ndarray) or raw.dtype != np.uint8 or raw.ndim != 1:
-                raise ModelError(f"{self.where}: a table's bytes are damaged")
-            _check_parquet_sizes(raw.tobytes(), self.where)
-            frame = pd.read_parquet(io.BytesIO(raw.tobytes()))
-            if "columns" in node:
-                frame.columns = [self.decode(c) for c in node["columns"]]
-            if t == "series":
-                series = frame.iloc[:, 0]
-                series.name = self.decode(node.get("name"))
-                return series
-            return frame
-        if t == "index":
-            return pd.Index(self.decode(node["v"]))
-        if t == "tensor":
-            return self._get(self.tensors, node["key"], "tensor")
-        if t == "scipy_frozen":
-            import scipy.stats
+        # a type that is no string (a list, say) matches no case, as it never did
+        case = _DECODE_CASES.get(t) if isinstance(t, str) else None
+        if case is None:
+            raise ModelError(f"{self.where}: state.json holds an unknown node type {t!r}")
+        return case(self, node)
 
-            dist = getattr(scipy.stats, str(node["name"]), None)
-            if not isinstance(dist, scipy.stats.rv_continuous | scipy.stats.rv_discrete):
-                raise ModelError(
-                    f"{self.where}: unknown scipy distribution {node['name']!r}"
-                )
-            return dist(*node["args"], **node["kwds"])
-        if t == "object" and "args" in node:
-            cls = _registered(node["class"], object_registry(), self.where)
-            if node["class"] not in _CONSTRUCTED_WITH_ARGS:
-                raise ModelError(
-                    f"{self.where}: state.json asks to call {node['class']} with "
-                    "arguments; only scikit-learn's Tree is rebuilt that way. Refused"
-                )
-            args = self.decode(node["args"])
-            if not _tree_args_ok(args):
-                raise ModelError(
-                    f"{self.where}: the arguments of {node['class']} are damaged"
-                )
+    def _int(self, node: dict) -> int:
+        """An integer too large for JSON's doubles, stored as text."""
+        return int(node["v"])
+
+    def _float(self, node: dict) -> float:
+        """A non-finite float (nan, inf), stored as text."""
+        return float(node["v"])
+
+    def _scalar(self, node: dict) -> Any:
+        """A numpy scalar, the one element of an array in arrays.npz."""
+        return self._get(self.arrays, node["key"], "array")[0]
+
+    def _ndarray(self, node: dict) -> np.ndarray:
+        """A numpy array from arrays.npz."""
+        return self._get(self.arrays, node["key"], "array")
+
+    def _objarray(self, node: dict) -> np.ndarray:
+        """An object array, each element a node of its own."""
+        items = [self.decode(v) for v in node["items"]]
+        out = np.empty(len(items), dtype=object)
+        out[:] = items
+        return out.reshape(node["shape"])
+
+    def _sequence(self, node: dict) -> list | tuple:
+        """A list or a tuple of nodes."""
+        items = [self.decode(v) for v in node["items"]]
+        return tuple(items) if node["t"] == "tuple" else items
+
+    def _dict(self, node: dict) -> dict:
+        """A dict, its keys and values nodes."""
+        return {self.decode(k): self.decode(v) for k, v in node["items"]}
+
+    def _table(self, node: dict) -> Any:
+        """A pandas DataFrame or Series from Parquet bytes, its size checked first."""
+        import pandas as pd
+
+        raw = self._get(self.arrays, node["key"], "table")
+        if not isinstance(raw, np.ndarray) or raw.dtype != np.uint8 or raw.ndim != 1:
+            raise ModelError(f"{self.where}: a table's bytes are damaged")
+        _check_parquet_sizes(raw.tobytes(), self.where)
+        frame = pd.read_parquet(io.BytesIO(raw.tobytes()))
+        if "columns" in node:
+            frame.columns = [self.decode(c) for c in node["columns"]]
+        if node["t"] == "series":
+            series = frame.iloc[:, 0]
+            series.name = self.decode(node.get("name"))
+            return series
+        return frame
+
+    def _index(self, node: dict) -> Any:
+        """A pandas Index, stored as a Series."""
+        import pandas as pd
+
+        return pd.Index(self.decode(node["v"]))
+
+    def _tensor(self, node: dict) -> Any:
+        """A torch tensor from tensors.pt."""
+        return self._get(self.tensors, node["key"], "tensor")
+
+    def _scipy_frozen(self, node: dict) -> Any:
+        """A frozen scipy.stats distribution, by name, with float arguments."""
+        import scipy.stats
+
+        dist = getattr(scipy.stats, str(node["name"]), None)
+        if not isinstance(dist, scipy.stats.rv_continuous | scipy.stats.rv_discrete):
+            raise ModelError(f"{self.where}: unknown scipy distribution {node['name']!r}")
+        return dist(*node["args"], **node["kwds"])
+
+    def _object(self, node: dict) -> Any:
+        """An instance of a registered class (by constructor arguments or by state)."""
+        if "args" in node:
+            return self._constructed_object(node)
+        return self._restored_object(node)
+
+    def _constructed_object(self, node: dict) -> Any:
+        """A class called with checked arguments (only scikit-learn's Tree)."""
+        cls = _registered(node["class"], object_registry(), self.where)
+        if node["class"] not in _CONSTRUCTED_WITH_ARGS:
+            raise ModelError(
+                f"{self.where}: state.json asks to call {node['class']} with "
+                "arguments; only scikit-learn's Tree is rebuilt that way. Refused"
+            )
+        args = self.decode(node["args"])
+        if not _tree_args_ok(args):
+            raise ModelError(f"{self.where}: the arguments of {node['class']} are damaged")
+        try:
+            obj = cls(*args)
+            if "state" in node:
+                obj.__setstate__(self.decode(node["state"]))
+        except (TypeError, ValueError, KeyError, IndexError, AttributeError) as exc:
+            raise ModelError(
+                f"{self.where}: cannot rebuild a {node['class']} ({exc})"
+            ) from None
+        return obj
+
+    def _restored_object(self, node: dict) -> Any:
+        """A class made with ``cls.__new__`` and given its decoded state."""
+        cls = _registered(node["class"], object_registry(), self.where)
+        state = self.decode(node["state"])
+        if not isinstance(state, dict) and not _has_setstate(cls):
+            raise ModelError(f"{self.where}: the state of {node['class']} is damaged")
+        obj = cls.__new__(cls)
+        if _has_setstate(cls):
             try:
-                obj = cls(*args)
-                if "state" in node:
-                    obj.__setstate__(self.decode(node["state"]))
-            except (TypeError, ValueError, KeyError, IndexError, AttributeError) as exc:
+                obj.__setstate__(state)
+            except (TypeError, ValueError, KeyError, IndexError) as exc:
                 raise ModelError(
-                    f"{self.where}: cannot rebuild a {node['class']} ({exc})"
+                    f"{self.where}: cannot restore a {node['class']} ({exc})"
                 ) from None
-            return obj
-        if t == "object":
-            cls = _registered(node["class"], object_registry(), self.where)
-            state = self.decode(node["state"])
-            if not isinstance(state, dict) and not _has_setstate(cls):
-                raise ModelError(f"{self.where}: the state of {node['class']} is damaged")
-            obj = cls.__new__(cls)
-            if _has_setstate(cls):
-                try:
-                    obj.__setstate__(state)
-                except (TypeError, ValueError, KeyError, IndexError) as exc:
-                    raise ModelError(
-                        f"{self.where}: cannot restore a {node['class']} ({exc})"
-                    ) from None
-            elif hasattr(obj, "__dict__"):
-                obj.__dict__.update(state)
-            else:
-                for k, v in state.items():
-                    object.__setattr__(obj, k, v)
-            return obj
-        raise ModelError(f"{self.where}: state.json holds an unknown node type {t!r}")
+        elif hasattr(obj, "__dict__"):
+            obj.__dict__.update(state)
+        else:
+            for k, v in state.items():
+                object.__setattr__(obj, k, v)
+        return obj
+
+
+#: node type -> the _Decoder method that rebuilds it; a type not here is refused
+_DECODE_CASES = {
+    "int": _Decoder._int,
+    "float": _Decoder._float,
+    "scalar": _Decoder._scalar,
+    "ndarray": _Decoder._ndarray,
+    "objarray": _Decoder._objarray,
+    "list": _Decoder._sequence,
+    "tuple": _Decoder._sequence,
+    "dict": _Decoder._dict,
+    "dataframe": _Decoder._table,
+    "series": _Decoder._table,
+    "index": _Decoder._index,
+    "tensor": _Decoder._tensor,
+    "scipy_frozen": _Decoder._scipy_frozen,
+    "object": _Decoder._object,
+}

@@ -44,7 +44,8 @@ from pdmkit.ensembles._distributed import (
 from pdmkit.ensembles._ensemble import Ensemble
 from pdmkit.ensembles._matlab_numpy import read_mat, read_npz
 from pdmkit.ensembles._member_files import read_members
-from pdmkit.ensembles._parquet import iter_parquet, url_filesystem, write_parquet_batches
+from pdmkit.ensembles._parquet import url_filesystem, write_parquet_batches
+from pdmkit.ensembles._parquet_read import iter_parquet
 from pdmkit.ensembles._pneumatic import (
     PNEUMATIC_FAULTS,
     PNEUMATIC_SENSORS,

@@ -18,13 +18,9 @@ import pandas as pd
 
 from pdmkit._checks import check_fs, check_int
 from pdmkit._config import data_dir
-from pdmkit.ensembles._ensemble import (
-    Ensemble,
-    _names_list,
-    resample_poly_1d,
-    resample_ratio,
-)
+from pdmkit.ensembles._ensemble import Ensemble
 from pdmkit.ensembles._matlab_numpy import read_mat, read_npz
+from pdmkit.ensembles._signals import _names_list, resample_poly_1d, resample_ratio
 from pdmkit.ensembles._table_files import read_table
 from pdmkit.errors import DataError, DataNotFoundError
 

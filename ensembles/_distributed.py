@@ -28,19 +28,18 @@ from pathlib import Path
 from typing import Any
 
 from pdmkit._checks import check_int
-from pdmkit.ensembles._ensemble import Ensemble
+from pdmkit.ensembles._ensemble import Ensemble, _table_to_ensemble
 from pdmkit.ensembles._limits import check_declared_sizes
 from pdmkit.ensembles._parquet import (
     FORMAT,
     MANIFEST,
-    MEMBER,
     _lists_to_arrays,
     _pick,
-    _table_to_ensemble,
     read_manifest,
     url_filesystem,
 )
 from pdmkit.ensembles._pneumatic import simulate_fault_ensemble
+from pdmkit.ensembles._signals import MEMBER
 from pdmkit.errors import DataError, DataNotFoundError
 
 __all__ = [

@@ -3,192 +3,88 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Iterator, Mapping, Sequence
-from fractions import Fraction
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from pdmkit._checks import check_fs, check_int
+from pdmkit._checks import check_fs
+from pdmkit.ensembles._parquet import _lists_to_arrays, read_parts, write_parquet
+from pdmkit.ensembles._signals import (
+    _SHOW,
+    MEMBER,
+    SignalList,
+    _column_values,
+    _convert_signal,
+    _n_rows,
+    _names_list,
+)
+from pdmkit.ensembles._views import _EnsembleViews
 from pdmkit.errors import DataError
 
 __all__ = ["Ensemble"]
 
-MEMBER = "member"
-"""Name of the member-id index (and of the id column on disk)."""
 
-_SHOW = 5  # how many offending members an error message names
-_RESAMPLE_BLOCK = 1 << 24  # samples resampled in one vectorised call (128 MiB of float64)
-
-SignalList = list  # list[np.ndarray | None], one entry per member
-
-
-# --------------------------------------------------------------------------------------
-# small helpers shared by the ensemble, the Parquet store and the loaders
-# --------------------------------------------------------------------------------------
-
-
-def _names_list(items: Sequence[Any], limit: int = _SHOW) -> str:
-    shown = ", ".join(repr(x) for x in list(items)[:limit])
-    more = len(items) - limit
-    return shown + (f" and {more} more" if more > 0 else "")
-
-
-def _readonly(a: np.ndarray) -> np.ndarray:
-    if a.flags.writeable:
-        a = a.view()
-        a.flags.writeable = False
-    return a
-
-
-def resample_ratio(fs_from: float, fs_to: float, what: str = "signal") -> tuple[int, int]:
-    """Return ``(up, down)`` with ``fs_to / fs_from == up / down`` in small integers.
-
-    Examples
-    --------
-    >>> resample_ratio(48000.0, 12000.0)
-    (1, 4)
-    """
-    exact = Fraction(fs_to) / Fraction(fs_from)
-    ratio = exact.limit_denominator(10_000)
-    if abs(float(ratio) - fs_to / fs_from) > 1e-9 * (fs_to / fs_from):
+def _check_input_types(signals: Any, conditions: Any) -> None:
+    """Refuse signals that are no mapping of named arrays, conditions of another type."""
+    if not isinstance(signals, Mapping):
         raise DataError(
-            f"cannot resample {what} from {fs_from:g} Hz to {fs_to:g} Hz: the ratio is not "
-            "a fraction of integers below 10000; choose a target rate with a simpler ratio"
+            f"signals must be a mapping of signal name -> arrays; got "
+            f"{type(signals).__name__}"
         )
-    return ratio.numerator, ratio.denominator
-
-
-def resample_poly_1d(x: np.ndarray, up: int, down: int) -> np.ndarray:
-    """Polyphase-resample the last axis of ``x`` by ``up / down`` (scipy defaults).
-
-    Examples
-    --------
-    >>> resample_poly_1d(np.ones(8), 1, 2).shape
-    (4,)
-    """
-    from scipy.signal import resample_poly
-
-    if up == down:
-        return np.asarray(x, dtype=np.float64)
-    return resample_poly(np.asarray(x, dtype=np.float64), up, down, axis=-1)
-
-
-def _as_float(x: Any, signal: str, member: str | None) -> np.ndarray:
-    where = f"signal {signal!r}" + (f" of member {member!r}" if member is not None else "")
-    try:
-        a = np.asarray(x)
-    except (ValueError, TypeError) as exc:
-        raise DataError(f"{where} is not a numeric array ({exc})") from None
-    if a.dtype.kind == "c":
+    for name in signals:
+        if not isinstance(name, str) or not name:
+            raise DataError(f"signal names must be non-empty strings; got {name!r}")
+    if conditions is not None and not isinstance(conditions, pd.DataFrame | Mapping):
         raise DataError(
-            f"{where} holds complex values; store real and imaginary parts as two signals"
+            "conditions must be a pandas DataFrame or a mapping of column -> values; "
+            f"got {type(conditions).__name__}"
         )
-    if a.dtype.kind not in "biuf":
+
+
+def _ids_from_frame(
+    conditions: pd.DataFrame, member_ids: Sequence[Any] | None
+) -> tuple[pd.DataFrame, Sequence[Any] | None]:
+    """Conditions in row order, and member ids from their index or column if not given."""
+    conditions = conditions.copy(deep=False)
+    if member_ids is None and conditions.index.name == MEMBER:
+        member_ids = list(conditions.index)
+    if MEMBER in conditions.columns and member_ids is None:
+        member_ids = list(conditions[MEMBER])
+        conditions = conditions.drop(columns=MEMBER)
+    return conditions.reset_index(drop=True), member_ids
+
+
+def _member_count(
+    signals: Mapping[str, Any], conditions: Any, member_ids: Sequence[Any] | None
+) -> tuple[int, list | None]:
+    """How many members (every source that knows must agree), and the ids as a list."""
+    counts: dict[str, int] = {}
+    for name, value in signals.items():
+        if isinstance(value, np.ndarray) and value.dtype != object and value.ndim >= 1:
+            counts[f"signal {name!r}"] = value.shape[0]
+        elif hasattr(value, "__len__") and not isinstance(value, str | bytes):
+            counts[f"signal {name!r}"] = len(value)
+    if member_ids is not None:
+        if isinstance(member_ids, str):
+            raise DataError("member_ids must be a sequence of ids, not one string")
+        member_ids = list(member_ids)
+        counts["member_ids"] = len(member_ids)
+    n_cond = _n_rows(conditions)
+    if n_cond is not None:
+        counts["conditions"] = n_cond
+    if len(set(counts.values())) > 1:
+        found = ", ".join(f"{k}: {v}" for k, v in counts.items())
         raise DataError(
-            f"{where} holds values of dtype {a.dtype}; expected numbers (float samples)"
+            f"inputs disagree on the number of members ({found}); give every signal, "
+            "the conditions and member_ids one entry per member"
         )
-    return a.astype(np.float64, copy=False)
+    return next(iter(counts.values()), 0), member_ids
 
 
-def _nonfinite_error(signal: str, member: str, x: np.ndarray, others: int = 0) -> DataError:
-    bad = ~np.isfinite(x)
-    first = int(np.argmax(bad))
-    more = f" ({others} other member(s) too)" if others else ""
-    return DataError(
-        f"signal {signal!r} of member {member!r} holds {int(bad.sum())} non-finite "
-        f"value(s) (first at sample {first}){more}; clean or drop the member"
-    )
-
-
-def _convert_signal(name: Any, value: Any, ids: Sequence[str]) -> SignalList:
-    """Validate one signal (2-D array or per-member sequence) into a list of 1-D arrays."""
-    n = len(ids)
-    if isinstance(value, pd.DataFrame):
-        value = value.to_numpy()
-    if isinstance(value, np.ndarray) and value.dtype != object:
-        if value.ndim != 2:
-            raise DataError(
-                f"signal {name!r} must be a 2-D array (n_members, n_samples) or a sequence "
-                f"of one 1-D array (or None) per member; got an array of shape "
-                f"{value.shape}. Wrap a single recording in a list: {{{name!r}: [x]}}"
-            )
-        a = _as_float(value, name, None)
-        if a.shape[1] == 0:
-            raise DataError(f"signal {name!r} has no samples (shape {a.shape})")
-        finite = np.isfinite(a).all(axis=1)
-        if not finite.all():
-            rows = np.flatnonzero(~finite)
-            raise _nonfinite_error(name, ids[rows[0]], a[rows[0]], len(rows) - 1)
-        return list(_readonly(a))
-    if isinstance(value, str | bytes) or not isinstance(value, Iterable):
-        raise DataError(
-            f"signal {name!r} must be a 2-D array or a sequence of 1-D arrays (None where "
-            f"a member lacks it); got {type(value).__name__}"
-        )
-    seq = list(value)
-    if len(seq) != n:
-        raise DataError(
-            f"signal {name!r} has {len(seq)} entries; expected one per member ({n})"
-        )
-    out: SignalList = []
-    for member, x in zip(ids, seq, strict=True):
-        if x is None:
-            out.append(None)
-            continue
-        a = _as_float(x, name, member)
-        if a.ndim != 1:
-            raise DataError(
-                f"signal {name!r} of member {member!r} must be 1-D; got shape {a.shape}. "
-                "Flatten it (np.ravel) or pass None when the member lacks the signal"
-            )
-        if a.size == 0:
-            raise DataError(
-                f"signal {name!r} of member {member!r} has no samples; pass None when the "
-                "member lacks the signal"
-            )
-        if not np.isfinite(a).all():
-            raise _nonfinite_error(name, member, a)
-        out.append(_readonly(a))
-    return out
-
-
-def _column_values(value: Any, n: int, column: Any) -> Any:
-    """Column values for a conditions table of ``n`` rows (scalars broadcast)."""
-    if isinstance(value, pd.Series | pd.Index):
-        value = pd.Series(value).reset_index(drop=True)
-    elif np.ndim(value) == 0:
-        return value
-    if len(value) != n:
-        raise DataError(
-            f"condition column {column!r} has {len(value)} values; expected one per "
-            f"member ({n})"
-        )
-    return value
-
-
-def _n_rows(conditions: Any) -> int | None:
-    if conditions is None:
-        return None
-    if isinstance(conditions, pd.DataFrame):
-        return len(conditions)
-    lengths = {len(v) for v in conditions.values() if np.ndim(v) != 0}
-    if len(lengths) > 1:
-        raise DataError(
-            f"condition columns have different lengths {sorted(lengths)}; give one value "
-            "per member in every column (or a scalar)"
-        )
-    return lengths.pop() if lengths else None
-
-
-# --------------------------------------------------------------------------------------
-# the ensemble
-# --------------------------------------------------------------------------------------
-
-
-class Ensemble:
+class Ensemble(_EnsembleViews):
     """A collection of recordings (members): named signals plus condition variables.
 
     Every member has a string id, a row of condition variables (labels, settings,
@@ -242,58 +138,17 @@ class Ensemble:
 
     __slots__ = ("_conditions", "_fs", "_signals")
 
-    def __init__(  # noqa: C901
+    def __init__(
         self,
         signals: Mapping[str, Any],
         fs: float | Mapping[str, float],
         conditions: pd.DataFrame | Mapping[str, Any] | None = None,
         member_ids: Sequence[Any] | None = None,
     ) -> None:
-        if not isinstance(signals, Mapping):
-            raise DataError(
-                f"signals must be a mapping of signal name -> arrays; got "
-                f"{type(signals).__name__}"
-            )
-        for name in signals:
-            if not isinstance(name, str) or not name:
-                raise DataError(f"signal names must be non-empty strings; got {name!r}")
-        if conditions is not None and not isinstance(conditions, pd.DataFrame | Mapping):
-            raise DataError(
-                "conditions must be a pandas DataFrame or a mapping of column -> values; "
-                f"got {type(conditions).__name__}"
-            )
+        _check_input_types(signals, conditions)
         if isinstance(conditions, pd.DataFrame):
-            conditions = conditions.copy(deep=False)
-            if member_ids is None and conditions.index.name == MEMBER:
-                member_ids = list(conditions.index)
-            if MEMBER in conditions.columns and member_ids is None:
-                member_ids = list(conditions[MEMBER])
-                conditions = conditions.drop(columns=MEMBER)
-            conditions = conditions.reset_index(drop=True)
-
-        # how many members: every source that knows must agree
-        counts: dict[str, int] = {}
-        for name, value in signals.items():
-            if isinstance(value, np.ndarray) and value.dtype != object and value.ndim >= 1:
-                counts[f"signal {name!r}"] = value.shape[0]
-            elif hasattr(value, "__len__") and not isinstance(value, str | bytes):
-                counts[f"signal {name!r}"] = len(value)
-        if member_ids is not None:
-            if isinstance(member_ids, str):
-                raise DataError("member_ids must be a sequence of ids, not one string")
-            member_ids = list(member_ids)
-            counts["member_ids"] = len(member_ids)
-        n_cond = _n_rows(conditions)
-        if n_cond is not None:
-            counts["conditions"] = n_cond
-        if len(set(counts.values())) > 1:
-            found = ", ".join(f"{k}: {v}" for k, v in counts.items())
-            raise DataError(
-                f"inputs disagree on the number of members ({found}); give every signal, "
-                "the conditions and member_ids one entry per member"
-            )
-        n = next(iter(counts.values()), 0)
-
+            conditions, member_ids = _ids_from_frame(conditions, member_ids)
+        n, member_ids = _member_count(signals, conditions, member_ids)
         if member_ids is None:
             ids = [f"m{i:05d}" for i in range(n)]
         else:
@@ -522,280 +377,6 @@ class Ensemble:
             )
         return np.stack(present), mask
 
-    # ---------------------------------------------------------------- selection
-    def _positions(self, which: Any) -> np.ndarray:
-        n = len(self)
-        if isinstance(which, slice):
-            return np.arange(n)[which]
-        if isinstance(which, int | np.integer) and not isinstance(which, bool | np.bool_):
-            if not -n <= which < n:
-                raise DataError(f"member position {which} is out of range for {n} members")
-            return np.array([which % n])
-        if isinstance(which, str):
-            which = [which]
-        if isinstance(which, pd.Series | pd.Index):
-            which = which.to_numpy()
-        arr = np.asarray(which)
-        if arr.ndim != 1:
-            raise DataError(f"select expects a 1-D selection; got shape {arr.shape}")
-        if arr.dtype == bool:
-            if len(arr) != n:
-                raise DataError(
-                    f"boolean selection has {len(arr)} entries; expected one per member "
-                    f"({n})"
-                )
-            return np.flatnonzero(arr)
-        if arr.size == 0:
-            return np.empty(0, dtype=np.int64)
-        if arr.dtype.kind in "iu":
-            bad = arr[(arr < -n) | (arr >= n)]
-            if bad.size:
-                raise DataError(
-                    f"member positions {_names_list(bad.tolist())} are out of range for "
-                    f"{n} members"
-                )
-            return arr.astype(np.int64) % max(n, 1)
-        if arr.dtype.kind in "UO" or isinstance(arr.dtype, pd.StringDtype):
-            pos = self.member_ids.get_indexer(pd.Index(arr.astype(str)))
-            if (pos < 0).any():
-                missing = arr[pos < 0].tolist()
-                raise DataError(
-                    f"no member with id(s) {_names_list(missing)}; ids look like "
-                    f"{_names_list(self.member_ids[:3].tolist(), 3)}"
-                )
-            return pos.astype(np.int64)
-        raise DataError(
-            "select takes a boolean mask, member ids, integer positions, a slice or an "
-            f"int; got an array of dtype {arr.dtype}"
-        )
-
-    def _take(self, pos: np.ndarray) -> Ensemble:
-        signals = {k: [xs[i] for i in pos] for k, xs in self._signals.items()}
-        return Ensemble._new(signals, dict(self._fs), self._conditions.iloc[pos])
-
-    def select(self, which: Any) -> Ensemble:
-        """Return the members picked by a boolean mask, ids, positions, a slice or an int.
-
-        Examples
-        --------
-        >>> ens = Ensemble({"x": np.arange(6.0).reshape(3, 2)}, fs=1.0,
-        ...                member_ids=list("abc"))
-        >>> ens.select(["c", "a"]).member_ids.tolist()
-        ['c', 'a']
-        >>> ens.select(np.array([True, False, True])).member_ids.tolist()
-        ['a', 'c']
-        >>> ens.select(slice(1, None)).member_ids.tolist(), len(ens.select(0))
-        (['b', 'c'], 1)
-        """
-        return self._take(self._positions(which))
-
-    def batches(self, size: int) -> Iterator[Ensemble]:
-        """Yield consecutive ensembles of at most ``size`` members.
-
-        Examples
-        --------
-        >>> ens = Ensemble({"x": np.zeros((5, 2))}, fs=1.0)
-        >>> [len(b) for b in ens.batches(2)]
-        [2, 2, 1]
-        """
-        size = check_int(size, "size")
-        for start in range(0, len(self), size):
-            yield self._take(np.arange(start, min(start + size, len(self))))
-
-    # ---------------------------------------------------------------- transforms
-    def frames(
-        self,
-        length: int,
-        *,
-        hop: int | None = None,
-        signals: str | Sequence[str] | None = None,
-    ) -> Ensemble:
-        """Cut every member into frames of equal duration.
-
-        ``length`` and ``hop`` count samples of the *reference* signal, the first of
-        ``signals`` (default: the first signal). Every other signal is cut over the same
-        time span: ``length * fs_signal / fs_reference`` samples, which must be a whole
-        number. Frame ``k`` of a member starts at ``k * hop / fs_reference`` seconds in
-        every signal; a member gives as many frames as its shortest signal allows
-        (trailing samples are dropped). Frames are read-only views (no copies).
-
-        Parameters
-        ----------
-        length : int
-            Frame length in samples of the reference signal.
-        hop : int, optional
-            Distance between frame starts; default ``length`` (no overlap).
-        signals : str or sequence of str, optional
-            Signals to keep and cut; the others are dropped. Default: all.
-
-        Returns
-        -------
-        Ensemble
-            One member per frame, id ``"<member>/f<k:04d>"``; the conditions of its
-            source member plus ``source_member`` (str) and ``frame`` (int, from 0).
-
-        Raises
-        ------
-        pdmkit.errors.DataError
-            Members shorter than one frame (named with their lengths), members with
-            none of the signals, or a length that is no whole number of samples of a
-            signal at another rate.
-
-        Examples
-        --------
-        >>> ens = Ensemble(
-        ...     {"fast": [np.arange(10.0)], "slow": [np.arange(5.0)]},
-        ...     fs={"fast": 10.0, "slow": 5.0},
-        ...     conditions={"label": ["ok"]},
-        ... )
-        >>> fr = ens.frames(4)
-        >>> fr.member_ids.tolist()
-        ['m00000/f0000', 'm00000/f0001']
-        >>> fr.signal("slow")[1]
-        array([2., 3.])
-        >>> fr.conditions[["label", "source_member", "frame"]].to_dict("list")
-        {'label': ['ok', 'ok'], 'source_member': ['m00000', 'm00000'], 'frame': [0, 1]}
-        """
-        names = self._select_names(signals)
-        if not names:
-            raise DataError("frames needs at least one signal; the ensemble has none")
-        length = check_int(length, "length")
-        hop = length if hop is None else check_int(hop, "hop")
-        ref = names[0]
-        fs_ref = self._fs[ref]
-        win = {s: self._scaled(length, s, ref, "length") for s in names}
-        step = {s: self._scaled(hop, s, ref, "hop") for s in names}
-
-        n = len(self)
-        big = np.iinfo(np.int64).max
-        counts = np.full(n, big, dtype=np.int64)
-        have_any = np.zeros(n, dtype=bool)
-        for s in names:
-            lens = self._lengths(s)
-            has = lens >= 0
-            counts = np.minimum(counts, np.where(has, (lens - win[s]) // step[s] + 1, big))
-            have_any |= has
-        ids = self.member_ids
-        if not have_any.all():
-            raise DataError(
-                f"member(s) {_names_list(ids[~have_any].tolist())} have none of the "
-                f"signals {names}; drop them with select() before framing"
-            )
-        short = counts < 1
-        if short.any():
-            detail = []
-            for i in np.flatnonzero(short)[:_SHOW]:
-                lens = ", ".join(
-                    f"{s!r} {len(self._signals[s][i])}"
-                    for s in names
-                    if self._signals[s][i] is not None
-                )
-                detail.append(f"{ids[i]!r} ({lens} samples)")
-            more = int(short.sum()) - len(detail)
-            raise DataError(
-                f"{int(short.sum())} member(s) are shorter than one frame of {length} "
-                f"samples of {ref!r} ({length / fs_ref:g} s): {', '.join(detail)}"
-                f"{f' and {more} more' if more > 0 else ''}; drop them with select() or "
-                "choose a shorter length"
-            )
-
-        out: dict[str, SignalList] = {}
-        for s in names:
-            frames: SignalList = []
-            w, h = win[s], step[s]
-            for x, c in zip(self._signals[s], counts, strict=True):
-                if x is None:
-                    frames.extend([None] * int(c))
-                else:
-                    view = np.lib.stride_tricks.sliding_window_view(x, w)
-                    frames.extend(view[: (c - 1) * h + 1 : h])
-            out[s] = frames
-
-        rep = np.repeat(np.arange(n), counts)
-        frame_no = np.arange(rep.size) - np.repeat(np.cumsum(counts) - counts, counts)
-        source = ids.to_numpy()[rep]
-        new_ids = [f"{m}/f{k:04d}" for m, k in zip(source, frame_no, strict=True)]
-        table = self._conditions.iloc[rep].copy()
-        table["source_member"] = pd.array(source, dtype=ids.dtype)
-        table["frame"] = frame_no
-        table.index = pd.Index(new_ids, name=MEMBER, dtype=str)
-        return Ensemble._new(out, {s: self._fs[s] for s in names}, table)
-
-    def _scaled(self, count: int, signal: str, ref: str, what: str) -> int:
-        """``count`` samples of ``ref`` as a whole number of samples of ``signal``."""
-        up, down = resample_ratio(self._fs[ref], self._fs[signal], f"signal {signal!r}")
-        if (count * up) % down:
-            raise DataError(
-                f"a frame {what} of {count} samples of {ref!r} ({self._fs[ref]:g} Hz) is "
-                f"{count * up / down:g} samples of {signal!r} ({self._fs[signal]:g} Hz), "
-                f"not a whole number; choose a {what} that is a multiple of {down}"
-            )
-        return count * up // down
-
-    def resample(
-        self, fs: float | Mapping[str, float], *, signals: str | Sequence[str] | None = None
-    ) -> Ensemble:
-        """Bring signals to a new sampling rate (polyphase, ``scipy.signal.resample_poly``).
-
-        Each chosen signal whose rate differs from the target is resampled by the exact
-        ratio ``fs_new / fs_old = up / down`` with scipy's default Kaiser anti-aliasing
-        filter; a member of ``n`` samples gets ``ceil(n * up / down)``. Members of equal
-        length are resampled together in one vectorised call.
-
-        Parameters
-        ----------
-        fs : float or mapping of str to float
-            Target rate in Hz for every chosen signal, or per signal.
-        signals : str or sequence of str, optional
-            Signals to resample (default: all, or the keys of a mapping ``fs``); the
-            others are kept unchanged.
-
-        Examples
-        --------
-        >>> ens = Ensemble({"x": np.ones((2, 48)), "y": np.ones((2, 12))},
-        ...                fs={"x": 48.0, "y": 12.0})
-        >>> out = ens.resample(12.0)
-        >>> out.fs, out.stack("x")[0].shape
-        ({'x': 12.0, 'y': 12.0}, (2, 12))
-        """
-        if isinstance(fs, Mapping):
-            self._select_names(list(fs))  # every key names a signal
-            names = self._select_names(list(fs) if signals is None else signals)
-            missing = [s for s in names if s not in fs]
-            if missing:
-                raise DataError(
-                    f"fs gives no target rate for signal(s) {_names_list(missing)}; add "
-                    "them to the mapping or leave them out of signals"
-                )
-            target = {s: check_fs(fs[s], f"fs of signal {s!r}") for s in names}
-        else:
-            names = self._select_names(signals)
-            target = dict.fromkeys(names, check_fs(fs, "fs"))
-        new_signals = dict(self._signals)
-        new_fs = dict(self._fs)
-        for s in names:
-            if target[s] == self._fs[s]:
-                continue
-            up, down = resample_ratio(self._fs[s], target[s], f"signal {s!r}")
-            new_signals[s] = self._resample_list(
-                self._signals[s], self._lengths(s), up, down
-            )
-            new_fs[s] = target[s]
-        return Ensemble._new(new_signals, new_fs, self._conditions)
-
-    @staticmethod
-    def _resample_list(xs: SignalList, lens: np.ndarray, up: int, down: int) -> SignalList:
-        out: SignalList = [None] * len(xs)
-        for length in np.unique(lens[lens >= 0]):
-            idx = np.flatnonzero(lens == length)
-            per_block = max(1, _RESAMPLE_BLOCK // int(length))
-            for start in range(0, idx.size, per_block):
-                chunk = idx[start : start + per_block]
-                block = resample_poly_1d(np.stack([xs[i] for i in chunk]), up, down)
-                for row, i in zip(_readonly(block), chunk, strict=True):
-                    out[i] = row
-        return out
-
     def with_conditions(self, **columns: Any) -> Ensemble:
         """Return a copy with condition columns added or replaced.
 
@@ -937,8 +518,6 @@ class Ensemble:
         >>> Ensemble.from_parquet(path).signal("x")[2]
         array([4., 5.])
         """
-        from pdmkit.ensembles._parquet import write_parquet
-
         return write_parquet(self, path, members_per_file=members_per_file)
 
     @classmethod
@@ -968,6 +547,36 @@ class Ensemble:
         >>> Ensemble.from_parquet(path, signals=["y"]).signal_names
         ['y']
         """
-        from pdmkit.ensembles._parquet import read_parquet
+        manifest, sigs, cols, tables = read_parts(path, signals, columns)
+        parts = [
+            _table_to_ensemble(table, manifest, sigs, cols, str(file))
+            for table, file in tables
+        ]
+        if len(parts) == 1:
+            return parts[0]
+        return Ensemble.concat(parts)
 
-        return read_parquet(path, signals=signals, columns=columns)
+
+def _table_to_ensemble(
+    table: Any, manifest: dict[str, Any], signals: list[str], columns: list[str], where: str
+) -> Ensemble:
+    """The members of a pyarrow table of a pdmkit Parquet dataset as an Ensemble.
+
+    A non-finite sample is a DataError naming ``where``, the member and the signal.
+    """
+    ids = table.column(MEMBER).to_pylist()
+    conditions = table.select(columns).to_pandas() if columns else pd.DataFrame(index=ids)
+    arrays, all_finite = {}, True
+    for s in signals:
+        arrays[s], finite = _lists_to_arrays(table.column(s))
+        all_finite &= finite
+    fs = {s: float(manifest["fs"][s]) for s in signals}
+    if not all_finite:
+        try:  # the full check names the member and the signal
+            Ensemble(
+                arrays, fs, conditions=conditions.reset_index(drop=True), member_ids=ids
+            )
+        except DataError as exc:
+            raise DataError(f"{where}: {exc}") from None
+    conditions.index = pd.Index(ids, name=MEMBER, dtype=str)
+    return Ensemble._new(arrays, fs, conditions)

@@ -129,7 +129,7 @@ def _inflated(f: IO[bytes], n: int) -> Iterator[bytes]:
                 break
 
 
-def _check_mat_sizes(path: Path, limit: int) -> set[str]:  # noqa: C901
+def _check_mat_sizes(path: Path, limit: int) -> set[str]:
     """Refuse a .mat file whose variables declare or decompress to more than ``limit``.
 
     Walks the top-level elements of a v5 file without scipy: a compressed variable is
@@ -143,20 +143,7 @@ def _check_mat_sizes(path: Path, limit: int) -> set[str]:  # noqa: C901
         head = f.read(128)
         endian = {b"IM": "<", b"MI": ">"}.get(head[126:128])
         if len(head) < 128 or endian is None:
-            from scipy.io import whosmat
-
-            try:  # a v4 file, or not a .mat: loadmat says what is wrong
-                listed = whosmat(path)
-            except Exception:  # loadmat says what is wrong with it
-                return logical
-            for name, shape, kind in listed:
-                declared = math.prod(shape) * _MAT4_WIDTH.get(kind, 8)
-                if declared > limit:
-                    raise _too_big(
-                        f"{path}: variable {name!r} ({kind} of shape {shape})",
-                        declared,
-                        limit,
-                    )
+            _check_mat4_sizes(path, limit)
             return logical
         pos, total, k = 128, 0, 0
         while pos + 8 <= size:
@@ -166,28 +153,8 @@ def _check_mat_sizes(path: Path, limit: int) -> set[str]:  # noqa: C901
                 return logical  # damaged: loadmat says so
             budget = limit - total
             if mdtype == _MI_COMPRESSED:
-                verb, used, content, header = "decompresses to at least", 0, b"", None
-                try:
-                    for out in _inflated(f, n):  # counted, never kept
-                        used += len(out)
-                        if header is None:
-                            content += out[: 4096 - len(content)]
-                            if len(content) >= 4096:  # the miMATRIX tag, then its header
-                                header = _check_mat5_header(
-                                    path, content[8:], endian, k, logical
-                                )
-                        if used > budget:
-                            break
-                except zlib.error as exc:
-                    partial = _mat5_header(content[8:], endian)
-                    name = header or (repr(partial[0]) if partial else f"#{k + 1}")
-                    raise DataError(
-                        f"{path}: variable {name} is damaged: its compressed data does "
-                        f"not decompress (zlib.error: {_one_line(exc)}); re-save or "
-                        "re-copy the file"
-                    ) from None
-                if header is None:
-                    header = _check_mat5_header(path, content[8:], endian, k, logical)
+                verb = "decompresses to at least"
+                used, header = _inflated_size(f, n, budget, path, endian, k, logical)
             else:
                 content, used, verb = f.read(min(n, 4096)), n, "holds"
                 header = _check_mat5_header(path, content, endian, k, logical)
@@ -200,6 +167,58 @@ def _check_mat_sizes(path: Path, limit: int) -> set[str]:  # noqa: C901
             pos += 8 + n
             k += 1
     return logical
+
+
+def _check_mat4_sizes(path: Path, limit: int) -> None:
+    """Refuse a v4 variable whose shape (as ``whosmat`` lists it) is over ``limit``.
+
+    A file ``whosmat`` cannot list is left to ``loadmat``, which says what is wrong.
+    """
+    from scipy.io import whosmat
+
+    try:  # a v4 file, or not a .mat: loadmat says what is wrong
+        listed = whosmat(path)
+    except Exception:  # loadmat says what is wrong with it
+        return
+    for name, shape, kind in listed:
+        declared = math.prod(shape) * _MAT4_WIDTH.get(kind, 8)
+        if declared > limit:
+            raise _too_big(
+                f"{path}: variable {name!r} ({kind} of shape {shape})",
+                declared,
+                limit,
+            )
+
+
+def _inflated_size(
+    f: Any, n: int, budget: int, path: Path, endian: str, k: int, logical: set[str]
+) -> tuple[int, str]:
+    """Bytes the compressed element at ``f`` inflates to, counted, never kept.
+
+    Stops once past ``budget``; returns the count and the variable's name (its header
+    checked on the way, a logical one added to ``logical``). Damaged data is a DataError.
+    """
+    used, content, header = 0, b"", None
+    try:
+        for out in _inflated(f, n):  # counted, never kept
+            used += len(out)
+            if header is None:
+                content += out[: 4096 - len(content)]
+                if len(content) >= 4096:  # the miMATRIX tag, then its header
+                    header = _check_mat5_header(path, content[8:], endian, k, logical)
+            if used > budget:
+                break
+    except zlib.error as exc:
+        partial = _mat5_header(content[8:], endian)
+        name = header or (repr(partial[0]) if partial else f"#{k + 1}")
+        raise DataError(
+            f"{path}: variable {name} is damaged: its compressed data does "
+            f"not decompress (zlib.error: {_one_line(exc)}); re-save or "
+            "re-copy the file"
+        ) from None
+    if header is None:
+        header = _check_mat5_header(path, content[8:], endian, k, logical)
+    return used, header
 
 
 def read_mat(path: str | os.PathLike) -> dict[str, Any]:

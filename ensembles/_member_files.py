@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -22,14 +21,14 @@ from pdmkit._checks import parse_timestamps
 from pdmkit._config import max_bytes
 from pdmkit._progress import progress as _progress_bar
 from pdmkit.ensembles._ensemble import Ensemble
-from pdmkit.ensembles._limits import _too_big, _why
+from pdmkit.ensembles._limits import _too_big
 from pdmkit.ensembles._matlab_numpy import read_mat, read_npz
+from pdmkit.ensembles._member_labels import _NameConditions
 from pdmkit.ensembles._table_files import (
     _COMPRESSED,
     _CSV,
     _PARQUET,
     _read_table,
-    read_table,
 )
 from pdmkit.errors import DataError, DataNotFoundError, DataWarning, did_you_mean
 
@@ -195,76 +194,105 @@ def _no_time_column(path: Path, time: str, names: list, what: str) -> DataError:
     )
 
 
-def _member_contents(  # noqa: C901
+def _member_contents(
     path: Path, notes: list, time: str | None = None
 ) -> tuple[dict, float | None, dict]:
+    """(signals, sampling rate or None, condition values) of one file, by its format."""
     suffix = path.suffix.lower()
     if suffix in (".mat", ".npz"):
         data = read_mat(path) if suffix == ".mat" else read_npz(path)
-        signals, fs, conditions = {}, None, {}
-        limit = max_bytes("member")
-        if time is not None:
-            if time not in data:
-                raise _no_time_column(path, time, [str(k) for k in data], "variable")
-            stamps = np.asarray(data.pop(time))
-            if stamps.dtype.kind not in "iuf" or stamps.size < 2:
-                raise DataError(
-                    f"{path}: time variable {time!r} holds {stamps.dtype} of shape "
-                    f"{stamps.shape}; expected a vector of times in seconds"
-                )
-            fs = _time_rate(
-                path, pd.Series(stamps.reshape(-1), name=time), lambda k: f"sample {k}"
+        return _variables_contents(path, data, notes, time)
+    return _table_contents(path, notes, time)
+
+
+def _time_variable_rate(path: Path, data: dict, time: str) -> float | None:
+    """The sampling rate of the time variable ``time``, taken out of ``data``."""
+    if time not in data:
+        raise _no_time_column(path, time, [str(k) for k in data], "variable")
+    stamps = np.asarray(data.pop(time))
+    if stamps.dtype.kind not in "iuf" or stamps.size < 2:
+        raise DataError(
+            f"{path}: time variable {time!r} holds {stamps.dtype} of shape "
+            f"{stamps.shape}; expected a vector of times in seconds"
+        )
+    return _time_rate(
+        path, pd.Series(stamps.reshape(-1), name=time), lambda k: f"sample {k}"
+    )
+
+
+def _rate_variable(path: Path, key: str, value: Any, arr: np.ndarray | None) -> float:
+    """The sampling rate an ``fs`` variable holds: one positive finite number."""
+    rate = (
+        float(arr.reshape(-1)[0])
+        if arr is not None and arr.size == 1 and arr.dtype.kind in "iuf"
+        else None
+    )
+    if rate is None or not math.isfinite(rate) or rate <= 0:
+        found = (
+            f"{arr.dtype} of shape {arr.shape}" if arr is not None else type(value).__name__
+        )
+        raise DataError(
+            f"{path}: variable {key!r} should be the sampling rate (one "
+            f"positive number, Hz); it holds {found}"
+            + (f" = {rate:g}" if rate is not None else "")
+        )
+    return rate
+
+
+def _signal_variable(path: Path, key: str, arr: np.ndarray, limit: int) -> np.ndarray:
+    """A numeric vector variable as float64 samples, after its shape and size checks."""
+    if arr.ndim > 1 and sorted(arr.shape)[-2] != 1:
+        raise DataError(
+            f"{path}: variable {key!r} has shape {arr.shape}; a member "
+            "file holds 1-D signals (or n x 1 columns)"
+        )
+    if arr.size * 8 > limit:  # as float64, before the copy is made
+        raise _too_big(
+            f"{path}: signal {key!r} ({arr.size} samples as float64)",
+            arr.size * 8,
+            limit,
+            "takes",
+        )
+    return arr.reshape(-1).astype(np.float64)
+
+
+def _variables_contents(
+    path: Path, data: dict, notes: list, time: str | None
+) -> tuple[dict, float | None, dict]:
+    """(signals, rate, conditions) of the variables of a ``.mat`` / ``.npz`` file."""
+    signals, fs, conditions = {}, None, {}
+    limit = max_bytes("member")
+    if time is not None:
+        fs = _time_variable_rate(path, data, time)
+    for key, value in data.items():
+        numeric = isinstance(value, np.ndarray | np.generic | bool | int | float | str)
+        arr = np.asarray(value) if numeric or isinstance(value, complex) else None
+        if arr is not None and arr.dtype.kind == "c":
+            raise DataError(
+                f"{path}: variable {key!r} holds complex values ({arr.dtype} of shape "
+                f"{arr.shape}); pdmkit reads real signals. Store the real and "
+                f"imaginary parts as two signals (e.g. {key}_re and {key}_im)"
             )
-        for key, value in data.items():
-            numeric = isinstance(value, np.ndarray | np.generic | bool | int | float | str)
-            arr = np.asarray(value) if numeric or isinstance(value, complex) else None
-            if arr is not None and arr.dtype.kind == "c":
-                raise DataError(
-                    f"{path}: variable {key!r} holds complex values ({arr.dtype} of shape "
-                    f"{arr.shape}); pdmkit reads real signals. Store the real and "
-                    f"imaginary parts as two signals (e.g. {key}_re and {key}_im)"
-                )
-            if key in _FS_NAMES:
-                rate = (
-                    float(arr.reshape(-1)[0])
-                    if arr is not None and arr.size == 1 and arr.dtype.kind in "iuf"
-                    else None
-                )
-                if rate is None or not math.isfinite(rate) or rate <= 0:
-                    found = (
-                        f"{arr.dtype} of shape {arr.shape}"
-                        if arr is not None
-                        else type(value).__name__
-                    )
-                    raise DataError(
-                        f"{path}: variable {key!r} should be the sampling rate (one "
-                        f"positive number, Hz); it holds {found}"
-                        + (f" = {rate:g}" if rate is not None else "")
-                    )
-                fs = rate
-                continue
-            why = _unread_variable(value, arr)
-            if why is not None:
-                notes.append(("variable", key, why))
-            elif arr.size == 1:
-                conditions[key] = arr.reshape(-1)[0].item()
-            else:
-                if arr.ndim > 1 and sorted(arr.shape)[-2] != 1:
-                    raise DataError(
-                        f"{path}: variable {key!r} has shape {arr.shape}; a member "
-                        "file holds 1-D signals (or n x 1 columns)"
-                    )
-                if arr.size * 8 > limit:  # as float64, before the copy is made
-                    raise _too_big(
-                        f"{path}: signal {key!r} ({arr.size} samples as float64)",
-                        arr.size * 8,
-                        limit,
-                        "takes",
-                    )
-                if arr.dtype.kind == "b":
-                    notes.append(("variable", key, _READ_AS_01))
-                signals[key] = arr.reshape(-1).astype(np.float64)
-        return signals, fs, conditions
+        if key in _FS_NAMES:
+            fs = _rate_variable(path, key, value, arr)
+            continue
+        why = _unread_variable(value, arr)
+        if why is not None:
+            notes.append(("variable", key, why))
+        elif arr.size == 1:
+            conditions[key] = arr.reshape(-1)[0].item()
+        else:
+            signal = _signal_variable(path, key, arr, limit)
+            if arr.dtype.kind == "b":
+                notes.append(("variable", key, _READ_AS_01))
+            signals[key] = signal
+    return signals, fs, conditions
+
+
+def _table_contents(
+    path: Path, notes: list, time: str | None
+) -> tuple[dict, float | None, dict]:
+    """(signals, rate, conditions) of the columns of a CSV / Parquet member file."""
     table, where = _read_table(path, {})
     fs = None
     if time is not None and time not in table.columns:
@@ -330,133 +358,7 @@ def _without_clashes(kept: list, fail) -> list:
     return out
 
 
-class _NameConditions:
-    """Condition values a member gets from its file name.
-
-    A regular expression's groups (``label_from_name``) and a labels table's row
-    (``labels``).
-    """
-
-    _KEYS = ("file", "member", "name", "filename", "path")
-
-    def __init__(self, label_from_name: Any, labels: Any) -> None:
-        self.pattern = self._pattern(label_from_name)
-        self.table, self.source = self._table(labels)
-        self.used: set = set()
-
-    @staticmethod
-    def _pattern(regex: Any) -> re.Pattern | None:
-        if regex is None:
-            return None
-        try:
-            pattern = re.compile(regex)
-        except (re.error, TypeError) as exc:
-            raise DataError(
-                f"label_from_name (--label-from-name) {regex!r} is not a regular "
-                f"expression ({_why(exc)})"
-            ) from None
-        if not pattern.groupindex and pattern.groups != 1:
-            raise DataError(
-                f"label_from_name (--label-from-name) {pattern.pattern!r} has "
-                f"{pattern.groups} groups; it needs one group (...) for the label, or "
-                r"named groups (?P<label>...) (?P<load>\d+) for condition columns, "
-                r"e.g. '^\d+_([A-Za-z]+)'"
-            )
-        return pattern
-
-    def _table(self, labels: Any) -> tuple[dict | None, str]:
-        if labels is None:
-            return None, ""
-        if isinstance(labels, pd.DataFrame):
-            table, source = labels, "the labels table"
-        else:
-            table, source = read_table(labels), f"labels table {labels}"
-        lower = {str(c).lower(): c for c in table.columns}
-        key = next((lower[k] for k in self._KEYS if k in lower), None)
-        if key is None:
-            raise DataError(
-                f"{source}: no column names the member files; expected one of "
-                f"{list(self._KEYS)} (the file name, e.g. a.csv, or its member id a), "
-                f"found {[str(c) for c in table.columns]}"
-            )
-        if table.shape[1] < 2:
-            raise DataError(
-                f"{source}: only the column {key!r}; add the label / condition columns "
-                "beside it (e.g. file,fault)"
-            )
-        # keyed by member id: "a.csv" and "a" name the same member
-        names = table[key].astype(str).map(lambda v: Path(v.strip()).name.split(".")[0])
-        dup = names[names.duplicated()].unique().tolist()
-        if dup:
-            raise DataError(
-                f"{source}: member file(s) {dup[:5]} are listed more than once; give "
-                "each member one row"
-            )
-        rows = table.drop(columns=[key]).to_dict(orient="records")
-        out = {}
-        for name, row in zip(names, rows, strict=True):
-            out[name] = {str(k): v for k, v in row.items()}
-        return out, source
-
-    def conditions(self, path: Path) -> dict:
-        """The conditions ``path``'s name gives; DataError when it gives none."""
-        extra: dict = {}
-        if self.pattern is not None:
-            match = self.pattern.search(path.name)
-            if match is None:
-                raise DataError(
-                    f"{path.name}: its name does not match label_from_name "
-                    f"(--label-from-name) {self.pattern.pattern!r}, so it has no label; "
-                    "rename the file or widen the expression"
-                )
-            found = match.groupdict() if self.pattern.groupindex else {"label": match[1]}
-            # a group that took no part in the match gives no value
-            extra.update({k: v for k, v in found.items() if v is not None})
-        if self.table is not None:
-            key = stem = path.name.split(".")[0]
-            if key not in self.table:
-                raise DataError(
-                    f"{path.name} is not listed in {self.source}; add a row for it "
-                    f"(by file name {path.name!r} or member id {stem!r})"
-                    f"{did_you_mean(path.name, self.table)}"
-                )
-            self.used.add(key)
-            for name, value in self.table[key].items():
-                if name in extra and str(extra[name]) != str(value):
-                    raise DataError(
-                        f"{path.name}: condition {name!r} is {extra[name]!r} by its name "
-                        f"(label_from_name) but {value!r} in {self.source}; keep one"
-                    )
-                extra[name] = value
-        return extra
-
-    @staticmethod
-    def merge(path: Path, conditions: dict, extra: dict) -> dict:
-        """The file's own ``conditions`` and ``extra``; a clash is a DataError."""
-        for name, value in extra.items():
-            own = conditions.get(name)
-            if own is not None and str(own) != str(value):
-                raise DataError(
-                    f"{path.name}: condition {name!r} is {own!r} in the file but "
-                    f"{value!r} from its name or the labels table; keep one"
-                )
-        return {**conditions, **extra}
-
-    def warn_unused(self) -> None:
-        """A DataWarning for labels-table rows that name no member file read."""
-        if self.table is None:
-            return
-        unused = [k for k in self.table if k not in self.used]
-        if unused:
-            warnings.warn(
-                f"{self.source}: {len(unused)} row(s) name no member file read: "
-                f"{unused[:5]}{' ...' if len(unused) > 5 else ''}; check the names",
-                DataWarning,
-                stacklevel=3,
-            )
-
-
-def read_members(  # noqa: C901, PLR0915
+def read_members(
     files: Any,
     *,
     fs: float | None = None,
@@ -577,11 +479,57 @@ def read_members(  # noqa: C901, PLR0915
     >>> ens.conditions["label"].tolist(), ens.fs["vib"]
     (['IR', 'OR'], 50.0)
     """
-    import glob
-
     if on_error not in ("raise", "skip"):
         raise ValueError(f"on_error must be 'raise' or 'skip'; got {on_error!r}")
     patterns = [files] if isinstance(files, str | os.PathLike) else list(files)
+    paths = _member_paths(patterns)
+    wanted = (
+        None
+        if signals is None
+        else [signals]
+        if isinstance(signals, str)
+        else list(signals)
+    )
+    log = _MemberErrors(on_error)
+    read: list[tuple[str, Path, dict, float | None, dict]] = []
+    noted: dict[tuple[str, str, str], list[Path]] = {}
+    named = _NameConditions(label_from_name, labels)
+    for path in _progress_bar(paths, desc="reading members", enable=progress):
+        member = _read_member(path, time, wanted, named, noted, log.fail)
+        if member is not None:
+            read.append(member)
+    named.warn_unused()
+    for (what, name, done), where in noted.items():
+        warnings.warn(
+            f"{_files_named(where)}: {what} {name!r} {done}", DataWarning, stacklevel=2
+        )
+    expected, whose = _expected_rate(read, fs)
+    kept = []
+    for member, path, arrays, rate, conds in read:
+        if rate is not None and abs(rate - expected) > 1e-3 * expected:
+            log.fail(
+                member,
+                None,
+                path,
+                f"{path.name} is sampled at {rate:g} Hz; expected {expected:g} Hz "
+                f"({whose})",
+            )
+            continue
+        kept.append((member, path, arrays, conds))
+    kept = _without_clashes(kept, log.fail)
+    ens = _members_ensemble(
+        [(m, a, c) for m, _, a, c in kept], wanted, expected, paths, log
+    )
+    return (ens, log.table(paths)) if return_errors else ens
+
+
+def _member_paths(patterns: list) -> list[Path]:
+    """The files that paths, folders and glob patterns name, in order.
+
+    A sub-folder not named like a member file is not read (a DataWarning names it).
+    """
+    import glob
+
     paths: list[Path] = []
     folders: list[Path] = []  # sub-folders not named like a member file: not read
     for p in patterns:
@@ -606,23 +554,25 @@ def read_members(  # noqa: C901, PLR0915
             "is one file, and only the files directly in a folder are read. Name the "
             f"files inside a sub-folder to read them too (e.g. {folders[0] / '*'})",
             DataWarning,
-            stacklevel=2,
+            stacklevel=3,  # read_members' caller
         )
     if not paths:
         raise DataNotFoundError(f"no member files match {[str(p) for p in patterns]}")
-    wanted = (
-        None
-        if signals is None
-        else [signals]
-        if isinstance(signals, str)
-        else list(signals)
-    )
-    errors: list[dict] = []
+    return paths
 
-    def fail(member: str, signal: Any, path: Path, message: str) -> None:
-        if on_error == "raise":
+
+class _MemberErrors:
+    """The members left out and why (``on_error="skip"``), or the first one raised."""
+
+    def __init__(self, on_error: str) -> None:
+        self.on_error = on_error
+        self.errors: list[dict] = []
+
+    def fail(self, member: str, signal: Any, path: Path, message: str) -> None:
+        """Raise ``message`` as a DataError, or note the member as skipped."""
+        if self.on_error == "raise":
             raise DataError(message)
-        errors.append(
+        self.errors.append(
             {
                 "member": member,
                 "signal": signal,
@@ -631,56 +581,73 @@ def read_members(  # noqa: C901, PLR0915
             }
         )
 
-    read: list[tuple[str, Path, dict, float | None, dict]] = []
-    noted: dict[tuple[str, str, str], list[Path]] = {}
+    def table(self, paths: list[Path]) -> pd.DataFrame:
+        """The errors table, in the order of the files."""
+        order = {str(p): i for i, p in enumerate(paths)}
+        self.errors.sort(key=lambda e: order.get(e["source"], -1))
+        return pd.DataFrame(self.errors, columns=list(_MEMBER_ERRORS))
 
-    named = _NameConditions(label_from_name, labels)
-    for path in _progress_bar(paths, desc="reading members", enable=progress):
-        member = path.name.split(".")[0]
-        notes: list[tuple[str, str, str]] = []
-        try:
-            extra = named.conditions(path)
-            arrays, rate, conds = _member_arrays(path, notes, time)
-            conds = named.merge(path, conds, extra)
-        except DataError as exc:
-            fail(member, None, path, str(exc))
-            continue
-        for note in notes:
-            noted.setdefault(note, []).append(path)
-        if not arrays:
-            fail(member, None, path, f"{path.name} holds no numeric signal")
-            continue
-        missing = [s for s in wanted or () if s not in arrays]
-        if missing:
-            fail(
-                member,
-                missing[0],
-                path,
-                f"{path.name} lacks signal(s) {missing}; it has {sorted(arrays)}",
-            )
-            continue
-        bad = [s for s, x in arrays.items() if not np.isfinite(x).all()]
-        if bad:
-            x = arrays[bad[0]]
-            fail(
-                member,
-                bad[0],
-                path,
-                f"signal {bad[0]!r} of {path.name} holds {int((~np.isfinite(x)).sum())} "
-                f"NaN/inf value(s) (first at sample {int(np.argmax(~np.isfinite(x)))})",
-            )
-            continue
-        read.append((member, path, arrays, rate, conds))
 
-    named.warn_unused()
-    for (what, name, done), where in noted.items():
-        files = (
-            str(where[0])
-            if len(where) == 1
-            else f"{len(where)} member files ({', '.join(p.name for p in where[:3])}"
-            + (", ...)" if len(where) > 3 else ")")
+def _read_member(
+    path: Path,
+    time: str | None,
+    wanted: list | None,
+    named: _NameConditions,
+    noted: dict,
+    fail: Callable,
+) -> tuple[str, Path, dict, float | None, dict] | None:
+    """``(member, path, signals, rate, conditions)`` of one file, or None if it failed.
+
+    What was read other than as written is added to ``noted`` (note -> files).
+    """
+    member = path.name.split(".")[0]
+    notes: list[tuple[str, str, str]] = []
+    try:
+        extra = named.conditions(path)
+        arrays, rate, conds = _member_arrays(path, notes, time)
+        conds = named.merge(path, conds, extra)
+    except DataError as exc:
+        fail(member, None, path, str(exc))
+        return None
+    for note in notes:
+        noted.setdefault(note, []).append(path)
+    if not arrays:
+        fail(member, None, path, f"{path.name} holds no numeric signal")
+        return None
+    missing = [s for s in wanted or () if s not in arrays]
+    if missing:
+        fail(
+            member,
+            missing[0],
+            path,
+            f"{path.name} lacks signal(s) {missing}; it has {sorted(arrays)}",
         )
-        warnings.warn(f"{files}: {what} {name!r} {done}", DataWarning, stacklevel=2)
+        return None
+    bad = [s for s, x in arrays.items() if not np.isfinite(x).all()]
+    if bad:
+        x = arrays[bad[0]]
+        fail(
+            member,
+            bad[0],
+            path,
+            f"signal {bad[0]!r} of {path.name} holds {int((~np.isfinite(x)).sum())} "
+            f"NaN/inf value(s) (first at sample {int(np.argmax(~np.isfinite(x)))})",
+        )
+        return None
+    return member, path, arrays, rate, conds
+
+
+def _files_named(where: list[Path]) -> str:
+    """The one file, or how many and the first three names."""
+    if len(where) == 1:
+        return str(where[0])
+    return f"{len(where)} member files ({', '.join(p.name for p in where[:3])}" + (
+        ", ...)" if len(where) > 3 else ")"
+    )
+
+
+def _expected_rate(read: list, fs: float | None) -> tuple[float | None, str]:
+    """The rate every member must have and whose it is: ``fs``, or the most common."""
     rates = [r for _, _, _, r, _ in read if r is not None]
     expected, whose = fs, "fs as given"
     if expected is None and rates:
@@ -694,35 +661,24 @@ def read_members(  # noqa: C901, PLR0915
             f"none of the {len(read)} member files states its sampling rate (no time "
             "column, no fs variable); pass fs="
         )
-    kept = []
-    for member, path, arrays, rate, conds in read:
-        if rate is not None and abs(rate - expected) > 1e-3 * expected:
-            fail(
-                member,
-                None,
-                path,
-                f"{path.name} is sampled at {rate:g} Hz; expected {expected:g} Hz "
-                f"({whose})",
-            )
-            continue
-        kept.append((member, path, arrays, conds))
-    kept = _without_clashes(kept, fail)
-    kept = [(m, a, c) for m, _, a, c in kept]
+    return expected, whose
+
+
+def _members_ensemble(
+    kept: list, wanted: list | None, fs: float | None, paths: list, log: _MemberErrors
+) -> Ensemble:
+    """The ensemble of the ``(member, signals, conditions)`` read; none is an error."""
     if not kept:
-        first = f"; e.g. {errors[0]['error']}" if errors else ""
+        first = f"; e.g. {log.errors[0]['error']}" if log.errors else ""
         raise DataError(f"no member could be read from {len(paths)} file(s){first}")
     names = wanted or list(dict.fromkeys(s for _, a, _ in kept for s in a))
     ids = [m for m, _, _ in kept]
     if len(set(ids)) != len(ids):
         dup = sorted({m for m in ids if ids.count(m) > 1})
         raise DataError(f"member files share the names {dup[:5]}; rename them")
-    ens = Ensemble(
+    return Ensemble(
         {s: [a.get(s) for _, a, _ in kept] for s in names},
-        fs=expected,
+        fs=fs,
         conditions=pd.DataFrame([c for _, _, c in kept]) if kept else None,
         member_ids=ids,
     )
-    order = {str(p): i for i, p in enumerate(paths)}
-    errors.sort(key=lambda e: order.get(e["source"], -1))
-    table = pd.DataFrame(errors, columns=list(_MEMBER_ERRORS))
-    return (ens, table) if return_errors else ens

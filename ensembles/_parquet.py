@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -26,18 +26,13 @@ import pandas as pd
 
 from pdmkit._atomic import atomic_dir
 from pdmkit._checks import check_int
-from pdmkit.ensembles._ensemble import (
-    MEMBER,
-    Ensemble,
-    SignalList,
-    _names_list,
-)
 from pdmkit.ensembles._limits import _one_line, check_declared_sizes
+from pdmkit.ensembles._signals import MEMBER, SignalList, _names_list
 from pdmkit.errors import DataError, DataNotFoundError
 
 __all__ = [
-    "iter_parquet",
-    "read_parquet",
+    "read_manifest",
+    "read_parts",
     "url_filesystem",
     "write_parquet",
     "write_parquet_batches",
@@ -78,11 +73,15 @@ def _list_array(xs: SignalList) -> Any:
     )
 
 
-def _row_groups(ens: Ensemble, start: int, stop: int) -> list[tuple[int, int]]:
+def _row_groups(
+    signals: Mapping[str, SignalList], start: int, stop: int
+) -> list[tuple[int, int]]:
     """Split members ``start:stop`` into runs of at most ~_GROUP_VALUES samples."""
     sizes = np.zeros(stop - start, dtype=np.int64)
-    for s in ens.signal_names:
-        sizes += np.maximum(ens._lengths(s)[start:stop], 0)
+    for xs in signals.values():
+        sizes += np.fromiter(
+            (0 if x is None else len(x) for x in xs[start:stop]), np.int64, stop - start
+        )
     groups, first, acc = [], start, 0
     for i, size in enumerate(sizes, start=start):
         if acc and acc + size > _GROUP_VALUES:
@@ -93,16 +92,22 @@ def _row_groups(ens: Ensemble, start: int, stop: int) -> list[tuple[int, int]]:
     return groups
 
 
-def _write_part(file: Path, ens: Ensemble, conditions: Any, start: int, stop: int) -> None:
-    """Write members ``start:stop`` to one Parquet file (row group by row group)."""
+def _write_part(
+    file: Path, signals: Mapping[str, SignalList], conditions: Any, start: int, stop: int
+) -> None:
+    """Write members ``start:stop`` to one Parquet file (row group by row group).
+
+    ``signals`` maps each signal to its per-member arrays, ``conditions`` is the
+    pyarrow table of the member ids and condition columns.
+    """
     import pyarrow.parquet as pq
 
     writer = None
     try:
-        for a, b in _row_groups(ens, start, stop):
+        for a, b in _row_groups(signals, start, stop):
             table = conditions.slice(a, b - a)
-            for s in ens.signal_names:
-                table = table.append_column(s, _list_array(ens._signals[s][a:b]))
+            for s, xs in signals.items():
+                table = table.append_column(s, _list_array(xs[a:b]))
             if writer is None:
                 writer = pq.ParquetWriter(file, table.schema)
             writer.write_table(table)
@@ -111,10 +116,11 @@ def _write_part(file: Path, ens: Ensemble, conditions: Any, start: int, stop: in
             writer.close()
 
 
-def _conditions_table(ens: Ensemble) -> Any:
+def _conditions_table(conditions: pd.DataFrame) -> Any:
+    """The member ids and condition columns as a pyarrow table (DataError on a bad one)."""
     import pyarrow as pa
 
-    frame = ens._conditions.reset_index()
+    frame = conditions.reset_index()
     try:
         return pa.Table.from_pandas(frame, preserve_index=False)
     except (pa.ArrowException, TypeError, ValueError) as exc:
@@ -147,13 +153,14 @@ def _check_target(path: Path) -> None:
 
 
 def write_parquet(
-    ens: Ensemble, path: str | os.PathLike, *, members_per_file: int = 256
+    ens: Any, path: str | os.PathLike, *, members_per_file: int = 256
 ) -> Path:
-    """Write ``ens`` as a pdmkit Parquet dataset; the body of :meth:`Ensemble.to_parquet`.
+    """Write the Ensemble ``ens`` as a pdmkit Parquet dataset (:meth:`Ensemble.to_parquet`).
 
     Examples
     --------
     >>> import tempfile, pathlib
+    >>> from pdmkit.ensembles import Ensemble
     >>> ens = Ensemble({"x": np.ones((3, 4))}, fs=2.0)
     >>> path = write_parquet(ens, pathlib.Path(tempfile.mkdtemp()) / "ens")
     >>> read_manifest(path)["n_members"]
@@ -164,7 +171,7 @@ def write_parquet(
     per_file = check_int(members_per_file, "members_per_file")
     path = Path(path)
     _check_target(path)
-    conditions = _conditions_table(ens)
+    conditions = _conditions_table(ens._conditions)
     n = len(ens)
     files = []
     with atomic_dir(path) as tmp:
@@ -172,7 +179,7 @@ def write_parquet(
         for k, start in enumerate(range(0, max(n, 1), per_file)):
             stop = min(start + per_file, n)
             name = f"part-{k:05d}.parquet"
-            _write_part(tmp / name, ens, conditions, start, stop)
+            _write_part(tmp / name, ens._signals, conditions, start, stop)
             files.append({"name": name, "n_members": stop - start})
         manifest = {
             "format": FORMAT,
@@ -188,7 +195,7 @@ def write_parquet(
     return path
 
 
-def write_parquet_batches(batches: Iterable[Ensemble], path: str | os.PathLike) -> Path:
+def write_parquet_batches(batches: Iterable[Any], path: str | os.PathLike) -> Path:
     """Write ensembles arriving one batch at a time as one pdmkit Parquet dataset.
 
     Each batch becomes one part file as soon as it arrives, so an ensemble larger than
@@ -200,6 +207,7 @@ def write_parquet_batches(batches: Iterable[Ensemble], path: str | os.PathLike) 
     Examples
     --------
     >>> import tempfile, pathlib
+    >>> from pdmkit.ensembles import Ensemble
     >>> batches = (Ensemble({"x": np.ones((2, 3))}, fs=1.0, member_ids=[f"b{k}a", f"b{k}b"])
     ...            for k in range(3))
     >>> path = write_parquet_batches(batches, pathlib.Path(tempfile.mkdtemp()) / "ens")
@@ -209,7 +217,7 @@ def write_parquet_batches(batches: Iterable[Ensemble], path: str | os.PathLike) 
     path = Path(path)
     _check_target(path)
     files: list[dict[str, Any]] = []
-    first: Ensemble | None = None
+    first: Any = None
     seen: set[str] = set()
     n = 0
     with atomic_dir(path) as tmp:
@@ -240,7 +248,13 @@ def write_parquet_batches(batches: Iterable[Ensemble], path: str | os.PathLike) 
                 )
             seen |= ids
             name = f"part-{k:05d}.parquet"
-            _write_part(tmp / name, batch, _conditions_table(batch), 0, len(batch))
+            _write_part(
+                tmp / name,
+                batch._signals,
+                _conditions_table(batch._conditions),
+                0,
+                len(batch),
+            )
             files.append({"name": name, "n_members": len(batch)})
             n += len(batch)
         if first is None:
@@ -470,152 +484,52 @@ def _lists_to_arrays(column: Any) -> tuple[SignalList, bool]:
     return out, finite
 
 
-def _table_to_ensemble(
-    table: Any, manifest: dict[str, Any], signals: list[str], columns: list[str], where: str
-) -> Ensemble:
-    ids = table.column(MEMBER).to_pylist()
-    conditions = table.select(columns).to_pandas() if columns else pd.DataFrame(index=ids)
-    arrays, all_finite = {}, True
-    for s in signals:
-        arrays[s], finite = _lists_to_arrays(table.column(s))
-        all_finite &= finite
-    fs = {s: float(manifest["fs"][s]) for s in signals}
-    if not all_finite:
-        try:  # the full check names the member and the signal
-            Ensemble(
-                arrays, fs, conditions=conditions.reset_index(drop=True), member_ids=ids
-            )
-        except DataError as exc:
-            raise DataError(f"{where}: {exc}") from None
-    conditions.index = pd.Index(ids, name=MEMBER, dtype=str)
-    return Ensemble._new(arrays, fs, conditions)
-
-
-def read_parquet(
+def read_parts(
     path: str | os.PathLike,
-    *,
     signals: str | Sequence[str] | None = None,
     columns: Sequence[str] | None = None,
-) -> Ensemble:
-    """Read a whole pdmkit Parquet dataset; the body of :meth:`Ensemble.from_parquet`.
+) -> tuple[dict[str, Any], list[str], list[str], Iterator[tuple[Any, Path]]]:
+    """A dataset's manifest, the signals and columns chosen, and its part files' tables.
+
+    The manifest is read and the names checked at once; the part files are read one
+    at a time as the last item, an iterator of ``(pyarrow table, file)``, is consumed
+    (their declared sizes checked first). The reading of
+    :meth:`Ensemble.from_parquet`, which builds the ensemble from the tables.
 
     Examples
     --------
     >>> import tempfile, pathlib
+    >>> from pdmkit.ensembles import Ensemble
     >>> path = Ensemble({"x": np.ones((2, 3))}, fs=1.0).to_parquet(
     ...     pathlib.Path(tempfile.mkdtemp()) / "ens"
     ... )
-    >>> len(read_parquet(path))
-    2
+    >>> manifest, signals, columns, tables = read_parts(path)
+    >>> signals, [table.num_rows for table, _ in tables]
+    (['x'], [2])
     """
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
     path = Path(path)
     manifest = read_manifest(path)
     sigs = _pick(signals, manifest["signals"], "signal(s)", path)
     cols = _pick(columns, manifest["conditions"], "condition column(s)", path)
-    parts = []
-    for entry in manifest["files"]:
-        file = path / entry["name"]
-        try:
-            check_declared_sizes(
-                pq.read_metadata(file),
-                str(file),
-                columns=[MEMBER, *cols, *sigs],
-                per_row_group=True,
-            )
-            table = pq.read_table(file, columns=[MEMBER, *cols, *sigs])
-        except (pa.ArrowException, OSError) as exc:
-            raise DataError(
-                f"cannot read {file} ({_one_line(exc)}); the dataset is damaged"
-            ) from None
-        parts.append(_table_to_ensemble(table, manifest, sigs, cols, str(file)))
-    if len(parts) == 1:
-        return parts[0]
-    return Ensemble.concat(parts)
+    return manifest, sigs, cols, _part_tables(path, manifest, [MEMBER, *cols, *sigs])
 
 
-def iter_parquet(
-    path: str | os.PathLike,
-    batch_size: int = 256,
-    signals: str | Sequence[str] | None = None,
-    columns: Sequence[str] | None = None,
-) -> Iterator[Ensemble]:
-    """Stream a pdmkit Parquet dataset as ensembles of ``batch_size`` members.
-
-    Files are read one row group at a time (pyarrow ``iter_batches``), so memory stays
-    bounded by about one row group plus one batch, however large the dataset. Every
-    batch except the last has exactly ``batch_size`` members; the batches, in order,
-    hold the members of the dataset in the order they were written.
-
-    Parameters
-    ----------
-    path : str or path-like
-        A directory written by :meth:`Ensemble.to_parquet`.
-    batch_size : int, default 256
-        Members per batch.
-    signals : str or sequence of str, optional
-        Signals to read (default: all).
-    columns : sequence of str, optional
-        Condition columns to read (default: all).
-
-    Yields
-    ------
-    Ensemble
-
-    Raises
-    ------
-    pdmkit.errors.DataError
-        The directory is not a pdmkit ensemble (the message says what it found), or it
-        lacks a requested signal or column.
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> from pdmkit.ensembles import Ensemble, iter_parquet
-    >>> ens = Ensemble({"x": np.arange(10.0).reshape(5, 2)}, fs=1.0)
-    >>> path = ens.to_parquet(pathlib.Path(tempfile.mkdtemp()) / "ens", members_per_file=2)
-    >>> [len(b) for b in iter_parquet(path, batch_size=3)]
-    [3, 2]
-    """
+def _part_tables(
+    path: Path, manifest: dict[str, Any], columns: list[str]
+) -> Iterator[tuple[Any, Path]]:
+    """Each part file's ``columns`` as a pyarrow table, with the file, one at a time."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    size = check_int(batch_size, "batch_size")
-    path = Path(path)
-    manifest = read_manifest(path)
-    sigs = _pick(signals, manifest["signals"], "signal(s)", path)
-    cols = _pick(columns, manifest["conditions"], "condition column(s)", path)
-    buffer: list[Any] = []
-    buffered = 0
     for entry in manifest["files"]:
         file = path / entry["name"]
         try:
-            reader = pq.ParquetFile(file)
             check_declared_sizes(
-                reader.metadata,
-                str(file),
-                columns=[MEMBER, *cols, *sigs],
-                per_row_group=True,
+                pq.read_metadata(file), str(file), columns=columns, per_row_group=True
             )
-            batches = reader.iter_batches(batch_size=size, columns=[MEMBER, *cols, *sigs])
-            for batch in batches:
-                if batch.num_rows == 0:
-                    continue
-                buffer.append(batch)
-                buffered += batch.num_rows
-                while buffered >= size:
-                    table = pa.Table.from_batches(buffer)
-                    yield _table_to_ensemble(
-                        table.slice(0, size), manifest, sigs, cols, str(file)
-                    )
-                    rest = table.slice(size)
-                    buffer, buffered = rest.to_batches(), rest.num_rows
+            table = pq.read_table(file, columns=columns)
         except (pa.ArrowException, OSError) as exc:
             raise DataError(
                 f"cannot read {file} ({_one_line(exc)}); the dataset is damaged"
             ) from None
-    if buffered:
-        table = pa.Table.from_batches(buffer)
-        yield _table_to_ensemble(table, manifest, sigs, cols, str(path))
+        yield table, file

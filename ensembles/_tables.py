@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._checks import check_int
-from pdmkit.ensembles._ensemble import Ensemble, _names_list
+from pdmkit.ensembles._ensemble import Ensemble
+from pdmkit.ensembles._signals import _names_list
 from pdmkit.errors import DataError
 
 __all__ = ["from_frame"]

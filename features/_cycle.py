@@ -285,7 +285,7 @@ def _take(values: np.ndarray, index: np.ndarray) -> np.ndarray:
     return np.take_along_axis(values, index[..., None], axis=-1)[..., 0]
 
 
-def _segment_features(seg, before, fs, delta, levels, windows) -> dict[str, np.ndarray]:  # noqa: PLR0915
+def _segment_features(seg, before, fs, delta, levels, windows) -> dict[str, np.ndarray]:
     """Indicators of each segment instance.
 
     seg (m, C, L) the segments; before (m, C, k) the samples just before each (its start
@@ -312,8 +312,32 @@ def _segment_features(seg, before, fs, delta, levels, windows) -> dict[str, np.n
     rate = np.diff(y, axis=-1) * fs  # rate[..., i - 1]: between samples i - 1 and i
     out: dict[str, np.ndarray] = {"Start": start, "End": end}
     tags = [_level_tag(f) for f in levels]
+    cross_idx = _level_crossings(out, y, a, rate, t0, levels, fs)
+    for t_a, t_b in itertools.pairwise(tags):
+        out[f"Drop{t_a}_{t_b}"] = out[f"Rate{t_a}"] - out[f"Rate{t_b}"]
+    out["PeakRate"] = rate.max(axis=-1)
+    out["Overshoot"] = np.where(step_like, np.maximum(y.max(axis=-1) - y_end, 0.0), 0.0)
+    fall = np.maximum.accumulate(y, axis=-1) - y
+    index = np.arange(length)
+    out["Rebound"] = np.where(index >= cross_idx[..., None], fall, 0.0).max(axis=-1)
+    _fall_times(out, y, y_end, y_pk, i_ext, fs)
+    outside = np.abs(y - y_end[..., None]) > _SETTLE * y_ext[..., None]
+    last_out = length - 1 - np.argmax(outside[..., ::-1], axis=-1)
+    out["Settle"] = t0 + np.where(outside.any(axis=-1), last_out + 1, 0) / fs
+    _event_features(out, seg, end, t0, fs, windows)
+    return out
+
+
+def _level_crossings(out: dict, y, a, rate, t0, levels, fs) -> np.ndarray:
+    """``T<l>`` and ``Rate<l>``: when ``y`` first reaches each level, and its rate there.
+
+    Added to ``out``; returns the sample index of the last level's crossing (the
+    length where it is never reached).
+    """
+    length = y.shape[-1]
     cross_idx = None
-    for f, tag in zip(levels, tags, strict=True):
+    for f in levels:
+        tag = _level_tag(f)
         th = f * a
         above = y >= th[..., None]
         i = np.argmax(above, axis=-1)
@@ -327,13 +351,13 @@ def _segment_features(seg, before, fs, delta, levels, windows) -> dict[str, np.n
         out[f"T{tag}"] = t0 + np.where(never, float(length), t) / fs
         out[f"Rate{tag}"] = np.where(never, rate[..., -1], _take(rate, i1 - 1))
         cross_idx = np.where(never, length, i)
-    for t_a, t_b in itertools.pairwise(tags):
-        out[f"Drop{t_a}_{t_b}"] = out[f"Rate{t_a}"] - out[f"Rate{t_b}"]
-    out["PeakRate"] = rate.max(axis=-1)
-    out["Overshoot"] = np.where(step_like, np.maximum(y.max(axis=-1) - y_end, 0.0), 0.0)
-    fall = np.maximum.accumulate(y, axis=-1) - y
+    return cross_idx
+
+
+def _fall_times(out: dict, y, y_end, y_pk, i_ext, fs) -> None:
+    """``Fall<f>``: time from the extreme back a fraction f of the way to the end level."""
+    length = y.shape[-1]
     index = np.arange(length)
-    out["Rebound"] = np.where(index >= cross_idx[..., None], fall, 0.0).max(axis=-1)
     gap = y_pk - y_end
     to_end = (y - y_end[..., None]) * np.where(gap >= 0, 1.0, -1.0)[..., None]
     for f in _FALLS:
@@ -348,10 +372,11 @@ def _segment_features(seg, before, fs, delta, levels, windows) -> dict[str, np.n
         t = np.where(j > i_ext, j1 - 1 + frac, j)  # interpolated, as T<l>
         t = np.where(below.any(axis=-1), t, length)
         out[f"Fall{_level_tag(f)}"] = (t - i_ext) / fs
-    outside = np.abs(y - y_end[..., None]) > _SETTLE * y_ext[..., None]
-    last_out = length - 1 - np.argmax(outside[..., ::-1], axis=-1)
-    out["Settle"] = t0 + np.where(outside.any(axis=-1), last_out + 1, 0) / fs
 
+
+def _event_features(out: dict, seg, end, t0, fs, windows) -> None:
+    """``Peak``, ``PeakTime``, ``Energy``, ``Decay``, ``EventRMS<j>``: around End."""
+    m, n_seg, length = seg.shape
     e = seg - end[..., None]
     ae = np.abs(e)
     ip = np.argmax(ae, axis=-1)
@@ -369,7 +394,6 @@ def _segment_features(seg, before, fs, delta, levels, windows) -> dict[str, np.n
         n = hi - lo
         power = (_take(cum, hi) - _take(cum, lo)) / np.maximum(n, 1)
         out[f"EventRMS{j + 1}"] = np.where(n > 0, np.sqrt(np.maximum(power, 0.0)), 0.0)
-    return out
 
 
 def _cycle_rows(x: np.ndarray, fs: float, period: float, start: float, opts: dict):

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -497,7 +498,7 @@ def _lifetime_column(table: pd.DataFrame, given, candidates: Sequence[str], what
     return next((c for c in candidates if c in table.columns), None)
 
 
-def rank_features(  # noqa: C901
+def rank_features(
     table: pd.DataFrame,
     labels=None,
     *,
@@ -580,28 +581,46 @@ def rank_features(  # noqa: C901
         raise DataError("the table has 0 rows; nothing to rank")
 
     if method in _SUPERVISED:
-        label_values, label_col = _labels(table, labels)
-        exclude = {label_col} if label_col is not None else set()
-        cols = _feature_columns(table, features, exclude)
-        codes, k = _group_codes(label_values)
-        if k < 2:
-            raise DataError(
-                f"labels hold {k} distinct class(es); {method} needs at least two classes"
-            )
-        X = table[cols].to_numpy(dtype=float)
-        scores, pvals, notes = _one_way(X, codes, method)
-        return FeatureRanking(
-            pd.Series(scores, index=cols),
-            method=method,
-            p_values=pd.Series(pvals, index=cols),
-            notes=dict(zip(cols, notes, strict=True)),
-        )
-
+        return _rank_by_class(table, labels, method, features)
     if labels is not None:
         raise DataError(
             f"method={method!r} ranks run-to-failure paths and takes no labels; pass "
             "unit= and time= columns (or use method='kruskal' / 'anova')"
         )
+    return _rank_by_lifetime(table, method, features, unit, time, window)
+
+
+def _rank_by_class(
+    table: pd.DataFrame, labels: Any, method: str, features: Sequence[str] | None
+) -> FeatureRanking:
+    """Kruskal-Wallis or ANOVA ranking of the features by the classes of ``labels``."""
+    label_values, label_col = _labels(table, labels)
+    exclude = {label_col} if label_col is not None else set()
+    cols = _feature_columns(table, features, exclude)
+    codes, k = _group_codes(label_values)
+    if k < 2:
+        raise DataError(
+            f"labels hold {k} distinct class(es); {method} needs at least two classes"
+        )
+    X = table[cols].to_numpy(dtype=float)
+    scores, pvals, notes = _one_way(X, codes, method)
+    return FeatureRanking(
+        pd.Series(scores, index=cols),
+        method=method,
+        p_values=pd.Series(pvals, index=cols),
+        notes=dict(zip(cols, notes, strict=True)),
+    )
+
+
+def _rank_by_lifetime(
+    table: pd.DataFrame,
+    method: str,
+    features: Sequence[str] | None,
+    unit: str | None,
+    time: str | None,
+    window: int | None,
+) -> FeatureRanking:
+    """Prognostic ranking of the features on the units' run-to-failure paths."""
     unit_col = _lifetime_column(table, unit, ("unit",), "unit")
     time_col = _lifetime_column(table, time, ("time", "cycle"), "time")
     exclude = {c for c in (unit_col, time_col) if c is not None}
@@ -615,6 +634,23 @@ def rank_features(  # noqa: C901
         ):
             raise DataError(f"window must be a positive number of rows, got {window!r}")
         paths = [(life, _moving_mean(x, int(window))) for life, x in paths]
+    scores, notes = _prognostic_scores(method, paths, cols)
+    for c, s in zip(cols, scores, strict=True):
+        if np.isnan(s) and c not in notes:
+            values = table[c].to_numpy(dtype=float)
+            if not np.isfinite(values).any():
+                notes[c] = "all values are NaN or inf"
+            elif np.nanmax(values) == np.nanmin(values):
+                notes[c] = "constant feature"
+            else:
+                notes[c] = "undefined for these paths"
+    return FeatureRanking(pd.Series(scores, index=cols), method=method, notes=notes)
+
+
+def _prognostic_scores(
+    method: str, paths: list, cols: list[str]
+) -> tuple[np.ndarray, dict[str, str]]:
+    """Monotonicity, trendability or prognosability of each feature, and why not."""
     n_units = len(paths)
     notes = {}
     if method == "monotonicity":
@@ -632,13 +668,4 @@ def rank_features(  # noqa: C901
         if n_units < 2:  # the spread of one failure value says nothing
             scores = np.full(len(cols), np.nan)
             notes = {c: "prognosability needs at least two units" for c in cols}
-    for c, s in zip(cols, scores, strict=True):
-        if np.isnan(s) and c not in notes:
-            values = table[c].to_numpy(dtype=float)
-            if not np.isfinite(values).any():
-                notes[c] = "all values are NaN or inf"
-            elif np.nanmax(values) == np.nanmin(values):
-                notes[c] = "constant feature"
-            else:
-                notes[c] = "undefined for these paths"
-    return FeatureRanking(pd.Series(scores, index=cols), method=method, notes=notes)
+    return scores, notes

@@ -135,22 +135,7 @@ class _BayesianDegradation(DegradationMixin, BaseEstimator):
         else:
             self.threshold_ = self._given_threshold()
         self.offset_ = self._choose_offset(units)
-        rows, fits = [], []
-        for u in units:
-            if len(u) < 3 or np.ptp(u.t) == 0:
-                continue
-            w, rss, xtx = _ols(u.t, self._z(u.x[:, 0]))
-            fits.append((w, rss, xtx, len(u)))
-            rows.append(
-                {
-                    "unit": u.name,
-                    "intercept": w[0],
-                    "slope": w[1],
-                    "rss": rss,
-                    "n": len(u),
-                    "end": float(w[0] + w[1] * u.t[-1]),
-                }
-            )
+        rows, fits = self._unit_lines(units)
         if self.threshold_ is None:
             if not rows:
                 raise DataError(
@@ -169,42 +154,76 @@ class _BayesianDegradation(DegradationMixin, BaseEstimator):
                 values, threshold, "RULs are extrapolations of the fitted paths"
             )
         self.unit_params_ = pd.DataFrame(rows)
-        if self.noise_var is not None:
-            noise = float(self.noise_var)
-            if not noise > 0:
-                raise ValueError(f"noise_var must be positive, got {self.noise_var!r}")
-        else:
-            dof = sum(n - 2 for *_, n in fits)
-            if dof <= 0:
-                raise DataError(
-                    "no training unit has 3 or more samples; the noise variance cannot be "
-                    "estimated - pass noise_var= (and prior=)"
-                )
-            noise = sum(f[1] for f in fits) / dof
-            if not noise > 0:
-                raise DataError(
-                    f"indicator {self.indicator!r} follows a straight line exactly in "
-                    "every training unit (zero noise); pass noise_var= to set the "
-                    "measurement noise"
-                )
+        noise = self._noise_variance(fits)
         self.noise_var_ = noise
-        if self.prior is not None:
-            mean, cov = self._check_prior(self.prior)
-        else:
-            if len(fits) < 2:
-                raise DataError(
-                    f"{len(fits)} training unit(s) with 3 or more samples; estimating the "
-                    "prior needs at least 2 - pass prior={'mean': [a, b], 'cov': [[...]]}"
-                )
-            W = np.array([f[0] for f in fits])
-            mean = W.mean(axis=0)
-            sample = np.cov(W.T, ddof=1)
-            explained = noise * np.mean([np.linalg.inv(f[2]) for f in fits], axis=0)
-            cov = _clip_psd(sample - explained, sample)
+        mean, cov = self._prior_moments(fits, noise)
         self.prior_mean_ = mean
         self.prior_cov_ = cov
         self._prior_precision = np.linalg.inv(cov)
         return self._finish_fit(units)
+
+    def _unit_lines(self, units: list[Unit]) -> tuple[list[dict], list[tuple]]:
+        """Least-squares line of each unit with 3 or more samples over a time span.
+
+        Returns the rows of ``unit_params_`` and ``(w, rss, X'X, n)`` per fitted unit.
+        """
+        rows, fits = [], []
+        for u in units:
+            if len(u) < 3 or np.ptp(u.t) == 0:
+                continue
+            w, rss, xtx = _ols(u.t, self._z(u.x[:, 0]))
+            fits.append((w, rss, xtx, len(u)))
+            rows.append(
+                {
+                    "unit": u.name,
+                    "intercept": w[0],
+                    "slope": w[1],
+                    "rss": rss,
+                    "n": len(u),
+                    "end": float(w[0] + w[1] * u.t[-1]),
+                }
+            )
+        return rows, fits
+
+    def _noise_variance(self, fits: list[tuple]) -> float:
+        """``noise_var`` if given, else the pooled residual variance of the unit lines."""
+        if self.noise_var is not None:
+            noise = float(self.noise_var)
+            if not noise > 0:
+                raise ValueError(f"noise_var must be positive, got {self.noise_var!r}")
+            return noise
+        dof = sum(n - 2 for *_, n in fits)
+        if dof <= 0:
+            raise DataError(
+                "no training unit has 3 or more samples; the noise variance cannot be "
+                "estimated - pass noise_var= (and prior=)"
+            )
+        noise = sum(f[1] for f in fits) / dof
+        if not noise > 0:
+            raise DataError(
+                f"indicator {self.indicator!r} follows a straight line exactly in "
+                "every training unit (zero noise); pass noise_var= to set the "
+                "measurement noise"
+            )
+        return noise
+
+    def _prior_moments(self, fits: list[tuple], noise: float):
+        """Prior ``(mean, cov)`` of ``(a, b)``: given, or from the spread of unit lines.
+
+        The sample covariance of the lines less the part their noise explains.
+        """
+        if self.prior is not None:
+            return self._check_prior(self.prior)
+        if len(fits) < 2:
+            raise DataError(
+                f"{len(fits)} training unit(s) with 3 or more samples; estimating the "
+                "prior needs at least 2 - pass prior={'mean': [a, b], 'cov': [[...]]}"
+            )
+        W = np.array([f[0] for f in fits])
+        mean = W.mean(axis=0)
+        sample = np.cov(W.T, ddof=1)
+        explained = noise * np.mean([np.linalg.inv(f[2]) for f in fits], axis=0)
+        return mean, _clip_psd(sample - explained, sample)
 
     @staticmethod
     def _check_prior(prior):

@@ -396,6 +396,64 @@ def prognostic_ranking(
 
 
 # --------------------------------------------------------------------------- fusion
+def _drop_constant(
+    cols: list[str], mean: np.ndarray, scale: np.ndarray
+) -> tuple[dict[str, str], list[str]]:
+    """The constant candidates (-> why dropped) and the others; refuse all constant."""
+    flat = ~(scale > 1e-12 * np.maximum(1.0, np.abs(mean)))
+    dropped = {
+        c: "constant over the training table" for c, f in zip(cols, flat, strict=True) if f
+    }
+    keep = [c for c, f in zip(cols, flat, strict=True) if not f]
+    if not keep:
+        raise DataError(
+            f"every candidate indicator is constant over the training table ({cols}); "
+            "a constant indicator carries no degradation information - pick columns "
+            "that change with wear"
+        )
+    return dropped, keep
+
+
+def _linear_fusion(units: list, z_units: list[np.ndarray]) -> tuple[float, np.ndarray]:
+    """Intercept and weights: least squares of each unit's fraction of life used."""
+    z = np.concatenate(z_units)
+    life = []
+    for u in units:
+        span = u.t[-1] - u.t[0]
+        life.append((u.t - u.t[0]) / span if span > 0 else np.ones(len(u)))
+    target = np.concatenate(life)
+    design = np.column_stack([np.ones(len(z)), z])
+    beta, *_ = np.linalg.lstsq(design, target, rcond=None)
+    return float(beta[0]), beta[1:]
+
+
+def _pca_fusion(units: list, z_units: list[np.ndarray]) -> tuple[float, np.ndarray]:
+    """Intercept and weights: the first principal component, growing from 0 to 1."""
+    z = np.concatenate(z_units)
+    centred = z - z.mean(axis=0)
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
+    direction = vt[0]
+    raw = [zu @ direction for zu in z_units]
+    trend = np.mean(
+        [
+            np.polyfit(u.t, r, 1)[0] if len(u) > 1 else 0.0
+            for u, r in zip(units, raw, strict=True)
+        ]
+    )
+    if trend < 0:
+        direction = -direction
+        raw = [-r for r in raw]
+    start = np.mean([r[0] for r in raw])
+    end = np.mean([r[-1] for r in raw])
+    if not end > start:
+        raise DataError(
+            "the first principal component does not change from the units' start "
+            "to their end; it cannot serve as a health indicator (try "
+            "method='linear')"
+        )
+    return -start / (end - start), direction / (end - start)
+
+
 class HealthIndicator(BaseEstimator):
     """Fuse several candidate indicators into one health indicator (HI).
 
@@ -481,7 +539,7 @@ class HealthIndicator(BaseEstimator):
     ) -> None:
         keep_init_args(self, locals())
 
-    def fit(self, table: pd.DataFrame, y=None):  # noqa: PLR0915
+    def fit(self, table: pd.DataFrame, y=None):
         """Select and fuse the candidates on run-to-failure training units.
 
         Returns
@@ -505,18 +563,7 @@ class HealthIndicator(BaseEstimator):
         """
         table = check_table(table)
         unit, time = resolve_keys(table, self.unit, self.time)
-        if self.method not in ("linear", "pca"):
-            raise ValueError(f"method must be 'linear' or 'pca', got {self.method!r}")
-        if self.n_features is not None:
-            check_positive_int(self.n_features, "n_features")
-        if self.smoothing is not None and (
-            isinstance(self.smoothing, bool)
-            or not isinstance(self.smoothing, int | float | np.number)
-            or self.smoothing < 1
-        ):
-            raise ValueError(
-                f"smoothing must be an ewm span >= 1 or None, got {self.smoothing!r}"
-            )
+        self._check_options()
         failed = failed_column(table, self.failed)
         cols = (
             _candidate_columns(table, (unit, time, *([failed] if failed else [])))
@@ -532,81 +579,64 @@ class HealthIndicator(BaseEstimator):
         x = np.concatenate([u.x for u in units])
         mean = x.mean(axis=0)
         scale = x.std(axis=0, ddof=1) if len(x) > 1 else np.zeros(len(cols))
-        flat = ~(scale > 1e-12 * np.maximum(1.0, np.abs(mean)))
-        self.dropped_ = {
-            c: "constant over the training table"
-            for c, f in zip(cols, flat, strict=True)
-            if f
-        }
-        keep = [c for c, f in zip(cols, flat, strict=True) if not f]
-        if not keep:
-            raise DataError(
-                f"every candidate indicator is constant over the training table ({cols}); "
-                "a constant indicator carries no degradation information - pick columns "
-                "that change with wear"
-            )
+        self.dropped_, keep = _drop_constant(cols, mean, scale)
         self.features_ = keep
         self.ranking_ = None
-        selected = keep
-        if self.n_features is not None and self.n_features < len(keep):
-            self.ranking_ = prognostic_ranking(
-                table,
-                keep,
-                methods=self.ranking,
-                smoothing=self.smoothing or 10,
-                unit=unit,
-                time=time,
-            )
-            best = self.ranking_.index[self.ranking_["score"].notna()].tolist()
-            selected = best[: self.n_features]
-            for c in keep:
-                if c not in selected:
-                    self.dropped_[c] = "ranked below the best n_features"
+        selected = self._select_best(table, keep, unit, time)
         pick = [cols.index(c) for c in selected]
         self.mean_ = pd.Series(mean[pick], index=selected)
         self.scale_ = pd.Series(scale[pick], index=selected)
         z_units = [(u.x[:, pick] - mean[pick]) / scale[pick] for u in units]
-        z = np.concatenate(z_units)
         if self.method == "linear":
             require_failures(units, "HealthIndicator(method='linear')")
-            life = []
-            for u in units:
-                span = u.t[-1] - u.t[0]
-                life.append((u.t - u.t[0]) / span if span > 0 else np.ones(len(u)))
-            target = np.concatenate(life)
-            design = np.column_stack([np.ones(len(z)), z])
-            beta, *_ = np.linalg.lstsq(design, target, rcond=None)
-            intercept, coef = float(beta[0]), beta[1:]
+            intercept, coef = _linear_fusion(units, z_units)
         else:
-            centred = z - z.mean(axis=0)
-            _, _, vt = np.linalg.svd(centred, full_matrices=False)
-            direction = vt[0]
-            raw = [zu @ direction for zu in z_units]
-            trend = np.mean(
-                [
-                    np.polyfit(u.t, r, 1)[0] if len(u) > 1 else 0.0
-                    for u, r in zip(units, raw, strict=True)
-                ]
-            )
-            if trend < 0:
-                direction = -direction
-                raw = [-r for r in raw]
-            start = np.mean([r[0] for r in raw])
-            end = np.mean([r[-1] for r in raw])
-            if not end > start:
-                raise DataError(
-                    "the first principal component does not change from the units' start "
-                    "to their end; it cannot serve as a health indicator (try "
-                    "method='linear')"
-                )
-            coef = direction / (end - start)
-            intercept = -start / (end - start)
+            intercept, coef = _pca_fusion(units, z_units)
         self.coef_ = pd.Series(coef, index=selected)
         self.intercept_ = intercept
         self.selected_ = selected
         self._keys = (unit, time)
         self.n_units_ = len(units)
         return self
+
+    def _check_options(self) -> None:
+        """Refuse an unknown method, a bad ``n_features`` or a bad smoothing span."""
+        if self.method not in ("linear", "pca"):
+            raise ValueError(f"method must be 'linear' or 'pca', got {self.method!r}")
+        if self.n_features is not None:
+            check_positive_int(self.n_features, "n_features")
+        if self.smoothing is not None and (
+            isinstance(self.smoothing, bool)
+            or not isinstance(self.smoothing, int | float | np.number)
+            or self.smoothing < 1
+        ):
+            raise ValueError(
+                f"smoothing must be an ewm span >= 1 or None, got {self.smoothing!r}"
+            )
+
+    def _select_best(
+        self, table: pd.DataFrame, keep: list[str], unit: str, time: str
+    ) -> list[str]:
+        """The best ``n_features`` of ``keep`` by prognostic ranking (all without it).
+
+        Sets ``ranking_`` and notes the ones left out in ``dropped_``.
+        """
+        if self.n_features is None or self.n_features >= len(keep):
+            return keep
+        self.ranking_ = prognostic_ranking(
+            table,
+            keep,
+            methods=self.ranking,
+            smoothing=self.smoothing or 10,
+            unit=unit,
+            time=time,
+        )
+        best = self.ranking_.index[self.ranking_["score"].notna()].tolist()
+        selected = best[: self.n_features]
+        for c in keep:
+            if c not in selected:
+                self.dropped_[c] = "ranked below the best n_features"
+        return selected
 
     def transform(self, table: pd.DataFrame) -> pd.DataFrame:
         """Return a copy of ``table`` with the health indicator added as ``output``.

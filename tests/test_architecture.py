@@ -182,11 +182,7 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 
 #: import cycles still there (modules of each), with the reason
-CYCLE_DEBT: dict[tuple[str, ...], str] = {
-    ("pdmkit.ensembles._ensemble", "pdmkit.ensembles._parquet"): "Ensemble.to_parquet / "
-    "from_parquet are methods for the user's convenience and call the Parquet module, "
-    "which builds Ensembles; the two imports inside those methods are the only way back",
-}
+CYCLE_DEBT: dict[tuple[str, ...], str] = {}
 
 
 @pytest.mark.parametrize("include_packages", [False])

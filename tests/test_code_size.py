@@ -37,7 +37,6 @@ LONG_MODULES: dict[str, str] = {
         "the model-file contract, its checks and the child-process loader; the child "
         "check to its own module"
     ),
-    "ensembles/_ensemble.py": "the Ensemble class and its views; views and frames to split",
     "_outputs.py": (
         "everything written into --out; the output-folder checks to their own module"
     ),
@@ -62,9 +61,6 @@ LONG_FUNCTIONS: dict[str, str] = {
     "models/mismatch/_cases.py:generate_concealed_case": (
         "generator of concealed cases; excitation, truth and noise steps to split"
     ),
-    "ensembles/_member_files.py:read_members": (
-        "member files with labels, time columns and checks; per-option helpers to split"
-    ),
     "experiments/_rul_leak.py:_run_leak": (
         "the leak RUL workflow's stages; to split like _rul"
     ),
@@ -75,21 +71,16 @@ LONG_FUNCTIONS: dict[str, str] = {
     "models/ident/_subspace.py:n4sid": (
         "the N4SID steps (projections, SVD, system matrices, gain); to split by step"
     ),
-    "rul/_indicators.py:fit": "health-indicator fit with its options; to split",
     "models/ode/_modelfile.py:_check_in_child": (
         "child-process protocol and its error cases; to split"
     ),
     "experiments/_classify.py:classify": "selection, model, split and scores; to split",
     "models/ident/_hammerstein.py:fit": "initialisation and LM of the HW model; to split",
-    "_persist_tree.py:decode": "the decoder's type cases; one function per case",
     "ensembles/_pneumatic.py:simulate_leak_runs": (
         "leak schedule, units and simulation; to split"
     ),
     "experiments/_rul_battery.py:run_battery": (
         "leave-one-cell-out loop and report; to split"
-    ),
-    "ensembles/_member_files.py:_member_contents": (
-        "per-format member reading; to split by format"
     ),
     "models/pneumatic/_estimate.py:_levenberg_marquardt": (
         "the twin's batched LM; to merge with mismatch's into models/_optim.py"
@@ -107,7 +98,6 @@ LONG_FUNCTIONS: dict[str, str] = {
     "models/frequency/_greybox.py:fit_frf_params": (
         "parameter mapping and the weighted fit; to split"
     ),
-    "rul/_degradation.py:fit": "the Bayesian prior from the training units; to split",
 }
 
 
