@@ -33,10 +33,6 @@ LONG_MODULES: dict[str, str] = {
     "models/pneumatic/_twin.py": (
         "the piston's parameters and physics in one place; parameters to their own module"
     ),
-    "models/ode/_modelfile.py": (
-        "the model-file contract, its checks and the child-process loader; the child "
-        "check to its own module"
-    ),
     "_outputs.py": (
         "everything written into --out; the output-folder checks to their own module"
     ),
@@ -46,10 +42,6 @@ LONG_MODULES: dict[str, str] = {
 LONG_FUNCTIONS: dict[str, str] = {
     "experiments/_demo.py:_demo": (
         "the demo's stages in sequence; one function per report section"
-    ),
-    "models/ode/_simulate.py:integrate_batch": (
-        "the RK4 kernel with the augmentation hooks inline (a hot loop kept flat on "
-        "purpose; to split into setup / step / output phases with a timing check)"
     ),
     "models/pneumatic/_estimate.py:estimate_parameters": (
         "argument checks, starts, search and intervals; to split into steps as "
@@ -64,18 +56,8 @@ LONG_FUNCTIONS: dict[str, str] = {
     "experiments/_rul_leak.py:_run_leak": (
         "the leak RUL workflow's stages; to split like _rul"
     ),
-    "models/frequency/_fractional_fit.py:fit_fractional_frf": (
-        "grid, starts and simplex fit of seed 004; to split"
-    ),
     "experiments/_sensors.py:compare_sensors": "per-sensor loop with its report; to split",
-    "models/ident/_subspace.py:n4sid": (
-        "the N4SID steps (projections, SVD, system matrices, gain); to split by step"
-    ),
-    "models/ode/_modelfile.py:_check_in_child": (
-        "child-process protocol and its error cases; to split"
-    ),
     "experiments/_classify.py:classify": "selection, model, split and scores; to split",
-    "models/ident/_hammerstein.py:fit": "initialisation and LM of the HW model; to split",
     "ensembles/_pneumatic.py:simulate_leak_runs": (
         "leak schedule, units and simulation; to split"
     ),
@@ -86,17 +68,8 @@ LONG_FUNCTIONS: dict[str, str] = {
         "the twin's batched LM; to merge with mismatch's into models/_optim.py"
     ),
     "models/mismatch/_sparse.py:fit_sparse": "sparse path, refits and selection; to split",
-    "models/frequency/_rational.py:fit_tf": (
-        "Levy, SK iterations and refinement; to split by stage"
-    ),
     "experiments/_seed_recipes.py:seed_air_leak_rul": (
         "the seed's RUL recipe end to end; to split"
-    ),
-    "models/frequency/_fractional_fit.py:_fit_time_domain": (
-        "time-domain fit with starts; to split"
-    ),
-    "models/frequency/_greybox.py:fit_frf_params": (
-        "parameter mapping and the weighted fit; to split"
     ),
 }
 

@@ -43,9 +43,9 @@ from pdmkit.models.frequency._fractional_classify import FractionalConditionClas
 from pdmkit.models.frequency._fractional_fit import (
     FractionalFit,
     fit_fractional_frf,
-    fit_fractional_simplex,
     fit_fractional_tf,
 )
+from pdmkit.models.frequency._fractional_simplex import fit_fractional_simplex
 from pdmkit.models.frequency._frf import (
     FRF,
     AmplitudeDependence,

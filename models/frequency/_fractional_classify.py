@@ -8,10 +8,8 @@ from sklearn.utils.validation import check_is_fitted
 
 from pdmkit.errors import DataError, ModelError
 from pdmkit.models.frequency._fractional import model_distance
-from pdmkit.models.frequency._fractional_fit import (
-    fit_fractional_frf,
-    fit_fractional_simplex,
-)
+from pdmkit.models.frequency._fractional_fit import fit_fractional_frf
+from pdmkit.models.frequency._fractional_simplex import fit_fractional_simplex
 
 __all__ = ["FractionalConditionClassifier"]
 

@@ -1,9 +1,8 @@
 """Fitting fractional-order transfer functions ``1/(a s^alpha + b s^beta + c)`` to data.
 
 In the frequency domain (:func:`fit_fractional_frf`: a grid over the orders and least
-squares for the coefficients), in the time domain (:func:`fit_fractional_tf`), and by
-seed 004's simplex on the error between the empirical transfer function estimate and
-the model (:func:`fit_fractional_simplex`).
+squares for the coefficients) and in the time domain (:func:`fit_fractional_tf`); seed
+004's simplex fit (:func:`fit_fractional_simplex`) is in ``_fractional_simplex.py``.
 """
 
 from __future__ import annotations
@@ -17,18 +16,12 @@ import pandas as pd
 import scipy.optimize as sopt
 
 from pdmkit.errors import DataError, ModelError
-from pdmkit.models.frequency._fractional import (
-    _SEED_NAMES,
-    FractionalTF,
-    _causal_conv,
-    gl_weights,
-)
+from pdmkit.models.frequency._fractional import FractionalTF, _causal_conv, gl_weights
 from pdmkit.models.frequency._frf import _as_float_array, _check_fs, frf_estimate
 
 __all__ = [
     "FractionalFit",
     "fit_fractional_frf",
-    "fit_fractional_simplex",
     "fit_fractional_tf",
 ]
 
@@ -199,7 +192,7 @@ class _Orders:
         return max(self.hi - self.lo, 1e-6)
 
 
-def fit_fractional_frf(  # noqa: C901, PLR0915
+def fit_fractional_frf(
     freq,
     H,
     *,
@@ -271,6 +264,45 @@ def fit_fractional_frf(  # noqa: C901, PLR0915
     >>> round(fit.alpha, 3), round(fit.beta, 3)
     (1.7, 0.6)
     """
+    f, Hk, we, names, fixed = _checked_fractional_frf_data(
+        freq, H, den_terms, fixed_orders, weight
+    )
+    wk = 2 * np.pi * f
+    s = 1j * wk if dt is None else (1 - np.exp(-1j * wk * dt)) / dt
+    lo, hi = order_bounds
+    gap = float(min_gap) if constrain else 0.0
+    om = _Orders(names, fixed, lo, hi, gap)
+    prob = _FractionalFrfProblem(s, Hk, we, om, den_terms, fit_gain, constrain)
+
+    def fit_sign(sign: float):
+        # constrained: the fractional coefficients share the sign of the gain, which the
+        # data decide (both are tried)
+        if prob.n_free:
+            x_best = _orders_by_grid_and_simplex(prob, sign, grid, order_bounds)
+        else:
+            x_best = np.array([])
+        return _polish_all_parameters(prob, sign, x_best)
+
+    fits = [fit_sign(sg) for sg in ((1.0, -1.0) if constrain else (1.0,))]
+    theta, _ = min(fits, key=lambda t: t[1] if np.isfinite(t[1]) else np.inf)
+    o, cf, k = prob.unpack(theta)
+    # sort terms by order, descending, constant last
+    idx = np.argsort(o)[::-1]
+    model = FractionalTF(
+        (*tuple(float(cf[i]) for i in idx), float(cf[-1])),
+        (*tuple(float(o[i]) for i in idx), 0.0),
+        (float(k),),
+        (0.0,),
+    )
+    G = model.frequency_response(wk, dt=dt)
+    err = float(np.sqrt(np.mean(np.abs((Hk - G) / Hk) ** 2)))
+    spread = np.linalg.norm(Hk - Hk.mean())
+    fitp = 100 * (1 - np.linalg.norm(Hk - G) / spread) if spread > 0 else float("nan")
+    return FractionalFit(model, err, float(fitp), "frequency", f, Hk)
+
+
+def _checked_fractional_frf_data(freq, H, den_terms, fixed_orders, weight):
+    """The usable frequencies ``(f, H, weight)``, the order names and the fixed orders."""
     freq = _as_float_array(freq, "freq").reshape(-1)
     H = np.asarray(H, dtype=complex).reshape(-1)
     if H.shape != freq.shape:
@@ -292,121 +324,111 @@ def fit_fractional_frf(  # noqa: C901, PLR0915
                 f"orders are {names}."
             )
     w_extra = np.ones(freq.size) if weight is None else np.asarray(weight, float)
-    f, Hk, we = freq[keep], H[keep], w_extra[keep]
-    wk = 2 * np.pi * f
-    s = 1j * wk if dt is None else (1 - np.exp(-1j * wk * dt)) / dt
-    Hinv = 1.0 / Hk
-    wgt = np.abs(Hk) * np.sqrt(we)
-    lo, hi = order_bounds
-    gap = float(min_gap) if constrain else 0.0
-    om = _Orders(names, fixed, lo, hi, gap)
-    n_free = len(om.free)
-    nc = den_terms + 1
+    return freq[keep], H[keep], w_extra[keep], names, fixed
 
-    def fit_sign(sign: float):
-        # constrained: the fractional coefficients share the sign of the gain, which the
-        # data decide (both are tried)
-        lower = np.r_[np.full(den_terms, 0.0 if constrain else -np.inf), -np.inf]
 
-        def spow(orders):
-            return np.column_stack([s**q for q in orders] + [np.ones_like(s)])
+class _FractionalFrfProblem:
+    """The data of a fractional FRF fit and its two errors (``1/H`` and relative)."""
 
-        def coefs(orders):
-            cf, cost = _coefs_for_orders(sign * Hinv, spow(orders), wgt, lower)
-            return sign * cf, cost
+    def __init__(self, s, Hk, we, om, den_terms, fit_gain, constrain):
+        self.s, self.Hk, self.we, self.om = s, Hk, we, om
+        self.Hinv = 1.0 / Hk
+        self.wgt = np.abs(Hk) * np.sqrt(we)
+        self.n_free, self.nc = len(om.free), den_terms + 1
+        self.fit_gain = fit_gain
+        # constrained: the fractional coefficients (not c) >= 0, times the sign tried
+        self.lower = np.r_[np.full(den_terms, 0.0 if constrain else -np.inf), -np.inf]
 
-        def profile(x):
-            if np.any(np.asarray(x) < 0):
-                return np.inf
-            o = om.orders(x)
-            pen = om.violation(o)
-            return coefs(o)[1] * (1.0 + 1e3 * pen) + pen
+    def spow(self, orders):
+        """Columns ``s^q`` per order, then the constant."""
+        return np.column_stack([self.s**q for q in orders] + [np.ones_like(self.s)])
 
-        if n_free:
-            g = np.linspace(lo, hi, grid)
-            cands = []
-            for x in itertools.product(g, repeat=n_free):
-                o = dict(zip(om.free, x, strict=True))
-                full = [fixed.get(k, o.get(k)) for k in names]
-                if any(a_ < b_ + max(gap, 1e-9) for a_, b_ in itertools.pairwise(full)):
-                    continue  # orders kept in descending order (alpha > beta > gamma)
-                xi = om.increments(full)
-                cands.append((profile(xi), xi))
-            if not cands:
-                raise ModelError(
-                    f"no orders in order_bounds={order_bounds} are {gap} apart around the "
-                    f"fixed orders {fixed}; widen order_bounds or lower min_gap."
-                )
-            cands.sort(key=lambda c: c[0])
-            best = None
-            for c0, x0 in cands[:3]:
-                # coarse: the least-squares polish below does the fine work
-                sol = sopt.minimize(
-                    profile,
-                    x0,
-                    method="Nelder-Mead",
-                    bounds=[(0.0, om.bound())] * n_free,
-                    options={
-                        "xatol": 1e-4,
-                        "fatol": 1e-8 * max(c0, 1e-300),
-                        "maxiter": 300 * n_free,
-                    },
-                )
-                if best is None or sol.fun < best.fun:
-                    best = sol
-            x_best = np.clip(best.x, 0.0, om.bound())
-        else:
-            x_best = np.array([])
-        orders = om.orders(x_best)
-        coef, _ = coefs(orders)
-        theta0 = np.concatenate([x_best, coef, [1.0] if fit_gain else []])
+    def coefs(self, orders, sign):
+        """Coefficients of ``1/H`` for fixed orders (of the given sign) and their cost."""
+        cf, cost = _coefs_for_orders(
+            sign * self.Hinv, self.spow(orders), self.wgt, self.lower
+        )
+        return sign * cf, cost
 
-        def unpack(theta):
-            x, cf = theta[:n_free], theta[n_free : n_free + nc]
-            k = theta[n_free + nc] if fit_gain else 1.0
-            return om.orders(x), cf, k
+    def profile(self, x, sign):
+        """The cost of the order increments ``x`` with the coefficients projected out."""
+        if np.any(np.asarray(x) < 0):
+            return np.inf
+        o = self.om.orders(x)
+        pen = self.om.violation(o)
+        return self.coefs(o, sign)[1] * (1.0 + 1e3 * pen) + pen
 
-        def resid(theta):
-            o, cf, k = unpack(theta)
-            G = k / (spow(o) @ cf)
-            e = (Hk - G) / np.abs(Hk) * np.sqrt(we)
-            pen = 1e3 * om.violation(o)
-            return np.concatenate([e.real, e.imag, [pen]])
-
-        big = np.inf
-        c_lo = np.where(np.isfinite(lower), 0.0, -big)
-        cf_lb = np.where(sign > 0, c_lo, -big)
-        cf_ub = np.where(sign > 0, big, -c_lo)
-        cf_lb[-1], cf_ub[-1] = -big, big
-        lb = np.concatenate([[0.0] * n_free, cf_lb, [-big] if fit_gain else []])
-        ub = np.concatenate([[om.bound()] * n_free, cf_ub, [big] if fit_gain else []])
-        theta0 = np.clip(theta0, lb + 1e-12 * (lb > -big), ub - 1e-12 * (ub < big))
-        sol = sopt.least_squares(resid, theta0, bounds=(lb, ub), x_scale="jac")
-        theta = sol.x if np.sum(sol.fun**2) <= np.sum(resid(theta0) ** 2) else theta0
-        return theta, float(np.sum(resid(theta) ** 2))
-
-    fits = [fit_sign(sg) for sg in ((1.0, -1.0) if constrain else (1.0,))]
-    theta, _ = min(fits, key=lambda t: t[1] if np.isfinite(t[1]) else np.inf)
-
-    def unpack(theta):
+    def unpack(self, theta):
+        """``(orders, coefficients, gain)`` from the full parameter vector."""
+        n_free, nc = self.n_free, self.nc
         x, cf = theta[:n_free], theta[n_free : n_free + nc]
-        k = theta[n_free + nc] if fit_gain else 1.0
-        return om.orders(x), cf, k
+        k = theta[n_free + nc] if self.fit_gain else 1.0
+        return self.om.orders(x), cf, k
 
-    o, cf, k = unpack(theta)
-    # sort terms by order, descending, constant last
-    idx = np.argsort(o)[::-1]
-    model = FractionalTF(
-        (*tuple(float(cf[i]) for i in idx), float(cf[-1])),
-        (*tuple(float(o[i]) for i in idx), 0.0),
-        (float(k),),
-        (0.0,),
-    )
-    G = model.frequency_response(wk, dt=dt)
-    err = float(np.sqrt(np.mean(np.abs((Hk - G) / Hk) ** 2)))
-    spread = np.linalg.norm(Hk - Hk.mean())
-    fitp = 100 * (1 - np.linalg.norm(Hk - G) / spread) if spread > 0 else float("nan")
-    return FractionalFit(model, err, float(fitp), "frequency", f, Hk)
+    def resid(self, theta):
+        """The relative complex error ``(H - G) / |H|`` (weighted), with the gap penalty."""
+        o, cf, k = self.unpack(theta)
+        G = k / (self.spow(o) @ cf)
+        e = (self.Hk - G) / np.abs(self.Hk) * np.sqrt(self.we)
+        pen = 1e3 * self.om.violation(o)
+        return np.concatenate([e.real, e.imag, [pen]])
+
+
+def _orders_by_grid_and_simplex(prob, sign, grid, order_bounds):
+    """Free order increments: the best of a grid, refined by Nelder-Mead on the profile."""
+    om = prob.om
+    lo, hi = order_bounds
+    g = np.linspace(lo, hi, grid)
+    cands = []
+    for x in itertools.product(g, repeat=prob.n_free):
+        o = dict(zip(om.free, x, strict=True))
+        full = [om.fixed.get(k, o.get(k)) for k in om.names]
+        if any(a_ < b_ + max(om.gap, 1e-9) for a_, b_ in itertools.pairwise(full)):
+            continue  # orders kept in descending order (alpha > beta > gamma)
+        xi = om.increments(full)
+        cands.append((prob.profile(xi, sign), xi))
+    if not cands:
+        raise ModelError(
+            f"no orders in order_bounds={order_bounds} are {om.gap} apart around the "
+            f"fixed orders {om.fixed}; widen order_bounds or lower min_gap."
+        )
+    cands.sort(key=lambda c: c[0])
+    best = None
+    for c0, x0 in cands[:3]:
+        # coarse: the least-squares polish below does the fine work
+        sol = sopt.minimize(
+            prob.profile,
+            x0,
+            args=(sign,),
+            method="Nelder-Mead",
+            bounds=[(0.0, om.bound())] * prob.n_free,
+            options={
+                "xatol": 1e-4,
+                "fatol": 1e-8 * max(c0, 1e-300),
+                "maxiter": 300 * prob.n_free,
+            },
+        )
+        if best is None or sol.fun < best.fun:
+            best = sol
+    return np.clip(best.x, 0.0, om.bound())
+
+
+def _polish_all_parameters(prob, sign, x_best):
+    """Least squares of the relative error over orders, coefficients (and gain)."""
+    n_free, fit_gain = prob.n_free, prob.fit_gain
+    coef, _ = prob.coefs(prob.om.orders(x_best), sign)
+    theta0 = np.concatenate([x_best, coef, [1.0] if fit_gain else []])
+    big = np.inf
+    c_lo = np.where(np.isfinite(prob.lower), 0.0, -big)
+    cf_lb = np.where(sign > 0, c_lo, -big)
+    cf_ub = np.where(sign > 0, big, -c_lo)
+    cf_lb[-1], cf_ub[-1] = -big, big
+    lb = np.concatenate([[0.0] * n_free, cf_lb, [-big] if fit_gain else []])
+    ub = np.concatenate([[prob.om.bound()] * n_free, cf_ub, [big] if fit_gain else []])
+    theta0 = np.clip(theta0, lb + 1e-12 * (lb > -big), ub - 1e-12 * (ub < big))
+    sol = sopt.least_squares(prob.resid, theta0, bounds=(lb, ub), x_scale="jac")
+    theta = sol.x if np.sum(sol.fun**2) <= np.sum(prob.resid(theta0) ** 2) else theta0
+    return theta, float(np.sum(prob.resid(theta) ** 2))
 
 
 def fit_fractional_tf(
@@ -558,43 +580,11 @@ def _fit_time_domain(u, y, fs, ffit, fixed_orders, min_gap, constrain, n_starts,
     ]
     lower = np.r_[np.full(n_terms, 0.0 if constrain else -np.inf), -np.inf]
     if nf and n_starts > 1:
-        grid = np.arange(0.2, 2.81, 0.2)
-        derivs = {}
-
-        def deriv(q):
-            q = round(float(q), 6)
-            if q not in derivs:
-                derivs[q] = _gl_derivative(y, q, dt)
-            return derivs[q]
-
-        cands = []
-        for x in itertools.product(grid, repeat=nf):
-            o = dict(zip(om.free, x, strict=True))
-            full = [fixed.get(k, o.get(k)) for k in names]
-            if any(a_ < b_ + max(gap, 1e-9) for a_, b_ in itertools.pairwise(full)):
-                continue
-            M = np.column_stack([deriv(q) for q in full] + [y])
-            if not np.all(np.isfinite(M)):
-                continue
-            for sg in (1.0, -1.0) if constrain else (1.0,):
-                cf, cost = _bounded_lstsq(sg * M, u, lower)
-                cands.append((cost, full, sg * cf, sg))
-        cands.sort(key=lambda c: c[0])
-        for _cost, full, cf, sg in cands[: n_starts - 1]:
-            starts.append((np.concatenate([om.increments(full), cf]), sg))
-
-    def bounds(sg):
-        c_lo = np.where(np.isfinite(lower), 0.0, -np.inf)
-        cf_lb = c_lo if sg > 0 else np.full(n_terms + 1, -np.inf)
-        cf_ub = np.full(n_terms + 1, np.inf) if sg > 0 else -c_lo
-        cf_lb[-1], cf_ub[-1] = -np.inf, np.inf
-        lb = np.concatenate([[0.0] * nf, cf_lb])
-        ub = np.concatenate([[om.bound()] * nf, cf_ub])
-        return lb, ub
+        starts += _equation_error_starts(u, y, dt, om, lower, constrain, n_starts - 1)
 
     best = None
     for theta0, sg in starts:
-        lb, ub = bounds(sg)
+        lb, ub = _time_fit_bounds(om, lower, sg)
         x0 = np.clip(theta0, lb + 1e-9 * np.isfinite(lb), ub - 1e-9 * np.isfinite(ub))
         sol = sopt.least_squares(resid, x0, bounds=(lb, ub), x_scale="jac", max_nfev=200)
         if best is None or sol.cost < best.cost:
@@ -606,181 +596,49 @@ def _fit_time_domain(u, y, fs, ffit, fixed_orders, min_gap, constrain, n_starts,
     return FractionalFit(model, rms, float(fitp), "time", frf.freq, frf.H)
 
 
+def _equation_error_starts(u, y, dt, om, lower, constrain, n_best):
+    """The ``n_best`` orders of a grid (step 0.2) by the equation error, as starts."""
+    grid = np.arange(0.2, 2.81, 0.2)
+    derivs = {}
+
+    def deriv(q):
+        q = round(float(q), 6)
+        if q not in derivs:
+            derivs[q] = _gl_derivative(y, q, dt)
+        return derivs[q]
+
+    cands = []
+    for x in itertools.product(grid, repeat=len(om.free)):
+        o = dict(zip(om.free, x, strict=True))
+        full = [om.fixed.get(k, o.get(k)) for k in om.names]
+        if any(a_ < b_ + max(om.gap, 1e-9) for a_, b_ in itertools.pairwise(full)):
+            continue
+        M = np.column_stack([deriv(q) for q in full] + [y])
+        if not np.all(np.isfinite(M)):
+            continue
+        for sg in (1.0, -1.0) if constrain else (1.0,):
+            cf, cost = _bounded_lstsq(sg * M, u, lower)
+            cands.append((cost, full, sg * cf, sg))
+    cands.sort(key=lambda c: c[0])
+    return [
+        (np.concatenate([om.increments(full), cf]), sg)
+        for _, full, cf, sg in cands[:n_best]
+    ]
+
+
+def _time_fit_bounds(om, lower, sg):
+    """Bounds of ``(order increments, coefficients)`` for coefficients of sign ``sg``."""
+    n_coef = lower.size
+    c_lo = np.where(np.isfinite(lower), 0.0, -np.inf)
+    cf_lb = c_lo if sg > 0 else np.full(n_coef, -np.inf)
+    cf_ub = np.full(n_coef, np.inf) if sg > 0 else -c_lo
+    cf_lb[-1], cf_ub[-1] = -np.inf, np.inf
+    lb = np.concatenate([[0.0] * len(om.free), cf_lb])
+    ub = np.concatenate([[om.bound()] * len(om.free), cf_ub])
+    return lb, ub
+
+
 def _coherence_weight(coh: np.ndarray) -> np.ndarray:
     """Inverse variance of the relative H1 error, ``g2 / (1 - g2)`` (Bendat & Piersol)."""
     g = np.clip(coh, 0.0, 0.999)
     return g / (1 - g)
-
-
-def _seed_response(theta: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """``1 / (a s^alpha + b s^beta + c)`` for ``theta = (a, alpha, b, beta, c)``."""
-    a, al, b, be, c = theta
-    with np.errstate(all="ignore"):
-        return 1.0 / (a * s**al + b * s**be + c)
-
-
-def _simplex_starts(s, Hr, fixed, bounds, n_starts, power):
-    """Start vectors ``(a, alpha, b, beta, c)`` for the simplex.
-
-    For the orders of a coarse grid (``fixed`` orders held) the coefficients of a
-    linear least-squares fit of ``1/H`` weighted by ``|H|`` (relative error) and by
-    ``|H|^2`` (absolute error, since ``|H - G| ~ |H|^2 |1/H - 1/G|``); the best
-    ``n_starts`` by the objective.
-    """
-    lo, hi = bounds
-    grid = np.round(np.arange(0.25, hi + 1e-9, 0.25), 6)  # holds the integers
-    grid = grid[grid >= lo]
-    al_grid = [fixed["alpha"]] if "alpha" in fixed else grid
-    be_grid = [fixed["beta"]] if "beta" in fixed else grid
-    Hmean = Hr.mean(axis=0)
-    Hinv = 1.0 / Hmean
-    cands = []
-    for al, be in itertools.product(al_grid, be_grid):
-        if al <= be and not ("alpha" in fixed and "beta" in fixed):
-            continue  # alpha > beta: the swapped pair is the same model
-        spow = np.column_stack([s**al, s**be, np.ones_like(s)])
-        for wgt in (np.abs(Hmean), np.abs(Hmean) ** 2):
-            (a, b, c), _ = _coefs_for_orders(Hinv, spow, wgt / wgt.max())
-            theta = np.array([a, al, b, be, c])
-            cost = float(np.mean(np.abs(Hr - _seed_response(theta, s)) ** power))
-            if np.isfinite(cost):
-                cands.append((cost, theta))
-    cands.sort(key=lambda t: t[0])
-    return [t for _, t in cands[: max(1, int(n_starts))]]
-
-
-def fit_fractional_simplex(  # noqa: C901
-    freq,
-    H,
-    *,
-    fixed_orders: Mapping[str, float] | None = None,
-    start: Mapping[str, float] | None = None,
-    loss: str = "abs",
-    order_bounds: tuple[float, float] = (0.0, 4.0),
-    n_starts: int = 6,
-    maxiter: int = 4000,
-) -> FractionalFit:
-    """Seed 004's fit: Nelder-Mead of ``1/(a s^alpha + b s^beta + c)`` on ``|G_EETF - G|``.
-
-    Seed 004 (section 4.1, eqs. 6-9) minimises the error between the empirical
-    transfer functions of its tuning records and the model,
-    ``f_e = |G_EETF(omega) - G(omega, [a, b, c, alpha, beta])|``, with the simplex
-    method of Lagarias et al. (1998), i.e. MATLAB's ``fminsearch``; here
-    :func:`scipy.optimize.minimize` with ``method="Nelder-Mead"`` (the same algorithm:
-    initial simplex 5 % along each coordinate, standard reflection / expansion /
-    contraction coefficients), restarted from its own result until it stops improving.
-    The objective is the mean over the records and frequencies of ``|H - G|``
-    (``loss="abs"``, the seed's ``f_e``) or of ``|H - G|^2`` (``"squared"``, the mean
-    square error the seed uses as failure index). Nelder-Mead is local: it starts
-    from the best ``n_starts`` orders of a grid (step 0.25) with their coefficients
-    from a weighted linear least-squares fit of ``1/H``, or from ``start``.
-
-    Parameters
-    ----------
-    freq : array_like, shape (n_freq,)
-        Frequencies in Hz (seed 004 uses 100-1000 rad/s).
-    H : array_like of complex, shape (n_freq,) or (n_records, n_freq)
-        Empirical transfer functions; the objective averages over all records (the
-        seed's 20 tuning data sets per condition).
-    fixed_orders : dict, optional
-        ``{"alpha": 2, "beta": 1}`` gives the integer-order model (IOM) of seed 004,
-        table 1; other orders are free in ``order_bounds``.
-    start : dict, optional
-        Start values of ``a, alpha, b, beta, c`` (instead of the grid).
-    loss : {"abs", "squared"}
-    order_bounds : (float, float), default (0, 4)
-        Range of the free orders (the seed leaves them free; a measured ETFE can fall
-        off faster than ``1/s^3``).
-    n_starts : int, default 6
-    maxiter : int, default 4000
-        Iterations of each Nelder-Mead run.
-
-    Returns
-    -------
-    FractionalFit
-        ``method="simplex"``; ``error`` is the objective at the optimum (the seed's
-        ``f_e`` for ``loss="abs"``), ``H`` the mean of the records.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from pdmkit.models.frequency import FractionalTF, fit_fractional_simplex
-    >>> true = FractionalTF.seed004(a=0.02, alpha=1.6, b=0.3, beta=0.7, c=1.0)
-    >>> f = np.linspace(100, 1000, 60) / (2 * np.pi)       # 100-1000 rad/s
-    >>> fit = fit_fractional_simplex(f, true.frequency_response(2 * np.pi * f))
-    >>> round(fit.alpha, 2), round(fit.beta, 2), fit.error < 1e-4
-    (1.6, 0.7, True)
-    """
-    freq = _as_float_array(freq, "freq").reshape(-1)
-    Hr = np.asarray(H, dtype=complex)
-    Hr = Hr[None, :] if Hr.ndim == 1 else Hr
-    if Hr.ndim != 2 or Hr.shape[1] != freq.size:
-        raise DataError(
-            f"H must be (n_freq,) or (n_records, n_freq) with n_freq = {freq.size} "
-            f"(the length of freq); got shape {np.shape(H)}."
-        )
-    if not (np.all(np.isfinite(Hr)) and np.all(freq > 0)) or freq.size < 5:
-        raise DataError(
-            "fit_fractional_simplex needs >= 5 frequencies > 0 and finite H; got "
-            f"{freq.size} frequencies (min {freq.min() if freq.size else None})."
-        )
-    if loss not in ("abs", "squared"):
-        raise ModelError(f"loss must be 'abs' or 'squared'; got {loss!r}.")
-    fixed = {k: float(v) for k, v in dict(fixed_orders or {}).items()}
-    for k in fixed:
-        if k not in ("alpha", "beta"):
-            raise ModelError(f"fixed_orders names {k!r}; the orders are alpha and beta.")
-    lo, hi = (float(v) for v in order_bounds)
-    s = 1j * 2 * np.pi * freq
-    Hmean = Hr.mean(axis=0)
-    free = [i for i, k in enumerate(_SEED_NAMES) if k not in fixed]
-    power = 1 if loss == "abs" else 2
-
-    def full(x):
-        theta = np.array([fixed.get(k, np.nan) for k in _SEED_NAMES])
-        theta[free] = x
-        return theta
-
-    def objective(x):
-        theta = full(x)
-        if theta[1] < lo or theta[1] > hi or theta[3] < lo or theta[3] > hi:
-            return np.inf
-        d = np.abs(Hr - _seed_response(theta, s)) ** power
-        val = float(np.mean(d))
-        return val if np.isfinite(val) else np.inf
-
-    if start is not None:
-        starts = [np.array([float(start[k]) for k in _SEED_NAMES])]
-        for k, v in fixed.items():
-            starts[0][_SEED_NAMES.index(k)] = v
-    else:
-        starts = _simplex_starts(s, Hr, fixed, (lo, hi), n_starts, power)
-    best = None
-    for theta0 in starts:
-        x, fx = theta0[free], objective(theta0[free])
-        f_start = fx
-        for _ in range(4):  # restart from the result until it stops improving
-            sol = sopt.minimize(
-                objective,
-                x,
-                method="Nelder-Mead",
-                options={"maxiter": maxiter, "xatol": 1e-9, "fatol": 1e-9 * f_start},
-            )
-            improved = sol.fun < fx * (1 - 1e-6)
-            if sol.fun <= fx:
-                x, fx = sol.x, float(sol.fun)
-            if not improved:
-                break
-        if best is None or fx < best[1]:
-            best = (x, fx)
-    theta = full(best[0])
-    a, al, b, be, c = (float(v) for v in theta)
-    if be > al:  # the same model with the terms named so that alpha >= beta
-        a, al, b, be = b, be, a, al
-    model = FractionalTF.seed004(a, al, b, be, c)
-    G = model.frequency_response(2 * np.pi * freq)
-    spread = np.linalg.norm(Hmean - Hmean.mean())
-    fitp = 100 * (1 - np.linalg.norm(Hmean - G) / spread) if spread > 0 else float("nan")
-    return FractionalFit(
-        model, float(best[1]), float(fitp), "frequency", freq, Hmean, "simplex"
-    )

@@ -144,23 +144,8 @@ def fit_frf_params(
     if not names:
         raise ModelError("params0 is empty; give at least one free parameter.")
     fixed = dict(fixed or {})
-    p0 = np.array([float(params0[k]) for k in names])
-    logm = np.array([log_params and v > 0 for v in p0])
-    lo = np.full(p0.size, -np.inf)
-    hi = np.full(p0.size, np.inf)
-    for i, k in enumerate(names):
-        if bounds and k in bounds:
-            lo[i], hi[i] = bounds[k]
-            if logm[i]:
-                lo[i] = np.log(lo[i]) if lo[i] > 0 else -np.inf
-                hi[i] = np.log(hi[i]) if np.isfinite(hi[i]) else np.inf
-    H = np.atleast_2d(frf.H)
-    coh = np.broadcast_to(np.atleast_2d(frf.coherence), H.shape)
-    wgt = np.where(coh >= coherence_min, coh, 0.0) * (np.abs(H) > 0)
-    if not np.any(wgt > 0):
-        raise DataError(
-            f"no frequency has coherence >= coherence_min={coherence_min}; lower it."
-        )
+    p0, logm, lo, hi = _free_parameters(names, params0, bounds, log_params)
+    H, wgt = _coherence_weights(frf, coherence_min)
     omega = frf.omega
     sw = np.sqrt(wgt / wgt.sum())
 
@@ -186,23 +171,7 @@ def fit_frf_params(
         return r
 
     theta0 = np.where(logm, np.log(np.where(logm, p0, 1.0)), p0)
-    if method == "least_squares":
-        sol = sopt.least_squares(resid, theta0, bounds=(lo, hi), x_scale="jac")
-        theta, ok, msg = sol.x, bool(sol.success), str(sol.message)
-    elif method == "nelder-mead":
-        bnds = list(zip(lo, hi, strict=True)) if bounds else None
-        sol = sopt.minimize(
-            lambda t: float(np.sum(resid(t) ** 2)),
-            theta0,
-            method="Nelder-Mead",
-            bounds=bnds,
-            options={"xatol": 1e-8, "fatol": 1e-12, "maxiter": 4000 * p0.size},
-        )
-        theta, ok, msg = sol.x, bool(sol.success), str(sol.message)
-    else:
-        raise ModelError(
-            f"method must be 'least_squares' or 'nelder-mead'; got {method!r}."
-        )
+    theta, ok, msg = _minimise(resid, theta0, lo, hi, bool(bounds), method)
     Hm = model(theta)
     d = np.log(np.where(wgt > 0, H, 1.0) / Hm[None, :])
     ws = wgt.sum()
@@ -220,3 +189,48 @@ def fit_frf_params(
         ok,
         msg,
     )
+
+
+def _free_parameters(names, params0, bounds, log_params):
+    """Starts, which run on a log scale, and the bounds in the optimiser's units."""
+    p0 = np.array([float(params0[k]) for k in names])
+    logm = np.array([log_params and v > 0 for v in p0])
+    lo = np.full(p0.size, -np.inf)
+    hi = np.full(p0.size, np.inf)
+    for i, k in enumerate(names):
+        if bounds and k in bounds:
+            lo[i], hi[i] = bounds[k]
+            if logm[i]:
+                lo[i] = np.log(lo[i]) if lo[i] > 0 else -np.inf
+                hi[i] = np.log(hi[i]) if np.isfinite(hi[i]) else np.inf
+    return p0, logm, lo, hi
+
+
+def _coherence_weights(frf, coherence_min):
+    """The FRF rows and their weights: the coherence, 0 below ``coherence_min``."""
+    H = np.atleast_2d(frf.H)
+    coh = np.broadcast_to(np.atleast_2d(frf.coherence), H.shape)
+    wgt = np.where(coh >= coherence_min, coh, 0.0) * (np.abs(H) > 0)
+    if not np.any(wgt > 0):
+        raise DataError(
+            f"no frequency has coherence >= coherence_min={coherence_min}; lower it."
+        )
+    return H, wgt
+
+
+def _minimise(resid, theta0, lo, hi, bounded, method):
+    """Least squares or Nelder-Mead on ``resid``; ``(theta, success, message)``."""
+    if method == "least_squares":
+        sol = sopt.least_squares(resid, theta0, bounds=(lo, hi), x_scale="jac")
+        return sol.x, bool(sol.success), str(sol.message)
+    if method == "nelder-mead":
+        bnds = list(zip(lo, hi, strict=True)) if bounded else None
+        sol = sopt.minimize(
+            lambda t: float(np.sum(resid(t) ** 2)),
+            theta0,
+            method="Nelder-Mead",
+            bounds=bnds,
+            options={"xatol": 1e-8, "fatol": 1e-12, "maxiter": 4000 * theta0.size},
+        )
+        return sol.x, bool(sol.success), str(sol.message)
+    raise ModelError(f"method must be 'least_squares' or 'nelder-mead'; got {method!r}.")

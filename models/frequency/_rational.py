@@ -184,7 +184,7 @@ def _reflect(a: np.ndarray, domain: str) -> tuple[np.ndarray, int]:
     return new / new[0], int(bad.sum())
 
 
-def fit_tf(  # noqa: C901, PLR0915
+def fit_tf(
     freq,
     H,
     nb: int,
@@ -245,25 +245,7 @@ def fit_tf(  # noqa: C901, PLR0915
     >>> np.round(fit.den, 4), np.round(fit.num, 4)
     (array([  1.,   2., 100.]), array([100.]))
     """
-    freq = _as_float_array(freq, "freq").reshape(-1)
-    H = np.asarray(H, dtype=complex).reshape(-1)
-    if H.shape != freq.shape:
-        raise DataError(f"H has {H.size} values but freq has {freq.size}.")
-    if not np.all(np.isfinite(H)):
-        raise DataError("H holds NaN/inf values; drop those frequencies first.")
-    if domain not in ("s", "z"):
-        raise ModelError(f"domain must be 's' or 'z'; got {domain!r}.")
-    nb, na = int(nb), int(na)
-    if na < 1 or nb < 0:
-        raise ModelError(f"need na >= 1 and nb >= 0; got nb={nb}, na={na}.")
-    if freq.size < (nb + na + 1) // 2 + 1:
-        raise DataError(
-            f"{freq.size} frequencies cannot determine {nb + na + 1} real coefficients;"
-            " give more frequencies or lower the orders."
-        )
-    w = np.ones(freq.size) if weight is None else np.asarray(weight, dtype=float)
-    if w.shape != freq.shape or np.any(w < 0) or not np.all(np.isfinite(w)):
-        raise DataError("weight must be one finite non-negative value per frequency.")
+    freq, H, nb, na, w = _checked_tf_data(freq, H, nb, na, domain, weight)
     omega = 2 * np.pi * freq
     if domain == "z":
         if fs is None:
@@ -277,30 +259,9 @@ def fit_tf(  # noqa: C901, PLR0915
         x = 1j * omega / w0
     sw = np.sqrt(w)
 
-    b, a = _levy(H, x, nb, na, sw, domain)
-    n_done = 0
-    while n_done < n_iter:
-        n_done += 1
-        Ax = _basis(x, na, domain) @ a
-        b_new, a_new = _levy(H, x, nb, na, sw / np.maximum(np.abs(Ax), 1e-300), domain)
-        change = np.linalg.norm(a_new - a) / max(np.linalg.norm(a), 1e-300)
-        b, a = b_new, a_new
-        if change < tol:
-            break
-
-    def resid(theta):
-        bb, aa = theta[: nb + 1], np.concatenate([[1.0], theta[nb + 1 :]])
-        e = (_basis(x, nb, domain) @ bb / (_basis(x, na, domain) @ aa) - H) * sw
-        return np.concatenate([e.real, e.imag])
-
+    b, a, n_done = _sanathanan_koerner(H, x, nb, na, sw, domain, n_iter, tol)
     if refine:
-        theta0 = np.concatenate([b, a[1:]])
-        try:
-            sol = sopt.least_squares(resid, theta0, method="lm", xtol=1e-12, ftol=1e-12)
-            if np.sum(sol.fun**2) <= np.sum(resid(theta0) ** 2):
-                b, a = sol.x[: nb + 1], np.concatenate([[1.0], sol.x[nb + 1 :]])
-        except ValueError:  # fewer residuals than unknowns: keep SK's answer
-            pass
+        b, a = _refine_output_error(H, x, b, a, sw, domain)
     n_ref = 0
     if stable:
         a, n_ref = _reflect(a, domain)
@@ -329,6 +290,65 @@ def fit_tf(  # noqa: C901, PLR0915
         freq,
         H,
     )
+
+
+def _checked_tf_data(freq, H, nb, na, domain, weight):
+    """``fit_tf``'s data and orders checked: ``(freq, H, nb, na, weight)``."""
+    freq = _as_float_array(freq, "freq").reshape(-1)
+    H = np.asarray(H, dtype=complex).reshape(-1)
+    if H.shape != freq.shape:
+        raise DataError(f"H has {H.size} values but freq has {freq.size}.")
+    if not np.all(np.isfinite(H)):
+        raise DataError("H holds NaN/inf values; drop those frequencies first.")
+    if domain not in ("s", "z"):
+        raise ModelError(f"domain must be 's' or 'z'; got {domain!r}.")
+    nb, na = int(nb), int(na)
+    if na < 1 or nb < 0:
+        raise ModelError(f"need na >= 1 and nb >= 0; got nb={nb}, na={na}.")
+    if freq.size < (nb + na + 1) // 2 + 1:
+        raise DataError(
+            f"{freq.size} frequencies cannot determine {nb + na + 1} real coefficients;"
+            " give more frequencies or lower the orders."
+        )
+    w = np.ones(freq.size) if weight is None else np.asarray(weight, dtype=float)
+    if w.shape != freq.shape or np.any(w < 0) or not np.all(np.isfinite(w)):
+        raise DataError("weight must be one finite non-negative value per frequency.")
+    return freq, H, nb, na, w
+
+
+def _sanathanan_koerner(H, x, nb, na, sw, domain, n_iter, tol):
+    """Levy's start, then SK re-weighting by ``1/|A_prev|``; ``(b, a, iterations)``."""
+    b, a = _levy(H, x, nb, na, sw, domain)
+    n_done = 0
+    while n_done < n_iter:
+        n_done += 1
+        Ax = _basis(x, na, domain) @ a
+        b_new, a_new = _levy(H, x, nb, na, sw / np.maximum(np.abs(Ax), 1e-300), domain)
+        change = np.linalg.norm(a_new - a) / max(np.linalg.norm(a), 1e-300)
+        b, a = b_new, a_new
+        if change < tol:
+            break
+    return b, a, n_done
+
+
+def _refine_output_error(H, x, b, a, sw, domain):
+    """Gauss-Newton on the output error ``(B/A - H) sw``; kept only if it lowers it."""
+    nb = b.size - 1
+    na = a.size - 1
+
+    def resid(theta):
+        bb, aa = theta[: nb + 1], np.concatenate([[1.0], theta[nb + 1 :]])
+        e = (_basis(x, nb, domain) @ bb / (_basis(x, na, domain) @ aa) - H) * sw
+        return np.concatenate([e.real, e.imag])
+
+    theta0 = np.concatenate([b, a[1:]])
+    try:
+        sol = sopt.least_squares(resid, theta0, method="lm", xtol=1e-12, ftol=1e-12)
+        if np.sum(sol.fun**2) <= np.sum(resid(theta0) ** 2):
+            b, a = sol.x[: nb + 1], np.concatenate([[1.0], sol.x[nb + 1 :]])
+    except ValueError:  # fewer residuals than unknowns: keep SK's answer
+        pass
+    return b, a
 
 
 # ----------------------------------------------------------------------------- grey box

@@ -392,13 +392,33 @@ class HammersteinWiener(BaseEstimator):
         return self._out(self._linear(self._in(U, th_in), b, f), th_out)
 
     # -------------------------------------------------------------- API
-    def fit(self, u, y):  # noqa: C901
+    def fit(self, u, y):
         """Fit all blocks to input ``u`` and output ``y`` (1-D, or one row per record).
 
         Returns
         -------
         self
         """
+        U, Y = self._checked_records(u, y)
+        self._in = nonlinearity(self.input_nl, "input_nl")
+        self._out = nonlinearity(self.output_nl, "output_nl")
+        self._pwl_gain = isinstance(self._in, PiecewiseLinear)
+        ysc = np.std(Y) or 1.0
+        starts, lo, hi = self._starts_and_bounds(U, Y)
+
+        def resid(theta):
+            _, _, f, _ = self._layout.split(theta)
+            if self.nf and np.max(np.abs(np.roots(np.concatenate([[1.0], f])))) >= 1:
+                return np.full(Y.size, 1e3)
+            r = (self._simulate(U, theta) - Y).ravel() / ysc
+            return np.where(np.isfinite(r), r, 1e3)
+
+        best = self._best_of_starts(resid, starts, lo, hi)
+        self._store_fit(best.x, U, Y)
+        return self
+
+    def _checked_records(self, u, y):
+        """The options and the records ``(U, Y)``, one row per record, checked."""
         if self.initial not in ("zero", "steady"):
             raise ModelError(f"initial must be 'zero' or 'steady'; got {self.initial!r}.")
         U = _as_records(u, "u (input)")
@@ -415,11 +435,10 @@ class HammersteinWiener(BaseEstimator):
                 raise ModelError(
                     f"{name} must be a non-negative integer (nb >= 1); got {v!r}."
                 )
-        self._in = nonlinearity(self.input_nl, "input_nl")
-        self._out = nonlinearity(self.output_nl, "output_nl")
-        self._pwl_gain = isinstance(self._in, PiecewiseLinear)
-        ysc = np.std(Y) or 1.0
+        return U, Y
 
+    def _starts_and_bounds(self, U, Y):
+        """Start vectors ``(linear, input, output)``, bounds; sets the parameter layout."""
         # linear start: ARX least squares on (u, y) -> F, B
         b0, f0 = self._arx_start(U, Y)
         in_starts = self._in.starts(U.ravel())
@@ -430,14 +449,6 @@ class HammersteinWiener(BaseEstimator):
         self._layout = _Layout(len(in_starts[0]), self.nb, self.nf, len(out_starts[0]))
         lo = np.concatenate([lo_in, np.full(self.nb + self.nf, -np.inf), lo_out])
         hi = np.concatenate([hi_in, np.full(self.nb + self.nf, np.inf), hi_out])
-
-        def resid(theta):
-            _, _, f, _ = self._layout.split(theta)
-            if self.nf and np.max(np.abs(np.roots(np.concatenate([[1.0], f])))) >= 1:
-                return np.full(Y.size, 1e3)
-            r = (self._simulate(U, theta) - Y).ravel() / ysc
-            return np.where(np.isfinite(r), r, 1e3)
-
         lin_starts = [(b0, f0)]
         if self.nf:  # plus slow real poles with the data's gain: escapes poor ARX starts
             gain = (np.ptp(Y) / (np.ptp(U) or 1.0)) or 1.0
@@ -448,6 +459,10 @@ class HammersteinWiener(BaseEstimator):
         starts = [
             (ls, ti, to) for ls in lin_starts for ti in in_starts for to in out_starts
         ]
+        return starts, lo, hi
+
+    def _best_of_starts(self, resid, starts, lo, hi):
+        """Screen every start briefly, run the ``n_refine`` best on; the best solution."""
 
         def solve(theta0, budget):
             return sopt.least_squares(
@@ -469,7 +484,10 @@ class HammersteinWiener(BaseEstimator):
                 sol = solve(sol.x, self.max_nfev)
             if best is None or sol.cost < best.cost:
                 best = sol
-        theta = best.x
+        return best
+
+    def _store_fit(self, theta, U, Y):
+        """The fitted attributes (blocks, parameters by name, fit) from ``theta``."""
         th_in, b, f, th_out = self._layout.split(theta)
         if self._pwl_gain:
             b = b / (np.sum(b) / (1 + np.sum(f)) or 1.0)
@@ -499,7 +517,6 @@ class HammersteinWiener(BaseEstimator):
         self.fit_percent_ = float(
             100 * (1 - np.linalg.norm(e) / np.linalg.norm(Y - Y.mean()))
         )
-        return self
 
     def _arx_start(self, U, Y):
         nb, nf, nk = self.nb, self.nf, self.nk

@@ -108,7 +108,99 @@ def _bd_x0(A, C, u, y):
     return B, D, x0
 
 
-def n4sid(  # noqa: PLR0915
+def _n4sid_signals(u, y, nx: int, horizon):
+    """Checked ``(N, m)`` / ``(N, l)`` signals and the Hankel horizon ``s``."""
+    u2 = u.reshape(u.shape[0], -1)
+    y2 = y.reshape(y.shape[0], -1)
+    if u2.shape[0] != y2.shape[0]:
+        raise DataError(f"u has {u2.shape[0]} samples but y has {y2.shape[0]}.")
+    N, m = u2.shape
+    l = y2.shape[1]
+    s = max(2 * nx, 10) if horizon is None else _check_order(horizon, "horizon", 1)
+    s = max(s, nx // l + 1)
+    j = N - 2 * s + 1
+    if j < 2 * s * (m + l):
+        raise DataError(
+            f"y has {N} samples; n4sid with horizon {s} needs at least "
+            f"{2 * s * (m + l) + 2 * s} (lower horizon or nx)."
+        )
+    return u2, y2, s
+
+
+def _standardise(x2: np.ndarray):
+    """``(x - mean) / std`` per channel (std 0 -> 1); returns ``(xs, mean, std)``."""
+    xo = x2.mean(axis=0)
+    sx = np.where(x2.std(axis=0) > 0, x2.std(axis=0), 1.0)
+    return (x2 - xo) / sx, xo, sx
+
+
+def _projection_factor(us: np.ndarray, ys: np.ndarray, s: int) -> np.ndarray:
+    """The block ``L32`` of the RQ factor of the Hankel data (PO-MOESP projection)."""
+    m, l = us.shape[1], ys.shape[1]
+    j = us.shape[0] - 2 * s + 1
+    U = _hankel(us, 2 * s, j)
+    Y = _hankel(ys, 2 * s, j)
+    Up, Uf = U[: s * m], U[s * m :]
+    Yp, Yf = Y[: s * l], Y[s * l :]
+    H = np.vstack([Uf, Up, Yp, Yf]) / np.sqrt(j)
+    R = linalg.qr(H.T, mode="r", overwrite_a=True)[0]
+    L = R[: H.shape[0]].T
+    r1, r2 = s * m, s * (m + l)
+    L32 = L[r1 + r2 :, r1 : r1 + r2]
+    if not np.all(np.isfinite(L32)):
+        raise DataError(
+            "n4sid: the data matrix has non-finite entries; check u and y for overflow."
+        )
+    return L32
+
+
+def _a_and_c(L32: np.ndarray, nx: int, l: int, stabilize: bool):
+    """``A, C`` by the shift invariance of the observability matrix; ``S``, poles moved."""
+    Uo, S, _ = _svd(L32)
+    gamma = Uo[:, :nx] * np.sqrt(S[:nx])
+    C = gamma[:l]
+    A = linalg.lstsq(gamma[:-l], gamma[l:], lapack_driver="gelsy")[0]
+    n_moved = 0
+    if stabilize:
+        A, n_moved = stabilise_matrix(A)
+        if n_moved:
+            warnings.warn(
+                f"n4sid: {n_moved} of the {nx} poles of the nx={nx} model lay on or "
+                "outside the unit circle and were reflected into it; a lower nx (or "
+                "an OE model) likely describes the data better.",
+                ConvergenceWarning,
+                stacklevel=3,
+            )
+    return A, C, S, n_moved
+
+
+def _kalman_gain(A, B, C, D, us, ys, max_nfev: int, max_samples_k: int):
+    """The gain ``K`` minimising the one-step prediction error; returns ``(K, nfev)``."""
+    nx, l = A.shape[0], C.shape[0]
+    # the gain is fitted on at most the last `max_samples_k` samples: plenty for
+    # n * l numbers, and it keeps long records fast
+    uk, yk = us[-max_samples_k:], ys[-max_samples_k:]
+
+    def resid(k):
+        Km = k.reshape(nx, l)
+        if np.max(np.abs(linalg.eigvals(A - Km @ C))) >= 1.0:
+            return np.full(yk.size, 1e3)
+        return (yk - ss_predict(A, B, C, D, Km, uk, yk, 1)).ravel()
+
+    res = optimize.least_squares(
+        resid, np.zeros(nx * l), method="lm", max_nfev=max_nfev * (nx * l + 1)
+    )
+    if res.status == 0:
+        warnings.warn(
+            "n4sid: the Kalman-gain fit did not converge; K may be poor "
+            "(simulation is unaffected).",
+            ConvergenceWarning,
+            stacklevel=3,
+        )
+    return res.x.reshape(nx, l), res.nfev
+
+
+def n4sid(
     u,
     y,
     nx: int,
@@ -169,80 +261,18 @@ def n4sid(  # noqa: PLR0915
     nx = _check_order(nx, "nx", 1)
     u = _as_signal(u, "u", allow_2d=True)
     y = _as_signal(y, "y", allow_2d=True)
-    u2 = u.reshape(u.shape[0], -1)
-    y2 = y.reshape(y.shape[0], -1)
-    if u2.shape[0] != y2.shape[0]:
-        raise DataError(f"u has {u2.shape[0]} samples but y has {y2.shape[0]}.")
+    u2, y2, s = _n4sid_signals(u, y, nx, horizon)
     N, m = u2.shape
     l = y2.shape[1]
-    s = max(2 * nx, 10) if horizon is None else _check_order(horizon, "horizon", 1)
-    s = max(s, nx // l + 1)
-    j = N - 2 * s + 1
-    if j < 2 * s * (m + l):
-        raise DataError(
-            f"y has {N} samples; n4sid with horizon {s} needs at least "
-            f"{2 * s * (m + l) + 2 * s} (lower horizon or nx)."
-        )
-    uo, yo = u2.mean(axis=0), y2.mean(axis=0)
-    su = np.where(u2.std(axis=0) > 0, u2.std(axis=0), 1.0)
-    sy = np.where(y2.std(axis=0) > 0, y2.std(axis=0), 1.0)
-    us, ys = (u2 - uo) / su, (y2 - yo) / sy
-
-    U = _hankel(us, 2 * s, j)
-    Y = _hankel(ys, 2 * s, j)
-    Up, Uf = U[: s * m], U[s * m :]
-    Yp, Yf = Y[: s * l], Y[s * l :]
-    H = np.vstack([Uf, Up, Yp, Yf]) / np.sqrt(j)
-    R = linalg.qr(H.T, mode="r", overwrite_a=True)[0]
-    L = R[: H.shape[0]].T
-    r1, r2 = s * m, s * (m + l)
-    L32 = L[r1 + r2 :, r1 : r1 + r2]
-    if not np.all(np.isfinite(L32)):
-        raise DataError(
-            "n4sid: the data matrix has non-finite entries; check u and y for overflow."
-        )
-    Uo, S, _ = _svd(L32)
-    gamma = Uo[:, :nx] * np.sqrt(S[:nx])
-    C = gamma[:l]
-    A = linalg.lstsq(gamma[:-l], gamma[l:], lapack_driver="gelsy")[0]
-    n_moved = 0
-    if stabilize:
-        A, n_moved = stabilise_matrix(A)
-        if n_moved:
-            warnings.warn(
-                f"n4sid: {n_moved} of the {nx} poles of the nx={nx} model lay on or "
-                "outside the unit circle and were reflected into it; a lower nx (or "
-                "an OE model) likely describes the data better.",
-                ConvergenceWarning,
-                stacklevel=2,
-            )
+    us, uo, su = _standardise(u2)
+    ys, yo, sy = _standardise(y2)
+    A, C, S, n_moved = _a_and_c(_projection_factor(us, ys, s), nx, l, stabilize)
     B, D, _ = _bd_x0(A, C, us, ys)
 
     K = None
     info = {"singular_values": S.tolist(), "horizon": s, "stabilised_poles": n_moved}
     if noise_model:
-        # the gain is fitted on at most the last `max_samples_k` samples: plenty for
-        # n * l numbers, and it keeps long records fast
-        uk, yk = us[-max_samples_k:], ys[-max_samples_k:]
-
-        def resid(k):
-            Km = k.reshape(nx, l)
-            if np.max(np.abs(linalg.eigvals(A - Km @ C))) >= 1.0:
-                return np.full(yk.size, 1e3)
-            return (yk - ss_predict(A, B, C, D, Km, uk, yk, 1)).ravel()
-
-        res = optimize.least_squares(
-            resid, np.zeros(nx * l), method="lm", max_nfev=max_nfev * (nx * l + 1)
-        )
-        if res.status == 0:
-            warnings.warn(
-                "n4sid: the Kalman-gain fit did not converge; K may be poor "
-                "(simulation is unaffected).",
-                ConvergenceWarning,
-                stacklevel=2,
-            )
-        K = res.x.reshape(nx, l)
-        info["nfev_K"] = res.nfev
+        K, info["nfev_K"] = _kalman_gain(A, B, C, D, us, ys, max_nfev, max_samples_k)
 
     # undo the scaling: u_s = (u - uo)/su, y = sy * y_s + yo
     B_r = B / su[None, :]

@@ -20,22 +20,17 @@ A model file is Python code, run with the user's rights: it can do anything the 
 can. Trust it like code you would run. :func:`load_model_file` first imports it and
 evaluates ``rhs`` in a child process with a time limit (``model_timeout``, 30 s), so a
 file that hangs, exits or crashes there is reported as a :class:`ModelError` instead of
-hanging or ending pdmkit; only then is it loaded in pdmkit's own process, where a
-``sys.exit`` from the model's code also becomes a :class:`ModelError`.
+hanging or ending pdmkit (the child check is in ``_modelfile_child.py``); only then is
+it loaded in pdmkit's own process, where a ``sys.exit`` from the model's code also
+becomes a :class:`ModelError`.
 """
 
 from __future__ import annotations
 
 import functools
 import inspect
-import json
 import math
-import numbers
 import os
-import signal
-import subprocess
-import sys
-import threading
 import traceback
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -44,8 +39,17 @@ from typing import Any
 import numpy as np
 
 from pdmkit.errors import ModelError
+from pdmkit.models.ode._modelfile_child import (
+    _STAGES,
+    MODEL_TIMEOUT,
+    _check_in_child,
+    _check_timeout,
+    _exit_message,
+    _first_rows,
+    _where,
+)
 
-__all__ = ["KINDS", "OdeModel", "load_model_file", "load_model_source"]
+__all__ = ["KINDS", "MODEL_TIMEOUT", "OdeModel", "load_model_file", "load_model_source"]
 
 #: The physical kinds a state or input may declare.
 KINDS = (
@@ -63,10 +67,6 @@ KINDS = (
     "current",
     "other",
 )
-
-
-def _where(origin: str | None) -> str:
-    return f"model file {origin}" if origin and origin.endswith(".py") else "model"
 
 
 def _user_frame(exc: BaseException, origin: str | None) -> str:
@@ -119,6 +119,74 @@ def _finite_float(where: str, label: str, value: Any) -> float:
     return v
 
 
+def _check_outputs(where: str, outputs: Any, states: Mapping[str, str]) -> list[str]:
+    """OUTPUTS as a list: distinct names of states."""
+    if isinstance(outputs, str) or not isinstance(outputs, Sequence):
+        raise ModelError(
+            f"{where}: OUTPUTS must be a list of state names, e.g. "
+            f'["{next(iter(states))}"]; got {outputs!r}.'
+        )
+    outputs = list(outputs)
+    if not outputs:
+        raise ModelError(f"{where}: OUTPUTS is empty; list the measured states.")
+    for o in outputs:
+        if o not in states:
+            raise ModelError(
+                f"{where}: OUTPUTS names {o!r}, which is not in STATES "
+                f"({', '.join(states)}); outputs must be measured states."
+            )
+    if len(set(outputs)) != len(outputs):
+        raise ModelError(f"{where}: OUTPUTS lists a state twice: {outputs}.")
+    return outputs
+
+
+def _check_free(where: str, free: Any, params: Mapping[str, float]) -> list[str]:
+    """FREE as a list of parameter names, each once."""
+    if isinstance(free, str) or not isinstance(free, Sequence):
+        raise ModelError(f"{where}: FREE must be a list of parameter names; got {free!r}.")
+    for f in free:
+        if f not in params:
+            raise ModelError(
+                f"{where}: FREE names {f!r}, which is not in PARAMS "
+                f"({', '.join(params) or 'empty'}); add it to PARAMS with its "
+                "nominal value or remove it from FREE."
+            )
+    return list(dict.fromkeys(free))
+
+
+def _check_initial(where: str, initial: Any, states: Mapping[str, str]) -> dict[str, float]:
+    """INITIAL as a finite value per state (missing states 0)."""
+    initial = {} if initial is None else initial
+    if not isinstance(initial, Mapping):
+        raise ModelError(
+            f"{where}: INITIAL must be a dict of state name -> value; got "
+            f"{type(initial).__name__}."
+        )
+    for k in initial:
+        if k not in states:
+            raise ModelError(
+                f"{where}: INITIAL names {k!r}, which is not in STATES "
+                f"({', '.join(states)})."
+            )
+    return {k: _finite_float(where, f"INITIAL[{k!r}]", initial.get(k, 0.0)) for k in states}
+
+
+def _check_rhs(where: str, rhs: Any) -> None:
+    """``rhs`` must be callable with four arguments ``(t, x, u, p)``."""
+    if not callable(rhs):
+        raise ModelError(
+            f"{where}: rhs must be a function rhs(t, x, u, p); got {type(rhs).__name__}."
+        )
+    try:
+        n_args = len(inspect.signature(rhs).parameters)
+    except (TypeError, ValueError):
+        n_args = 4
+    if n_args != 4:
+        raise ModelError(
+            f"{where}: rhs must take four arguments (t, x, u, p); it takes {n_args}."
+        )
+
+
 class OdeModel:
     """An ODE model ``dx/dt = rhs(t, x, u, p)`` with named, typed states and inputs.
 
@@ -166,7 +234,7 @@ class OdeModel:
     {'h': 0.75}
     """
 
-    def __init__(  # noqa: C901
+    def __init__(
         self,
         states: Mapping[str, str],
         inputs: Mapping[str, str],
@@ -190,23 +258,7 @@ class OdeModel:
                 f"{where}: {sorted(clash)} declared both in STATES and in INPUTS; rename "
                 "one."
             )
-        if isinstance(outputs, str) or not isinstance(outputs, Sequence):
-            raise ModelError(
-                f"{where}: OUTPUTS must be a list of state names, e.g. "
-                f'["{next(iter(self.states))}"]; got {outputs!r}.'
-            )
-        outputs = list(outputs)
-        if not outputs:
-            raise ModelError(f"{where}: OUTPUTS is empty; list the measured states.")
-        for o in outputs:
-            if o not in self.states:
-                raise ModelError(
-                    f"{where}: OUTPUTS names {o!r}, which is not in STATES "
-                    f"({', '.join(self.states)}); outputs must be measured states."
-                )
-        if len(set(outputs)) != len(outputs):
-            raise ModelError(f"{where}: OUTPUTS lists a state twice: {outputs}.")
-        self.outputs = outputs
+        self.outputs = _check_outputs(where, outputs, self.states)
         if not isinstance(params, Mapping):
             raise ModelError(
                 f"{where}: PARAMS must be a dict of name -> nominal value; got "
@@ -216,47 +268,9 @@ class OdeModel:
         self.params = {
             k: _finite_float(where, f"PARAMS[{k!r}]", v) for k, v in params.items()
         }
-        if isinstance(free, str) or not isinstance(free, Sequence):
-            raise ModelError(
-                f"{where}: FREE must be a list of parameter names; got {free!r}."
-            )
-        for f in free:
-            if f not in self.params:
-                raise ModelError(
-                    f"{where}: FREE names {f!r}, which is not in PARAMS "
-                    f"({', '.join(self.params) or 'empty'}); add it to PARAMS with its "
-                    "nominal value or remove it from FREE."
-                )
-        self.free = list(dict.fromkeys(free))
-        initial = {} if initial is None else initial
-        if not isinstance(initial, Mapping):
-            raise ModelError(
-                f"{where}: INITIAL must be a dict of state name -> value; got "
-                f"{type(initial).__name__}."
-            )
-        for k in initial:
-            if k not in self.states:
-                raise ModelError(
-                    f"{where}: INITIAL names {k!r}, which is not in STATES "
-                    f"({', '.join(self.states)})."
-                )
-        self.initial = {
-            k: _finite_float(where, f"INITIAL[{k!r}]", initial.get(k, 0.0))
-            for k in self.states
-        }
-        if not callable(rhs):
-            raise ModelError(
-                f"{where}: rhs must be a function rhs(t, x, u, p); got "
-                f"{type(rhs).__name__}."
-            )
-        try:
-            n_args = len(inspect.signature(rhs).parameters)
-        except (TypeError, ValueError):
-            n_args = 4
-        if n_args != 4:
-            raise ModelError(
-                f"{where}: rhs must take four arguments (t, x, u, p); it takes {n_args}."
-            )
+        self.free = _check_free(where, free, self.params)
+        self.initial = _check_initial(where, initial, self.states)
+        _check_rhs(where, rhs)
         self.rhs = rhs
 
     # ------------------------------------------------------------------ access
@@ -576,22 +590,6 @@ def load_model_source(source: str, *, name: str = "model") -> OdeModel:
 
 
 # --------------------------------------------------------------------------- exit guard
-def _exit_status(code: object) -> int:
-    """The process exit status ``sys.exit(code)`` would give."""
-    if code is None:
-        return 0
-    return int(code) if isinstance(code, int) else 1
-
-
-def _exit_message(where: str, code: object, what: str, frame: str = "") -> str:
-    said = "" if code is None or isinstance(code, int) else f" with {str(code)[:200]!r}"
-    return (
-        f"{where} called exit (status {_exit_status(code)}{said}) while {what}{frame}; a "
-        "model file must define the model and return, never end the program: remove the "
-        "sys.exit / os._exit / quit() call."
-    )
-
-
 def _exit_guard(rhs: Callable, origin: str) -> Callable:
     """``rhs`` with a ``SystemExit`` from the model's code turned into a ModelError."""
     where = _where(origin)
@@ -608,330 +606,6 @@ def _exit_guard(rhs: Callable, origin: str) -> Callable:
             ) from exc
 
     return guarded
-
-
-# --------------------------------------------------------------------------- child check
-#: How many of the data's first samples ``rhs`` is evaluated on before any fit.
-_N_FIRST = 5
-
-#: Default time limit (s) for importing a model file and evaluating ``rhs`` in the child.
-MODEL_TIMEOUT = 30.0
-
-_STAGES = {
-    "start": "starting the Python process that checks it",
-    "import": "running the file (its top level)",
-    "rhs": "evaluating rhs at the initial state (all inputs 0, then the data's first "
-    "input samples)",
-    "arrays": "evaluating rhs on numpy arrays at the initial state",
-}
-
-
-def _first_rows(data: Any, n: int = _N_FIRST) -> list[dict[str, float]]:
-    """The first ``n`` rows of a table as dicts column -> finite float (others left out)."""
-    if data is None:
-        return []
-    try:
-        columns = list(data.columns) if hasattr(data, "columns") else list(data.keys())
-    except (AttributeError, TypeError):
-        return []
-    rows: list[dict[str, float]] = []
-    for c in columns:
-        if not isinstance(c, str):
-            continue
-        try:
-            col = data[c]
-            col = col.iloc[:n] if hasattr(col, "iloc") else col[:n]
-            v = np.asarray(col).astype(np.float64)
-        except (TypeError, ValueError, KeyError, IndexError):
-            continue
-        if v.ndim != 1:
-            continue
-        rows += [{} for _ in range(v.size - len(rows))]
-        for i, x in enumerate(v.tolist()):
-            if math.isfinite(x):
-                rows[i][c] = x
-    return rows
-
-
-# The child: a bare interpreter (no pdmkit, no numpy unless the model imports it) that
-# imports the model file and calls rhs with the arguments pdmkit's own check passes,
-# then reports on a private copy of its stdout, one line per stage and one result line.
-_CHILD = r"""
-import json, math, os, sys
-from collections.abc import Mapping
-
-_res = os.fdopen(os.dup(1), "w", encoding="utf-8")
-os.dup2(2, 1)  # what the model prints goes to stderr, never into the report
-
-
-def _say(kind, payload=None):
-    _res.write(kind + " " + json.dumps(payload) + "\n")
-    _res.flush()
-
-
-def _watch_parent():
-    # the parent holds stdin open while it waits: end of file means it is gone
-    try:
-        while os.read(0, 4096):
-            pass
-    except OSError:
-        pass
-    os._exit(70)
-
-
-def _frame(exc, origin):
-    import traceback
-
-    for f in reversed(traceback.extract_tb(exc.__traceback__)):
-        if f.filename == origin:
-            return [f.lineno, (f.line or "").strip()]
-    return None
-
-
-def _text(obj):
-    try:
-        return str(obj)[:2000]
-    except Exception:
-        return "<unprintable>"
-
-
-def _float(v):
-    v = float(v)
-    if not math.isfinite(v):
-        raise ValueError(v)
-    return v
-
-
-def _n_args(f):
-    code = getattr(f, "__code__", None)
-    plain = type(f) is type(_float) and not hasattr(f, "__wrapped__")
-    if code is not None and plain and not hasattr(f, "__signature__"):
-        return (code.co_argcount + code.co_kwonlyargcount + bool(code.co_flags & 4)
-                + bool(code.co_flags & 8))
-    import inspect
-
-    try:
-        return len(inspect.signature(f).parameters)
-    except (TypeError, ValueError):
-        return 4
-
-
-def _plan(ns, rows):
-    # rhs's arguments as pdmkit's own checks pass them; None when the contract is too
-    # broken for pdmkit to get as far as calling rhs (it then says so without calling it)
-    try:
-        rhs, states, params = ns["rhs"], ns["STATES"], ns["PARAMS"]
-        inputs, initial = ns.get("INPUTS", {}), ns.get("INITIAL")
-        initial = {} if initial is None else initial
-        maps = (states, inputs, params, initial)
-        if not callable(rhs) or not all(isinstance(m, Mapping) for m in maps):
-            return None
-        if _n_args(rhs) != 4:
-            return None
-        x0 = {k: _float(initial.get(k, 0.0)) for k in states}
-        p = {k: _float(v) for k, v in params.items()}
-        names = list(inputs)
-    except Exception:
-        return None
-    used = [r for r in rows if all(k in r for k in names)]
-    calls = [(0.0, {k: 0.0 for k in names})]
-    calls += [(r.get("time", 0.0), {k: r[k] for k in names}) for r in used]
-    return rhs, x0, p, names, calls, used
-
-
-def _main():
-    job = json.loads(sys.stdin.buffer.readline())
-    sys.stdin = open(os.devnull)  # input() in the model ends at once
-    import _thread
-
-    _thread.start_new_thread(_watch_parent, ())
-    sys.path[:] = job["path"]
-    origin = job["origin"]
-    stage, plan = "import", None
-    _say("stage", stage)
-    try:
-        ns = {"__name__": "pdmkit_user_model", "__file__": origin}
-        exec(compile(job["source"], origin, "exec"), ns)
-        plan = _plan(ns, job["rows"])
-        if plan is not None:
-            rhs, x0, p, names, calls, used = plan
-            stage = "rhs"
-            _say("stage", stage)
-            for t, u in calls:
-                rhs(t, dict(x0), u, dict(p))
-            np = sys.modules.get("numpy")
-            if np is not None:  # numpy is loaded anyway: pdmkit's batches too
-                stage = "arrays"
-                _say("stage", stage)
-                batches = [(3, 0.0, {k: np.zeros(3) for k in names})]
-                if used:
-                    u = {k: np.array([r[k] for r in used]) for k in names}
-                    batches.append((len(used), used[0].get("time", 0.0), u))
-                for n, t, u in batches:
-                    xb = {k: np.full(n, v) for k, v in x0.items()}
-                    rhs(t, xb, u, {k: np.full(n, v) for k, v in p.items()})
-    except SystemExit as exc:
-        code = exc.code
-        said = None if code is None or isinstance(code, int) else _text(code)
-        status = 0 if code is None else code if isinstance(code, int) else 1
-        _say("exit", {"stage": stage, "code": said if said is not None else status,
-                      "frame": _frame(exc, origin)})
-    except BaseException as exc:
-        _say("raised", {"stage": stage, "type": type(exc).__name__,
-                        "message": _text(exc), "frame": _frame(exc, origin)})
-    else:
-        _say("ok", {"called_rhs": plan is not None})
-    _res.close()
-    os._exit(0)
-
-
-_main()
-"""
-
-
-def _check_timeout(model_timeout: Any) -> float | None:
-    if model_timeout is None:
-        return None
-    ok = isinstance(model_timeout, numbers.Real) and not isinstance(model_timeout, bool)
-    if not ok or not (0 < model_timeout < math.inf):
-        raise ModelError(
-            "model_timeout (--model-timeout) must be a positive number of seconds, e.g. "
-            f"30; got {model_timeout!r}."
-        )
-    return float(model_timeout)
-
-
-def _kill_child(proc: subprocess.Popen) -> None:
-    """Kill the child and everything in its session (it started one of its own)."""
-    if os.name == "posix":
-        try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except (ProcessLookupError, PermissionError):
-            pass
-    try:
-        proc.kill()
-    except OSError:
-        pass
-    proc.wait()
-
-
-def _frame_text(frame: Any) -> str:
-    if not frame:
-        return ""
-    line, code = frame
-    return f" (line {line}:{f' `{code}`' if code else ''})"
-
-
-def _check_in_child(  # noqa: C901, PLR0915
-    source: str, origin: str, rows: list[dict[str, float]], timeout: float
-) -> None:
-    """Import the file and evaluate ``rhs`` in a child process with a time limit.
-
-    Raises :class:`ModelError` when it does not return in time (the child and what it
-    started are killed), calls exit, crashes or raises.
-    """
-    where = _where(origin)
-    if not sys.executable:
-        raise ModelError(
-            f"{where}: cannot start a Python process to check it (sys.executable is "
-            "empty); pass model_timeout=None to load it in this process unchecked."
-        )
-    job = {
-        "source": source,
-        "origin": origin,
-        "path": [p for p in sys.path if isinstance(p, str)],
-        "rows": rows,
-    }
-    extra: dict[str, Any] = (
-        {"start_new_session": True}
-        if os.name == "posix"
-        else {"creationflags": getattr(subprocess, "CREATE_NEW_PROCESS_GROUP", 0)}
-    )
-    cmd = [sys.executable, "-I", "-W", "ignore::SyntaxWarning", "-c", _CHILD]
-    try:
-        proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, **extra)
-    except OSError as exc:
-        raise ModelError(
-            f"{where}: cannot start the Python process that checks it ({exc})."
-        ) from exc
-    lines: list[bytes] = []
-    reader = threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True)
-    reader.start()
-    timed_out = False
-    try:
-        try:
-            proc.stdin.write(json.dumps(job).encode("utf-8") + b"\n")
-            proc.stdin.flush()
-        except OSError:
-            pass  # the child is gone already; its exit status says why
-        try:
-            proc.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            timed_out = True
-    finally:
-        if proc.poll() is None:  # timed out, or this process was interrupted
-            _kill_child(proc)
-        try:
-            proc.stdin.close()
-        except OSError:
-            pass
-        reader.join(5.0)
-        if not reader.is_alive():
-            proc.stdout.close()
-    stage, result = "start", None
-    for raw in list(lines):
-        kind, _, text = raw.decode("utf-8", "replace").partition(" ")
-        try:
-            payload = json.loads(text)
-        except ValueError:
-            continue
-        if kind == "stage":
-            stage = payload
-        elif kind in ("ok", "exit", "raised"):
-            result = (kind, payload)
-    what = _STAGES.get(stage, stage)
-    if stage == "rhs" and not rows:
-        what = "evaluating rhs at the initial state with all inputs 0"
-    if timed_out:
-        raise ModelError(
-            f"{where} did not return within {timeout:g} s while {what}; look there for "
-            "an endless loop or a call that waits (input(), a lock, a network request). "
-            "If the file is only slow, give it more time: --model-timeout SECONDS on "
-            "the command line, model_timeout= in Python."
-        )
-    if result is None:
-        rc = proc.returncode
-        if rc is not None and rc < 0:
-            try:
-                sig = signal.Signals(-rc).name
-            except ValueError:
-                sig = str(-rc)
-            raise ModelError(
-                f"{where}: the Python process checking it was killed by signal {sig} "
-                f"while {what} (a crash in compiled code it calls, or memory exhausted)."
-            )
-        if stage == "start":
-            raise ModelError(
-                f"{where}: the Python process that checks it ({sys.executable}) ended "
-                f"with status {rc} before running the file; see its message above, or "
-                "pass model_timeout=None to load the file in this process unchecked."
-            )
-        raise ModelError(_exit_message(where, 0 if rc is None else rc, what))
-    kind, info = result
-    frame = _frame_text(info.get("frame"))
-    if kind == "exit":
-        raise ModelError(_exit_message(where, info.get("code"), what, frame))
-    if kind == "raised":
-        if info.get("stage") == "import":
-            raise ModelError(
-                f"{where}: running the file raised {info['type']}: {info['message']}"
-                f"{frame}."
-            )
-        raise ModelError(
-            f"{where}: rhs raised {info['type']}: {info['message']}{frame} while "
-            f"{what}. rhs may use only arithmetic, abs and ** on the dict values (they "
-            "can be numpy arrays or torch tensors)."
-        )
 
 
 def load_model_file(

@@ -71,7 +71,7 @@ def _check_time(time) -> tuple[np.ndarray, float]:
 DERIVATIVE_ATTACH = ("velocity", "velocity_position", "level", "state")
 
 
-def integrate_batch(  # noqa: C901, PLR0915
+def integrate_batch(
     model,
     effects: Sequence,
     theta: Sequence[Mapping[str, Any]],
@@ -141,9 +141,47 @@ def integrate_batch(  # noqa: C901, PLR0915
         raise ModelError("internal: segmented simulation runs in numpy only.")
     ts = float(t[1] - t[0])
     h = ts / n_sub
+    M = _row_masks(masks, xp)
+    U, transforms, Useq = _input_sequences(
+        effects, theta, M, useq, inputs, B, N, ts, xp, whole=segments is None
+    )
+    origin = float(t[0]) if t_origin is None else float(t_origin)
+    t_out = xp.asarray(t - origin)[None, :]  # output hooks: time since the origin
+    if segments is not None:  # pieces become rows: row b * K + k is piece k of row b
+        K, Useq, t_out, theta, M, params, X = _pieces_as_rows(
+            segments, U, inputs, transforms, effects, theta, M, params, X, t, origin, xp, ts
+        )
+        L = int(segments[1])
+        B, N, t = B * K, L, t[:L]
+
+    theta = [
+        e.candidate.prepare(xp, e, th, h) for e, th in zip(effects, theta, strict=True)
+    ]
+    where = _row_select(M, B, xp)
+    extra = _extra_state_columns(effects)
+    P = {k: (v if isinstance(v, float | int) else xp.asarray(v)) for k, v in params.items()}
+    # states are kept as lists of (B,) arrays: no stacking inside the RK4 stages
+    Xl = [X[:, j] for j in range(nx)]
+    Zl = _initial_extra_states(effects, theta, extra, states, Xl, Useq, inputs, B, xp)
+    f = _augmented_rhs(model, effects, theta, M, where, extra, P, B, len(Zl), xp)
+    rec_x, rec_z = _rk4_records(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold)
+    Yt, Xt = _batch_outputs(model, effects, theta, where, extra, rec_x, rec_z, t_out, xp)
+    if segments is not None:  # rows of pieces back to one row per member
+        Yt = Yt.reshape(B // K, K * N, Yt.shape[2])
+        Xt = Xt.reshape(B // K, K * N, nx)
+    return Yt, (Xt if want_states else None)
+
+
+def _row_masks(masks: Sequence[Any], xp) -> list:
+    """Each effect's ``(B,)`` row mask as a boolean array of the backend (None: all)."""
     M = [None if m is None else (m if is_torch(m) else np.asarray(m, bool)) for m in masks]
     if xp.name == "torch":
         M = [None if m is None else xp.torch.as_tensor(m) for m in M]
+    return M
+
+
+def _row_select(M: list, B: int, xp):
+    """``where(i, a, b)``: ``a`` in the rows of effect ``i``, ``b`` in the others."""
 
     def where(i, a, b):
         if M[i] is None:
@@ -154,7 +192,15 @@ def integrate_batch(  # noqa: C901, PLR0915
             m = m.reshape((B,) + (1,) * (nd - 1))
         return xp.where(m, a, b)
 
-    # ----------------------------------------------------------- input sequences
+    return where
+
+
+def _input_sequences(effects, theta, M, useq, inputs, B, N, ts, xp, whole):
+    """Inputs as ``(B, N)`` rows, the input-transform effects, and the stacked inputs.
+
+    With ``whole`` (no pieces) the transforms (dead time, lags) are applied and the
+    inputs stacked to ``(B, N, nu)``; otherwise the stack is None (pieces take theirs).
+    """
     U = {}
     for name in inputs:
         seq = xp.asarray(useq[name])
@@ -165,7 +211,8 @@ def integrate_batch(  # noqa: C901, PLR0915
         if e.candidate.attach == "input" and not e.candidate.input_override
     ]
     Useq = None  # (B, N, nu), or (B * K, L, nu) for pieces
-    if segments is None:
+    if whole:
+        where = _row_select(M, B, xp)
         for i in transforms:
             e = effects[i]
             U[e.target] = where(
@@ -173,55 +220,98 @@ def integrate_batch(  # noqa: C901, PLR0915
             )
         if inputs:
             Useq = xp.stack([U[n] for n in inputs], 2)
+    return U, transforms, Useq
 
-    def _piece_inputs(U, name, idx, transforms):
-        """Input ``name`` at the pieces' samples, ``(B * K, L)``.
 
-        Transforms (a dead time reaching before a piece's start) act on the whole record,
-        but only for the rows that carry them.
-        """
-        out = np.array(U[name][:, idx])  # (B, K, L)
-        mine = [i for i in transforms if effects[i].target == name]
-        if not mine:
-            return out.reshape(-1, idx.shape[1])
-        carry = np.zeros(B, dtype=bool)
-        for i in mine:
-            carry |= True if M[i] is None else np.asarray(M[i], bool)
-        rows = np.flatnonzero(carry)
-        seq = np.array(U[name][rows])  # (R, N) the whole record, these rows only
-        for i in mine:
-            e, th = effects[i], {p: v[rows] for p, v in theta[i].items()}
-            on = np.ones(rows.size, bool) if M[i] is None else np.asarray(M[i], bool)[rows]
-            new = e.candidate.input_sequence(xp, e, th, seq, ts)
-            seq = np.where(on[:, None], new, seq)
-        out[rows] = seq[:, idx]
+def _pieces_as_rows(
+    segments, U, inputs, transforms, effects, theta, M, params, X, t, origin, xp, ts
+):
+    """The batch with the record's pieces as rows (row ``b * K + k``: piece ``k`` of ``b``).
+
+    Returns ``K`` and the pieces' inputs ``(B * K, L, nu)``, output times, theta, masks,
+    parameters and initial states ``(B * K, nx)``.
+    """
+    B, nx = int(X.shape[0]), int(X.shape[2])
+    starts, L = np.asarray(segments[0], dtype=int), int(segments[1])
+    K = starts.size
+    idx = starts[:, None] + np.arange(L)[None, :]  # (K, L)
+    Useq = None
+    if inputs:  # the pieces' samples only (a held record is never stacked whole)
+        Useq = np.stack(
+            [
+                _piece_inputs(U, n, idx, transforms, effects, theta, M, B, xp, ts)
+                for n in inputs
+            ],
+            2,
+        )
+    t_out = np.tile(t[idx] - origin, (B, 1))
+    theta = [{p: np.repeat(np.asarray(v), K) for p, v in th.items()} for th in theta]
+    M = [None if m is None else np.repeat(m, K) for m in M]
+    params = {
+        k: (v if isinstance(v, float | int) or np.ndim(v) == 0 else np.repeat(v, K))
+        for k, v in params.items()
+    }
+    return K, Useq, t_out, theta, M, params, X.reshape(B * K, nx)
+
+
+def _piece_inputs(U, name, idx, transforms, effects, theta, M, B, xp, ts):
+    """Input ``name`` at the pieces' samples, ``(B * K, L)``.
+
+    Transforms (a dead time reaching before a piece's start) act on the whole record,
+    but only for the rows that carry them.
+    """
+    out = np.array(U[name][:, idx])  # (B, K, L)
+    mine = [i for i in transforms if effects[i].target == name]
+    if not mine:
         return out.reshape(-1, idx.shape[1])
+    carry = np.zeros(B, dtype=bool)
+    for i in mine:
+        carry |= True if M[i] is None else np.asarray(M[i], bool)
+    rows = np.flatnonzero(carry)
+    seq = np.array(U[name][rows])  # (R, N) the whole record, these rows only
+    for i in mine:
+        e, th = effects[i], {p: v[rows] for p, v in theta[i].items()}
+        on = np.ones(rows.size, bool) if M[i] is None else np.asarray(M[i], bool)[rows]
+        new = e.candidate.input_sequence(xp, e, th, seq, ts)
+        seq = np.where(on[:, None], new, seq)
+    out[rows] = seq[:, idx]
+    return out.reshape(-1, idx.shape[1])
 
-    origin = float(t[0]) if t_origin is None else float(t_origin)
-    t_out = xp.asarray(t - origin)[None, :]  # output hooks: time since the origin
-    if segments is not None:  # pieces become rows: row b * K + k is piece k of row b
-        starts, L = np.asarray(segments[0], dtype=int), int(segments[1])
-        K = starts.size
-        idx = starts[:, None] + np.arange(L)[None, :]  # (K, L)
-        if inputs:  # the pieces' samples only (a held record is never stacked whole)
-            Useq = np.stack([_piece_inputs(U, n, idx, transforms) for n in inputs], 2)
-        t_out = np.tile(t[idx] - origin, (B, 1))
-        theta = [{p: np.repeat(np.asarray(v), K) for p, v in th.items()} for th in theta]
-        M = [None if m is None else np.repeat(m, K) for m in M]
-        params = {
-            k: (v if isinstance(v, float | int) or np.ndim(v) == 0 else np.repeat(v, K))
-            for k, v in params.items()
-        }
-        X = X.reshape(B * K, nx)
-        B, N, t = B * K, L, t[:L]
 
-    theta = [
-        e.candidate.prepare(xp, e, th, h) for e, th in zip(effects, theta, strict=True)
-    ]
-    deriv = [i for i, e in enumerate(effects) if e.candidate.attach in DERIVATIVE_ATTACH]
-    # an effect whose rows form one block (one structure of a batch: its jobs' rows are
-    # adjacent) is evaluated on that block only, not on every row with neutral values:
-    # with dozens of structures in a batch this is most of the arithmetic saved
+def _extra_state_columns(effects) -> list[tuple[int, int]]:
+    """``(effect index, column offset)`` of the effects with states of their own."""
+    extra = []
+    off = 0
+    for i, e in enumerate(effects):
+        if e.candidate.n_extra:
+            extra.append((i, off))
+            off += e.candidate.n_extra
+    return extra
+
+
+def _initial_extra_states(effects, theta, extra, states, Xl, Useq, inputs, B, xp) -> list:
+    """The effects' own states at the start, ``(B,)`` each (hysteresis, lags)."""
+    Zl: list = []
+    if extra:
+        x0d = dict(zip(states, Xl, strict=True))
+        Uk = Useq[:, 0, :] if inputs else None
+        u0d = {n: Uk[:, j] for j, n in enumerate(inputs)} if inputs else {}
+        for i, _o in extra:
+            e = effects[i]
+            Zl += [
+                xp.bcast(c, (B,)) for c in e.candidate.extra_init(xp, e, theta[i], x0d, u0d)
+            ]
+        Zl = [z * 1.0 for z in Zl]
+    return Zl
+
+
+def _derivative_blocks(effects, theta, M, deriv, xp) -> tuple[dict, dict]:
+    """Row slices of the derivative effects whose rows are adjacent, and theta there.
+
+    An effect whose rows form one block (one structure of a batch: its jobs' rows are
+    adjacent) is evaluated on that block only, not on every row with neutral values:
+    with dozens of structures in a batch this is most of the arithmetic saved.
+    """
     block = {}
     if xp.name == "numpy":
         for i in deriv:
@@ -232,31 +322,18 @@ def integrate_batch(  # noqa: C901, PLR0915
             if rows.size and rows[-1] - rows[0] + 1 == rows.size:
                 block[i] = slice(int(rows[0]), int(rows[-1]) + 1)
     th_block = {i: {p: v[sl] for p, v in theta[i].items()} for i, sl in block.items()}
-    extra = []  # (effect index, column offset)
-    off = 0
-    for i, e in enumerate(effects):
-        if e.candidate.n_extra:
-            extra.append((i, off))
-            off += e.candidate.n_extra
+    return block, th_block
+
+
+def _augmented_rhs(model, effects, theta, M, where, extra, P, B, nz, xp):
+    """``f(t, X, Z, u) -> (dX, dZ)``: the model's rhs with the effects' terms added.
+
+    States ``X`` and the effects' own states ``Z`` are lists of ``(B,)`` arrays.
+    """
+    states = model.state_names
+    deriv = [i for i, e in enumerate(effects) if e.candidate.attach in DERIVATIVE_ATTACH]
+    block, th_block = _derivative_blocks(effects, theta, M, deriv, xp)
     overrides = [(i, o) for i, o in extra if effects[i].candidate.input_override]
-    P = {k: (v if isinstance(v, float | int) else xp.asarray(v)) for k, v in params.items()}
-
-    def u_dict(Uk):
-        return {n: Uk[:, j] for j, n in enumerate(inputs)} if inputs else {}
-
-    # states are kept as lists of (B,) arrays: no stacking inside the RK4 stages
-    Xl = [X[:, j] for j in range(nx)]
-    Zl: list = []
-    if extra:
-        x0d = dict(zip(states, Xl, strict=True))
-        u0d = u_dict(Useq[:, 0, :]) if inputs else {}
-        for i, _o in extra:
-            e = effects[i]
-            Zl += [
-                xp.bcast(c, (B,)) for c in e.candidate.extra_init(xp, e, theta[i], x0d, u0d)
-            ]
-        Zl = [z * 1.0 for z in Zl]
-    nz = len(Zl)
 
     def f(tt, Xl, Zl, u_raw):
         x = dict(zip(states, Xl, strict=True))
@@ -310,12 +387,22 @@ def integrate_batch(  # noqa: C901, PLR0915
             DZ += e.candidate.extra_derivs(xp, e, theta[i], x, u_raw, zz)
         return DX, DZ
 
+    return f
+
+
+def _rk4_records(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold) -> tuple[list, list]:
+    """Classical RK4, ``n_sub`` steps per sample; the states at every sample.
+
+    Returns the lists of ``X`` (and ``Z``, empty without own states) per sample.
+    """
+
     def comb(A, c, K):
         return [a + c * k for a, k in zip(A, K, strict=True)]
 
     if hold not in ("zoh", "foh"):
         raise ModelError(f"input hold must be 'zoh' or 'foh'; got {hold!r}.")
     foh = hold == "foh" and bool(inputs)
+    nz = len(Zl)
     rec_x, rec_z = [], []
     h2, h6 = 0.5 * h, h / 6.0
     for k in range(N):
@@ -349,8 +436,17 @@ def integrate_batch(  # noqa: C901, PLR0915
                     z + h6 * (a + 2.0 * (b + c) + d)
                     for z, a, b, c, d in zip(Zl, z1, z2, z3, z4, strict=True)
                 ]
+    return rec_x, rec_z
+
+
+def _batch_outputs(model, effects, theta, where, extra, rec_x, rec_z, t_out, xp):
+    """Stack the records to ``(B, N, ...)`` and apply the output effects (sensors).
+
+    Returns ``(Y (B, N, n_out), X (B, N, nx))``.
+    """
+    states = model.state_names
     Xt = xp.stack([xp.stack(xs, 1) for xs in rec_x], 1)  # (B, N, nx)
-    Zt = xp.stack([xp.stack(zs, 1) for zs in rec_z], 1) if nz else None  # (B, N, m)
+    Zt = xp.stack([xp.stack(zs, 1) for zs in rec_z], 1) if rec_z else None  # (B, N, m)
     outs = model.outputs
     Y = {o: Xt[:, :, states.index(o)] for o in outs}
     zoff = dict(extra)
@@ -362,11 +458,7 @@ def integrate_batch(  # noqa: C901, PLR0915
             Y[e.target] = where(
                 i, c.output(xp, e, theta[i], t_out, Y[e.target], zz), Y[e.target]
             )
-    Yt = xp.stack([Y[o] for o in outs], 2)
-    if segments is not None:  # rows of pieces back to one row per member
-        Yt = Yt.reshape(B // K, K * N, Yt.shape[2])
-        Xt = Xt.reshape(B // K, K * N, nx)
-    return Yt, (Xt if want_states else None)
+    return xp.stack([Y[o] for o in outs], 2), Xt
 
 
 # ---------------------------------------------------------------------------- public
