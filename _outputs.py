@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
-import glob
 import json
 import math
 import os
@@ -47,48 +46,25 @@ from typing import Any
 
 from pdmkit._atomic import atomic_path, remove_stale_temporaries
 from pdmkit._checks import file_sha256
+from pdmkit._output_folder import (
+    MAIN_JSON,
+    OUTPUTS,
+    PRIVATE,
+    check_output_folder,
+    local_paths,
+    real_path,
+)
 from pdmkit.errors import DataError
 
 __all__ = [
     "MAIN_JSON",
     "OUTPUTS",
     "OutputRun",
-    "check_output_folder",
     "collect_warnings",
     "recover",
     "to_jsonable",
     "write_json_file",
 ]
-
-#: The files each command writes into its output folder (paths relative to it).
-#: Nothing else in the folder is ever replaced or removed (``.pdmkit/`` and the
-#: ``features`` partition store ``run/`` are pdmkit's own).
-OUTPUTS: dict[str, tuple[str, ...]] = {
-    "features": ("features.parquet", "errors.parquet", "report.html", "summary.json"),
-    "rank": ("ranking.parquet", "report.html", "summary.json"),
-    "classify": ("report.html", "summary.json"),
-    "sensors": ("report.html", "summary.json"),
-    "rul": ("predictions.parquet", "model.pdmkit", "report.html", "summary.json"),
-    "identify": ("report.html", "summary.json"),
-    "mismatch": ("candidates.csv", "report.html", "summary.json"),
-    "demo": (
-        "features.parquet",
-        "rul/predictions.parquet",
-        "rul/model.pdmkit",
-        "rul/report.html",
-        "rul/summary.json",
-        "report.html",
-        "summary.json",
-    ),
-    "study": ("report.html", "summary.json"),
-}
-
-#: The JSON summary of each command: what ``--json PATH`` receives a copy of (every
-#: command calls it ``summary.json``).
-MAIN_JSON: dict[str, str] = dict.fromkeys(OUTPUTS, "summary.json")
-
-#: pdmkit's own folder inside an output folder.
-PRIVATE = ".pdmkit"
 
 #: Seconds a run waits for another run to release an output folder before refusing
 #: (environment variable ``PDMKIT_LOCK_WAIT`` overrides it).
@@ -181,151 +157,6 @@ def collect_warnings() -> Iterator[list[str]]:
                 if _COLLECTORS[i] is records:
                     del _COLLECTORS[i]
                     break
-
-
-# --------------------------------------------------------------------------- checks
-def _real(path: str | os.PathLike) -> str:
-    return os.path.realpath(os.path.abspath(os.fspath(path)))
-
-
-def _input_paths(inputs: Iterable[Any]) -> list[Path]:
-    """The existing local files and folders among ``inputs`` (globs expanded)."""
-    paths = []
-    for item in inputs:
-        if item is None or not isinstance(item, str | os.PathLike):
-            continue
-        text = os.fspath(item)
-        if "://" in text:
-            continue  # an fsspec URL: not on this file system
-        if glob.has_magic(text) and not os.path.exists(text):
-            paths += [Path(p) for p in glob.glob(text, recursive=True)]
-        elif os.path.exists(text):
-            paths.append(Path(text))
-    return paths
-
-
-def _same(a: Path, b: Path) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return _real(a) == _real(b)
-
-
-def _private_folder(path: Path, out: str | os.PathLike | None) -> Path | None:
-    """The ``.pdmkit`` folder ``path`` lies in (``out``'s, or any other), or None."""
-    real = Path(_real(path))
-    if out is not None:
-        own = Path(_real(Path(out) / PRIVATE))
-        if real == own or own in real.parents:
-            return Path(out) / PRIVATE
-    for parent in (real, *real.parents):
-        if parent.name == PRIVATE:
-            return parent
-    return None
-
-
-def check_output_folder(  # noqa: C901
-    out: str | os.PathLike | None,
-    command: str,
-    *,
-    inputs: Iterable[Any] = (),
-    json_path: str | os.PathLike | None = None,
-) -> None:
-    r"""Refuse, before any work, an output that would damage the user's files.
-
-    Refused with a one-line :class:`~pdmkit.errors.DataError`: ``out`` is an existing
-    file (or lies below one); one of the command's files (:data:`OUTPUTS`) exists there
-    as a folder; one of them would overwrite a file the command reads (``inputs``), or
-    land inside a folder it reads; ``json_path`` is a folder, is an input, or is one of
-    the other files of the run, or lies in a ``.pdmkit`` folder (``out``'s own, where
-    the lock, the staging folders and ``run.json`` live, or another output folder's).
-    An input that merely sits in ``out`` under another name is fine.
-
-    Parameters
-    ----------
-    out : path or None
-        The output folder (None: only ``json_path`` is checked).
-    command : str
-        A key of :data:`OUTPUTS`.
-    inputs : iterable of path
-        Files and folders the command reads (globs are expanded; URLs and objects that
-        are not paths are skipped).
-    json_path : path, optional
-        Where ``--json`` writes a copy of the summary.
-
-    Examples
-    --------
-    >>> import pathlib, tempfile
-    >>> out = pathlib.Path(tempfile.mkdtemp())
-    >>> _ = (out / "report.html").write_text("time,x\n0,1\n")
-    >>> check_output_folder(out, "identify", inputs=[out / "report.html"])
-    Traceback (most recent call last):
-    ...
-    pdmkit.errors.DataError: ... would overwrite the input ...report.html...
-    >>> check_output_folder(out, "identify", inputs=[out / "data.csv"])  # fine
-    """
-    names = OUTPUTS[command]
-    sources = _input_paths(inputs)
-    if out is not None:
-        out = Path(out)
-        probe = out
-        while not probe.exists() and probe != probe.parent:
-            probe = probe.parent
-        if probe.exists() and not probe.is_dir():
-            what = "is an existing file" if probe == out else f"lies below the file {probe}"
-            raise DataError(
-                f"output folder {out} {what}, not a folder; name a folder for --out "
-                f"(pdmkit writes {', '.join(names)} into it)"
-            )
-        for name in names:
-            target = out / name
-            if target.is_dir() and not target.is_symlink():
-                raise DataError(
-                    f"output folder {out}: {target} is a folder, but {command} writes a "
-                    f"file of that name; rename the folder or choose another --out"
-                )
-            for src in sources:
-                if src.is_file() and target.exists() and _same(target, src):
-                    raise DataError(
-                        f"output folder {out}: writing {name} would overwrite the input "
-                        f"{src}; choose another --out folder or move the input"
-                    )
-        out_real = _real(out)
-        for src in sources:
-            if src.is_dir():
-                src_real = _real(src).rstrip(os.sep)
-                if out_real == src_real or out_real.startswith(src_real + os.sep):
-                    raise DataError(
-                        f"output folder {out} is inside the input folder {src}: the "
-                        f"results would become part of the input; choose an --out "
-                        "outside it"
-                    )
-    if json_path is not None:
-        js = Path(json_path)
-        if js.is_dir():
-            raise DataError(
-                f"--json {js} is a folder; name a file, e.g. {js / MAIN_JSON[command]}"
-            )
-        private = _private_folder(js, out)
-        if private is not None:
-            raise DataError(
-                f"--json {js} is inside {private}, pdmkit's own folder (the output "
-                "folder's lock, staging area and run manifest); name a file outside it, "
-                f"e.g. {private.parent / MAIN_JSON[command]}"
-            )
-        for src in sources:
-            if src.is_file() and js.exists() and _same(js, src):
-                raise DataError(
-                    f"--json {js} is the input {src}; writing the summary there would "
-                    "overwrite it; name another file"
-                )
-        if out is not None:
-            for name in names:
-                if name != MAIN_JSON[command] and _real(js) == _real(Path(out) / name):
-                    raise DataError(
-                        f"--json {js} is the {name} this run writes into {out}; name "
-                        "another file"
-                    )
 
 
 def write_json_file(
@@ -783,7 +614,7 @@ class OutputRun(_Sink):
             "command": self.command,
             "pid": os.getpid(),
             "started": self.started,
-            "inputs": [os.fspath(p) for p in _input_paths(self.inputs)],
+            "inputs": [os.fspath(p) for p in local_paths(self.inputs)],
             "files": {},
             "warnings": found,
         }
@@ -808,7 +639,7 @@ class OutputRun(_Sink):
         if main not in self._entries:
             return
         source = self.out / main
-        if _real(self.json_path) == _real(source):
+        if real_path(self.json_path) == real_path(source):
             return
         with atomic_path(self.json_path) as tmp:
             shutil.copyfile(source, tmp)

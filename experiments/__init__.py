@@ -128,9 +128,9 @@ _LAZY = {
     "run_seed_study": "_seed_study",
     "seed_comparison": "_seed_study",
     "SensorComparison": "_sensors",
-    "SensorCosts": "_sensors",
+    "SensorCosts": "_sensor_costs",
     "compare_sensors": "_sensors",
-    "load_sensor_costs": "_sensors",
+    "load_sensor_costs": "_sensor_costs",
 }
 
 

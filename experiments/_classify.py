@@ -593,36 +593,15 @@ def classify(
     y = _check_table(table, label)
     features = _check_features(table, label, features)
     X = _feature_matrix(table, features)
-    if not isinstance(test_size, float | np.floating) or not 0.0 < test_size < 1.0:
-        raise ValueError(f"test_size must be a float in (0, 1); got {test_size!r}")
-    n = len(y)
-    n_classes = y.nunique()
-    n_test = math.ceil(test_size * n)
-    n_train = n - n_test
-    if split == "stratified" and (n_test < n_classes or n_train < n_classes):
-        raise DataError(
-            f"{n} members split with test_size={test_size} give {n_train} training and "
-            f"{n_test} test members, but each part needs at least one member of each of "
-            f"the {n_classes} classes; change test_size or add members"
-        )
+    _check_test_size(y, test_size, split)
     pipe = make_classifier(
         model, top_k=top_k, selection=selection, random_state=random_state
     )
-
-    positions = np.arange(n)
     y_all = _label_values(y, notes)
-    if split == "time":
-        train_pos, test_pos = _time_split(table, y, order, test_size, notes)
-        folds = _forward_folds(len(train_pos), cv)
-        smallest_fit = len(train_pos) // (folds + 1) + len(train_pos) % (folds + 1)
-    else:
-        train_pos, test_pos = train_test_split(
-            positions, test_size=test_size, stratify=y_all, random_state=random_state
-        )
-        folds = _cv_folds(y.iloc[train_pos], cv, notes, "training part")
-        smallest_fit = _smallest_fit_size(y.iloc[train_pos], folds)
+    train_pos, test_pos, folds, smallest_fit = _split_members(
+        table, y, y_all, split, order, test_size, cv, random_state, notes
+    )
     y_train, y_test = y_all[train_pos], y_all[test_pos]
-
     _fit_to_size(pipe, len(features), smallest_fit, notes, top_k)
     if folds:
         scores = _cv_scores(
@@ -641,10 +620,73 @@ def classify(
         cv_mean, cv_std = float(scores.mean()), float(scores.std())
     else:
         cv_mean, cv_std = math.nan, math.nan
-
     pipe.fit(X[train_pos], y_train)
     y_pred = pipe.predict(X[test_pos])
     labels = _sorted_labels(y_all)
+    cm, recall, precision = _test_scores(y_test, y_pred, labels, notes)
+    return ClassificationResult(
+        model=_model_name(model),
+        label=label,
+        labels=labels,
+        features=_selected_names(pipe, features),
+        input_features=[str(f) for f in features],
+        accuracy=float(np.trace(cm) / cm.sum()),
+        recall=recall,
+        precision=precision,
+        confusion=cm,
+        n_train=len(train_pos),
+        n_test=len(test_pos),
+        cv_accuracy=cv_mean,
+        cv_accuracy_std=cv_std,
+        cv_scores=np.asarray(scores, dtype=float),
+        pipeline=pipe,
+        selection=selection,
+        top_k=top_k,
+        test_members=table.index[test_pos],
+        y_true=y_test,
+        y_pred=np.asarray(y_pred),
+        notes=notes,
+        split=split,
+        order=order,
+    )
+
+
+def _check_test_size(y: pd.Series, test_size: float, split: str) -> None:
+    """``test_size`` is a fraction, and a stratified split leaves every class both parts."""
+    if not isinstance(test_size, float | np.floating) or not 0.0 < test_size < 1.0:
+        raise ValueError(f"test_size must be a float in (0, 1); got {test_size!r}")
+    n = len(y)
+    n_classes = y.nunique()
+    n_test = math.ceil(test_size * n)
+    n_train = n - n_test
+    if split == "stratified" and (n_test < n_classes or n_train < n_classes):
+        raise DataError(
+            f"{n} members split with test_size={test_size} give {n_train} training and "
+            f"{n_test} test members, but each part needs at least one member of each of "
+            f"the {n_classes} classes; change test_size or add members"
+        )
+
+
+def _split_members(table, y, y_all, split, order, test_size, cv, random_state, notes):
+    """(training positions, test positions, CV folds, smallest training fold)."""
+    if split == "time":
+        train_pos, test_pos = _time_split(table, y, order, test_size, notes)
+        folds = _forward_folds(len(train_pos), cv)
+        smallest_fit = len(train_pos) // (folds + 1) + len(train_pos) % (folds + 1)
+    else:
+        train_pos, test_pos = train_test_split(
+            np.arange(len(y)),
+            test_size=test_size,
+            stratify=y_all,
+            random_state=random_state,
+        )
+        folds = _cv_folds(y.iloc[train_pos], cv, notes, "training part")
+        smallest_fit = _smallest_fit_size(y.iloc[train_pos], folds)
+    return train_pos, test_pos, folds, smallest_fit
+
+
+def _test_scores(y_test, y_pred, labels: list, notes: list[str]):
+    """(confusion matrix, recall per class, precision per class) on the test part."""
     cm = confusion_matrix(y_test, y_pred, labels=labels)
     predicted = cm.sum(axis=0)
     support = cm.sum(axis=1)
@@ -661,30 +703,10 @@ def classify(
         c: (cm[i, i] / predicted[i] if predicted[i] else math.nan)
         for i, c in enumerate(labels)
     }
-    return ClassificationResult(
-        model=_model_name(model),
-        label=label,
-        labels=labels,
-        features=_selected_names(pipe, features),
-        input_features=[str(f) for f in features],
-        accuracy=float(np.trace(cm) / cm.sum()),
-        recall={c: float(v) for c, v in recall.items()},
-        precision={c: float(v) for c, v in precision.items()},
-        confusion=cm,
-        n_train=len(train_pos),
-        n_test=len(test_pos),
-        cv_accuracy=cv_mean,
-        cv_accuracy_std=cv_std,
-        cv_scores=np.asarray(scores, dtype=float),
-        pipeline=pipe,
-        selection=selection,
-        top_k=top_k,
-        test_members=table.index[test_pos],
-        y_true=y_test,
-        y_pred=np.asarray(y_pred),
-        notes=notes,
-        split=split,
-        order=order,
+    return (
+        cm,
+        {c: float(v) for c, v in recall.items()},
+        {c: float(v) for c, v in precision.items()},
     )
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from pdmkit._outputs import check_output_folder
+from pdmkit._output_folder import check_output_folder
 from pdmkit.errors import DataError
 from pdmkit.experiments._cli_common import (
     add_output_options,

@@ -73,6 +73,7 @@ def _readable_float(x: float) -> str:
 def _float_formatter(
     float_format: str | Callable[[float], str] | None,
 ) -> Callable[[float], str]:
+    """The function formatting a table's floats, from ``add_table``'s ``float_format``."""
     if float_format is None:
         return _readable_float
     if callable(float_format):
@@ -101,6 +102,41 @@ def _float_formatter(
             f"float_format {float_format!r} cannot format a float: {exc}"
         ) from None
     return fmt
+
+
+def _table_cell(value: Any, fmt: Callable[[float], str]) -> tuple[str, bool]:
+    """A table cell's text (unescaped), and whether it is a number (right-aligned)."""
+    if isinstance(value, list | tuple | np.ndarray):
+        return ", ".join(str(v) for v in value), False
+    if value is None or (pd.api.types.is_scalar(value) and pd.isna(value)):
+        return "—", False
+    if isinstance(value, bool | np.bool_):
+        return str(bool(value)), False
+    if isinstance(value, float | np.floating):
+        return fmt(float(value)), True
+    if isinstance(value, int | np.integer):
+        return str(int(value)), True
+    return str(value), False
+
+
+def _table_rows(df: pd.DataFrame, index: bool, fmt: Callable[[float], str]) -> list[str]:
+    """The head and body of an HTML table, every cell escaped."""
+    head = ([html.escape(str(df.index.name or ""))] if index else []) + [
+        html.escape(str(c)) for c in df.columns
+    ]
+    out = ["<thead><tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr></thead>"]
+    out.append("<tbody>")
+    for idx, row in zip(df.index, df.itertuples(index=False, name=None), strict=True):
+        cells = []
+        if index:
+            cells.append(f"<th>{html.escape(_table_cell(idx, fmt)[0])}</th>")
+        for value in row:
+            text, numeric = _table_cell(value, fmt)
+            cls = ' class="num"' if numeric else ""
+            cells.append(f"<td{cls}>{html.escape(text)}</td>")
+        out.append("<tr>" + "".join(cells) + "</tr>")
+    out.append("</tbody></table>")
+    return out
 
 
 class Report:
@@ -246,7 +282,7 @@ class Report:
         for part in parts:
             self._blocks.append(f"<p>{html.escape(part)}</p>")
 
-    def add_table(  # noqa: C901
+    def add_table(
         self,
         df: pd.DataFrame | pd.Series,
         caption: str | None = None,
@@ -299,38 +335,10 @@ class Report:
         if max_rows is not None and len(df) > max_rows:
             omitted = len(df) - max_rows
             df = df.iloc[:max_rows]
-
-        def cell(value: Any) -> tuple[str, bool]:
-            if isinstance(value, list | tuple | np.ndarray):
-                return ", ".join(str(v) for v in value), False
-            if value is None or (pd.api.types.is_scalar(value) and pd.isna(value)):
-                return "—", False
-            if isinstance(value, bool | np.bool_):
-                return str(bool(value)), False
-            if isinstance(value, float | np.floating):
-                return fmt(float(value)), True
-            if isinstance(value, int | np.integer):
-                return str(int(value)), True
-            return str(value), False
-
         out = ["<table>"]
         if caption:
             out.append(f"<caption>{html.escape(str(caption))}</caption>")
-        head = ([html.escape(str(df.index.name or ""))] if index else []) + [
-            html.escape(str(c)) for c in df.columns
-        ]
-        out.append("<thead><tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr></thead>")
-        out.append("<tbody>")
-        for idx, row in zip(df.index, df.itertuples(index=False, name=None), strict=True):
-            cells = []
-            if index:
-                cells.append(f"<th>{html.escape(cell(idx)[0])}</th>")
-            for value in row:
-                text, numeric = cell(value)
-                cls = ' class="num"' if numeric else ""
-                cells.append(f"<td{cls}>{html.escape(text)}</td>")
-            out.append("<tr>" + "".join(cells) + "</tr>")
-        out.append("</tbody></table>")
+        out += _table_rows(df, index, fmt)
         if omitted:
             out.append(f"<p><em>{omitted} more rows not shown.</em></p>")
         self._blocks.append("\n".join(out))

@@ -59,7 +59,6 @@ predicted within 10 % (see :func:`leak_accuracy`).
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import Any
 
@@ -67,30 +66,22 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._checks import check_magnitude
-from pdmkit._outputs import (
-    OutputRun,
-    check_output_folder,
-    collect_warnings,
-    write_json_file,
-)
+from pdmkit._output_folder import check_output_folder
+from pdmkit._outputs import OutputRun, collect_warnings, write_json_file
 from pdmkit._persist import load_model
-from pdmkit.ensembles import load_cmapss, read_table
+from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError, ModelError
-from pdmkit.experiments._report import Report, _readable_float
 from pdmkit.experiments._rul_battery import run_battery
 from pdmkit.experiments._rul_checks import (
     CAP_CONVENTIONS,
-    cap_text,
     default_time_unit,
     describe_rul,
     ending_checks,
-    input_checks,
     interval_checks,
     model_keys,
     ood_check,
     rename_keys,
     resolve_cap,
-    sample_checks,
 )
 from pdmkit.experiments._rul_leak import (
     _LEAK_NAMES,
@@ -102,16 +93,11 @@ from pdmkit.experiments._rul_leak import (
 )
 from pdmkit.experiments._rul_models import (
     RUL_MODELS,
-    _calibration,
-    _finish,
-    _fit_pipeline,
-    _indicator_plot,
-    _save_pipeline,
-    _time_col,
     leak_accuracy,
     make_rul_model,
 )
-from pdmkit.rul import resolve_keys, rul_metrics, timestamps_to_seconds
+from pdmkit.experiments._rul_tables import run_tables
+from pdmkit.rul import resolve_keys, timestamps_to_seconds
 
 __all__ = [
     "CAP_CONVENTIONS",
@@ -127,8 +113,6 @@ __all__ = [
     "simulate_leak_dataset",
     "split_run_to_failure",
 ]
-
-_CMAPSS_SENSORS = [f"sensor_{i}" for i in range(1, 22)]
 
 
 def split_run_to_failure(
@@ -201,53 +185,6 @@ def split_run_to_failure(
         parts.append(keep.assign(rul_true_final=t[-1] - float(keep[time].iloc[-1])))
     train = table[~table[unit].isin(held)].reset_index(drop=True)
     return train, pd.concat(parts, ignore_index=True)
-
-
-def _dataset(dataset, features):
-    """Return (name, train, test, true RUL per test unit, feature columns)."""
-    if isinstance(dataset, str):
-        key = dataset.lower().replace("_", "-")
-        if key not in ("cmapss-fd001", "cmapss"):
-            raise DataError(
-                f"dataset {dataset!r} is not known to the RUL workflow; use "
-                "'cmapss-fd001', 'pneumatic-leak', 'nasa-battery' or pass "
-                "(train_table, test_table)"
-            )
-
-        train = load_cmapss("FD001", "train")
-        test = load_cmapss("FD001", "test")
-        name = "cmapss-fd001"
-        default = _CMAPSS_SENSORS
-    else:
-        try:
-            train, test = dataset
-        except (TypeError, ValueError):
-            raise DataError(
-                "dataset must be a name ('cmapss-fd001') or a pair (train_table, "
-                "test_table) of long tables"
-            ) from None
-        if not isinstance(train, pd.DataFrame) or not isinstance(test, pd.DataFrame):
-            raise DataError("dataset tables must be pandas DataFrames")
-        name = "tables"
-        skip = {"unit", "time", "cycle", "rul", "rul_true_final", "failed"}
-        default = [
-            c
-            for c in train.columns
-            if c not in skip
-            and not str(c).startswith("setting")
-            and pd.api.types.is_numeric_dtype(train[c])
-        ]
-    for part, table in (("train", train), ("test", test)):
-        if "unit" not in table.columns:
-            raise DataError(f"the {part} table has no 'unit' column")
-    if "rul_true_final" not in test.columns:
-        raise DataError(
-            "the test table needs a 'rul_true_final' column: each test unit's true RUL "
-            "after its last row"
-        )
-    true = test.groupby("unit", sort=False)["rul_true_final"].first()
-    cols = list(features) if features is not None else default
-    return name, train, test, true, cols
 
 
 def predict_rul(
@@ -351,20 +288,6 @@ def units_in_seconds(
         return timestamps_to_seconds(table, time)
     except DataError as exc:
         raise DataError(f"{where}: {exc}") from None
-
-
-def _training_sample(train: pd.DataFrame, cols, n: int = 5000) -> pd.DataFrame:
-    """Up to ``n`` training rows, kept in the model file.
-
-    The rows hold the unit, the time and the model's columns, so that ``--trained`` can
-    score how far new histories lie from them.
-    """
-    keys = [c for c in ("unit", "time", "cycle") if c in train.columns][:2]
-    usable = [c for c in cols if c in train.columns and c not in keys]
-    sample = train[[*keys, *usable]]
-    if len(sample) > n:
-        sample = sample.iloc[np.linspace(0, len(sample) - 1, n).astype(int)]
-    return sample.rename(columns={keys[-1]: "time"}).reset_index(drop=True)
 
 
 def _names_of_training(table: pd.DataFrame, pipeline, where: str) -> pd.DataFrame:
@@ -584,7 +507,7 @@ def run_rul(
     return summary
 
 
-def _rul(  # noqa: PLR0915
+def _rul(
     sink,
     dataset,
     model,
@@ -640,151 +563,17 @@ def _rul(  # noqa: PLR0915
             f"dataset options {sorted(dataset_options)} are simulation settings of "
             "'pneumatic-leak'; the other datasets take none"
         )
-    name, train, test, true, cols = _dataset(dataset, features)
-    unit_label = time_unit or default_time_unit(key, train)
-    found: list[str] = []
-    pipeline, fit_seconds = _fit_pipeline(
-        model, cols, train, seed=seed, rul_cap=cap, options=options, calibrate=calibrate
+    return run_tables(
+        sink,
+        model,
+        seed,
+        dataset=dataset,
+        features=features,
+        rul_cap=cap,
+        cap_source=cap_source,
+        options=options,
+        n_trajectories=n_trajectories,
+        calibrate=calibrate,
+        time_unit=time_unit,
+        key=key,
     )
-    pipeline.time_unit_ = unit_label
-    # the training table's columns, in order: a header-less history of the same width
-    # (the raw C-MAPSS text files) gets these names by position (see _predict_rul)
-    pipeline.table_columns_ = [str(c) for c in train.columns if c != "rul_true_final"]
-    pipeline.training_sample_ = _training_sample(train, cols)
-    indicator, estimator = pipeline.indicator, pipeline.model
-    test_in = pipeline.transform(test)
-    start = time.perf_counter()
-    pred = estimator.predict(test_in)
-    predict_seconds = time.perf_counter() - start
-    pred.time_unit = unit_label
-
-    n_train = int(train["unit"].nunique())
-    sample_checks(model, estimator, calibrate, n_train, len(pred), found)
-    ood, endings = input_checks(train, test, cols, unit_label, found)
-    notes, interval_counts = interval_checks(pred, cap, unit_label, found)
-
-    truth = true.reindex(pred.unit).to_numpy(dtype=float)
-    top = np.inf if cap is None else cap
-    capped = np.minimum(truth, top)
-    answered = ~np.isnan(pred.estimate)
-    if not answered.any():
-        raise DataError(
-            f"the model ({model}) gives no estimate for any test unit ({notes[0]}); "
-            "nothing to score - check the indicator's direction and threshold"
-        )
-    part = (pred.estimate[answered], pred.lower[answered], pred.upper[answered])
-    headline = rul_metrics(capped[answered], *part)
-    raw = rul_metrics(truth[answered], *part)
-    summary: dict[str, Any] = {
-        "model": model,
-        "dataset": name,
-        "time_unit": unit_label,
-        "rmse": headline["rmse"],
-        "mae": headline["mae"],
-        "phm08_score": headline["phm08_score"],
-        "coverage": headline["coverage"],
-        "n_units": headline["n"],
-        "bias": headline["bias"],
-        "mean_interval_width": headline["mean_width"],
-        "rmse_uncapped": raw["rmse"],
-        "mae_uncapped": raw["mae"],
-        "phm08_score_uncapped": raw["phm08_score"],
-        "coverage_uncapped": raw["coverage"],
-        "level": pred.level,
-        "rul_cap": cap,
-        "rul_cap_source": cap_source,
-        "seed": seed,
-        "n_train_units": n_train,
-        "n_test_units": len(pred),
-        "intervals": interval_counts,
-        "ood": {
-            "max": float(ood.max()) if len(ood) else 0.0,
-            "n_outside": int((ood > 1.0).sum()),
-            "threshold": 1.0,
-        },
-        "shutdown_endings": endings,
-        "checks": list(found),
-        "fit_seconds": round(fit_seconds, 2),
-        "predict_seconds": round(predict_seconds, 2),
-        "estimator": repr(estimator),
-        **_calibration(pipeline),
-        "features": list(indicator.selected_)
-        if indicator is not None
-        else list(getattr(estimator, "features_", cols)),
-    }
-
-    # ---------------------------------------------------------------- files
-    _save_pipeline(pipeline, sink, summary)
-    table = pred.to_pandas()
-    table["interval_note"] = notes
-    table["ood_score"] = ood.reindex(pred.unit).to_numpy(dtype=float)
-    table["rul_true"] = truth
-    table["rul_true_capped"] = capped
-    if "nearest" in table.columns:
-        table["nearest"] = table["nearest"].map(lambda v: ",".join(map(str, v)))
-    sink.add_parquet("predictions.parquet", table.copy())
-
-    u = unit_label
-    cap_phrase = cap_text(cap, u, cap_source)
-    report = Report(f"pdmkit rul: {model} on {name}")
-    report.add_text(
-        f"Model: {RUL_MODELS[model]} ({summary['estimator']}). Trained on "
-        f"{n_train} run-to-failure units; each of the {len(pred)} test units is "
-        f"predicted at its last observed time. Time unit: {u}. {cap_phrase[0].upper()}"
-        f"{cap_phrase[1:]}"
-        + (" (predictions and true RULs capped for the headline scores)" if cap else "")
-        + f"; intervals are {100 * pred.level:g} %. Seed {seed}; fit "
-        f"{fit_seconds:.1f} s."
-    )
-    if found:
-        report.add_heading("Warnings")
-        for message in found:
-            report.add_text(message)
-    rows = ("rmse", "mae", "phm08_score", "coverage", "bias")
-    scores = pd.DataFrame(
-        {
-            (f"capped at {cap:g} {u}" if cap else "scores"): [headline[k] for k in rows],
-            **({"uncapped": [raw[k] for k in rows]} if cap else {}),
-        },
-        index=[
-            f"RMSE ({u})",
-            f"MAE ({u})",
-            "PHM08 score",
-            "interval coverage",
-            f"bias, pred - true ({u})",
-        ],
-    )
-    scores = scores.map(lambda v: _readable_float(v) if abs(v) >= 1e6 else v)
-    report.add_table(scores, caption="Scores on the test units")
-    report.add_figure(
-        pred.plot(true=capped, time_unit=u),
-        caption=f"Predicted against true RUL ({u}"
-        + (f", capped at {cap:g})" if cap else ")"),
-    )
-    # units with histories of different lengths: from the median to the longest
-    lengths = test.groupby("unit").size().reindex(pred.unit).to_numpy()
-    order = np.argsort(lengths, kind="stable")
-    picks = np.unique(np.linspace(len(order) // 2, len(order) - 1, n_trajectories).round())
-    shown = [pred.unit[order[int(i)]] for i in picks] if n_trajectories > 0 else []
-    if shown:
-        subset = test_in[test_in["unit"].isin(shown)]
-        path = estimator.predict_trajectory(subset, every=5)
-        end = {v: test.loc[test.unit == v, _time_col(test)].max() + true[v] for v in shown}
-        path_true = np.minimum(
-            [end[v] - t for v, t in zip(path.unit, path.time, strict=True)], top
-        )
-        report.add_figure(
-            path.plot(true=path_true, units=shown, time_unit=u),
-            caption="RUL against time for test units with histories from the median "
-            "length to the longest (true RUL dashed" + (", capped)" if cap else ")"),
-        )
-    if indicator is not None:
-        report.add_figure(
-            _indicator_plot(pipeline.transform(train), estimator, u),
-            caption="Health indicator of ten training units",
-        )
-    report.add_table(
-        table.drop(columns=[c for c in ("nearest",) if c in table]),
-        caption="Predictions per test unit (ood_score above 1: outside the training data)",
-    )
-    return _finish(report, summary, sink)

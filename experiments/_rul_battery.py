@@ -44,7 +44,7 @@ BATTERY_MODELS = (
 
 
 def _battery_estimator(model, seed, rul_cap, options, calibrate):
-
+    """A fresh pipeline reading the capacity directly (degradation models only)."""
     if model not in BATTERY_MODELS:
         raise DataError(
             f"model {model!r} does not apply to 'nasa-battery' (four cells, one "
@@ -65,6 +65,7 @@ def _battery_estimator(model, seed, rul_cap, options, calibrate):
 
 
 def _capacity_plot(data: pd.DataFrame, threshold: float, ax=None):
+    """Capacity against discharge of each cell, with the end-of-life threshold."""
     import matplotlib.pyplot as plt
 
     if ax is None:
@@ -77,6 +78,37 @@ def _capacity_plot(data: pd.DataFrame, threshold: float, ax=None):
     ax.set_ylabel("capacity (Ah)")
     ax.legend(fontsize="small")
     return ax
+
+
+def _leave_one_cell_out(data, failed, model, seed, rul_cap, options, calibrate):
+    """Each failed cell followed through its life by a model trained on the others.
+
+    Returns the predictions of every held-out cell in one table, and the seconds spent
+    fitting.
+    """
+    paths, fit_seconds = [], 0.0
+    for cell in failed:
+        pipeline = _battery_estimator(model, seed, rul_cap, options, calibrate)
+        start = time.perf_counter()
+        pipeline.fit(data[data["unit"] != cell])
+        fit_seconds += time.perf_counter() - start
+        paths.append(pipeline.predict_trajectory(data[data["unit"] == cell]).to_pandas())
+    return pd.concat(paths, ignore_index=True), fit_seconds
+
+
+def _at_discharges(table: pd.DataFrame, cell, discharges=(40, 60, 80)) -> dict:
+    """A held-out cell's predicted and true RUL at a few discharges."""
+    part = table[table["unit"] == cell].set_index("time")
+    return {
+        str(k): {
+            "rul": float(part.loc[k, "rul"]),
+            "lower": float(part.loc[k, "lower"]),
+            "upper": float(part.loc[k, "upper"]),
+            "rul_true": float(part.loc[k, "rul_true"]),
+        }
+        for k in discharges
+        if k in part.index
+    }
 
 
 def run_battery(
@@ -96,29 +128,12 @@ def run_battery(
     """
     data = load_nasa_battery()
     failed = [u for u, part in data.groupby("unit", sort=False) if part["failed"].any()]
-    paths, fit_seconds = [], 0.0
-    for cell in failed:
-        pipeline = _battery_estimator(model, seed, rul_cap, options, calibrate)
-        start = time.perf_counter()
-        pipeline.fit(data[data["unit"] != cell])
-        fit_seconds += time.perf_counter() - start
-        paths.append(pipeline.predict_trajectory(data[data["unit"] == cell]).to_pandas())
-    path = pd.concat(paths, ignore_index=True)
+    path, fit_seconds = _leave_one_cell_out(
+        data, failed, model, seed, rul_cap, options, calibrate
+    )
     life = data[data["unit"].isin(failed)].groupby("unit", sort=False)["cycle"].max()
     table, metrics, acc, fractions = _trajectory_scores(path, life, rul_cap)
-    at = {}
-    for cell in failed:
-        part = table[table["unit"] == cell].set_index("time")
-        at[cell] = {
-            str(k): {
-                "rul": float(part.loc[k, "rul"]),
-                "lower": float(part.loc[k, "lower"]),
-                "upper": float(part.loc[k, "upper"]),
-                "rul_true": float(part.loc[k, "rul_true"]),
-            }
-            for k in (40, 60, 80)
-            if k in part.index
-        }
+    at = {cell: _at_discharges(table, cell) for cell in failed}
     final = _battery_estimator(model, seed, rul_cap, options, calibrate).fit(data)
     final.time_unit_ = time_unit
     summary: dict[str, Any] = {

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -268,6 +269,48 @@ def _leak_fit_predict(model, cols, train, test, seed, rul_cap, options, calibrat
     return pipeline, path, fit_seconds, predict_seconds
 
 
+@dataclass(frozen=True)
+class _LeakFit:
+    """The leak workflow's data, fitted pipeline and scores, with the true-leak ceiling."""
+
+    train: pd.DataFrame
+    cols: list
+    ranking: pd.DataFrame
+    pipeline: Any
+    level: float
+    table: pd.DataFrame
+    metrics: dict
+    acc: pd.DataFrame
+    fractions: dict
+    true_metrics: dict
+    true_fractions: dict
+    seconds: dict
+
+
+def _leak_fit(model, sink, seed, features, rul_cap, options, dataset_options, calibrate):
+    """Simulate (or read) the units, fit, follow the test units, score; the ceiling too."""
+    start = time.perf_counter()
+    train, test, cols, ranking = _leak_data(features, seed, dataset_options, sink.cache)
+    data_seconds = time.perf_counter() - start
+    life = test.groupby("unit", sort=False)["cycle"].max()
+    pipeline, path, fit_s, pred_s = _leak_fit_predict(
+        model, cols, train, test, seed, rul_cap, options, calibrate
+    )
+    table, metrics, acc, fractions = _trajectory_scores(path, life, rul_cap)
+    # the same model on the true leak coefficient: what the random walk alone allows
+    true_col = "true/log10_c_leak"
+    ceiling_in = [t.assign(**{true_col: np.log10(t["c_leak"])}) for t in (train, test)]
+    _, true_path, _, _ = _leak_fit_predict(
+        model, [true_col], *ceiling_in, seed, rul_cap, options, calibrate
+    )
+    _, true_metrics, _, true_fractions = _trajectory_scores(true_path, life, rul_cap)
+    seconds = {"data": data_seconds, "fit": fit_s, "predict": pred_s}
+    return _LeakFit(
+        train, cols, ranking, pipeline, path.level, table, metrics, acc, fractions,
+        true_metrics, true_fractions, seconds,
+    )  # fmt: skip
+
+
 def _run_leak(
     model,
     sink,
@@ -282,34 +325,63 @@ def _run_leak(
     cap_source="none",
     time_unit="cycles",
 ):
-
-    start = time.perf_counter()
-    train, test, cols, ranking = _leak_data(features, seed, dataset_options, sink.cache)
-    data_seconds = time.perf_counter() - start
-    life = test.groupby("unit", sort=False)["cycle"].max()
-    pipeline, path, fit_s, pred_s = _leak_fit_predict(
-        model, cols, train, test, seed, rul_cap, options, calibrate
+    """``run_rul("pneumatic-leak")``: its files registered with ``sink``."""
+    fit = _leak_fit(
+        model, sink, seed, features, rul_cap, options, dataset_options, calibrate
     )
-    pipeline.time_unit_ = time_unit
-    indicator, estimator = pipeline.indicator, pipeline.model
-    table, metrics, acc, fractions = _trajectory_scores(path, life, rul_cap)
-    # the same model on the true leak coefficient: what the random walk alone allows
-    true_col = "true/log10_c_leak"
-    ceiling_in = [t.assign(**{true_col: np.log10(t["c_leak"])}) for t in (train, test)]
-    _, true_path, _, _ = _leak_fit_predict(
-        model, [true_col], *ceiling_in, seed, rul_cap, options, calibrate
+    fit.pipeline.time_unit_ = time_unit
+    summary = _leak_summary(model, seed, fit, dataset_options)
+    summary.update(
+        {
+            "rul_cap": rul_cap,
+            "rul_cap_source": cap_source,
+            "time_unit": time_unit,
+            "seed": seed,
+            "data_seconds": round(fit.seconds["data"], 2),
+            "fit_seconds": round(fit.seconds["fit"], 2),
+            "predict_seconds": round(fit.seconds["predict"], 2),
+            "estimator": repr(fit.pipeline.model),
+            **_calibration(fit.pipeline),
+            "features": list(fit.pipeline.indicator.selected_)
+            if fit.pipeline.indicator is not None
+            else list(fit.cols),
+        }
     )
-    _, true_metrics, _, true_fractions = _trajectory_scores(true_path, life, rul_cap)
+    _save_pipeline(fit.pipeline, sink, summary)
+    table = fit.table
+    sink.add_parquet(
+        "predictions.parquet", table.drop(columns=[c for c in ("nearest",) if c in table])
+    )
+    report = Report(f"pdmkit rul: {model} on the pneumatic air-leak runs")
+    _leak_report_opening(report, fit, summary)
+    _leak_scores_section(report, fit, time_unit)
+    by_life = list(fit.acc.sort_values("life").index)
+    step = max(1, len(by_life) // max(1, n_trajectories))
+    shown = by_life[::step][: max(0, n_trajectories)]
+    if shown:
+        report.add_figure(
+            _trajectory_plot(table, shown, time_unit=time_unit),
+            caption="RUL against cycle for test units (true RUL dashed; dotted: the "
+            "model's interval; shaded: within 10 % of the unit's life over its last "
+            "half)",
+        )
+    report.add_table(fit.acc, caption="Per test unit, over the last half of its life")
+    return _finish(report, summary, sink)
 
+
+def _leak_summary(model, seed, fit: _LeakFit, dataset_options) -> dict[str, Any]:
+    """The scores, the indicator and the simulation of ``summary.json``."""
+    metrics, fractions, ranking = fit.metrics, fit.fractions, fit.ranking
     top = ranking.head(5)
-    summary: dict[str, Any] = {
+    known = _SEED_INDICATOR in ranking.index
+    return {
         "model": model,
         "dataset": "pneumatic-leak",
         "rmse": metrics["rmse"],
         "mae": metrics["mae"],
         "phm08_score": metrics["phm08_score"],
         "coverage": metrics["coverage"],
-        "n_units": len(acc),
+        "n_units": len(fit.acc),
         "n_predictions": metrics["n"],
         "within_10pct_of_life": fractions["of_life"],
         "within_10pct_of_rul": fractions["of_rul"],
@@ -317,57 +389,41 @@ def _run_leak(
         "readings": dict(_READINGS),
         "bias": metrics["bias"],
         "mean_interval_width": metrics["mean_width"],
-        "level": path.level,
-        "indicator": cols[0] if len(cols) == 1 else cols,
+        "level": fit.level,
+        "indicator": fit.cols[0] if len(fit.cols) == 1 else fit.cols,
         "indicator_ranking": {
             str(k): {m: float(v) for m, v in row.items()} for k, row in top.iterrows()
         },
         "seed_indicator": {
             "name": _SEED_INDICATOR,
-            "score": float(ranking.loc[_SEED_INDICATOR, "score"])
-            if _SEED_INDICATOR in ranking.index
-            else None,
-            "rank": int(list(ranking.index).index(_SEED_INDICATOR)) + 1
-            if _SEED_INDICATOR in ranking.index
-            else None,
+            "score": float(ranking.loc[_SEED_INDICATOR, "score"]) if known else None,
+            "rank": int(list(ranking.index).index(_SEED_INDICATOR)) + 1 if known else None,
         },
         "true_leak": {
-            "rmse": true_metrics["rmse"],
-            "mae": true_metrics["mae"],
-            "coverage": true_metrics["coverage"],
-            "within_10pct": true_fractions,
+            "rmse": fit.true_metrics["rmse"],
+            "mae": fit.true_metrics["mae"],
+            "coverage": fit.true_metrics["coverage"],
+            "within_10pct": fit.true_fractions,
         },
         "simulation": {
             **LEAK_DEFAULTS,
             **{k: v for k, v in dict(dataset_options or {}).items() if k != "cache_dir"},
         },
-        "n_train_units": int(train["unit"].nunique()),
-        "rul_cap": rul_cap,
-        "rul_cap_source": cap_source,
-        "time_unit": time_unit,
-        "seed": seed,
-        "data_seconds": round(data_seconds, 2),
-        "fit_seconds": round(fit_s, 2),
-        "predict_seconds": round(pred_s, 2),
-        "estimator": repr(estimator),
-        **_calibration(pipeline),
-        "features": list(indicator.selected_) if indicator is not None else list(cols),
+        "n_train_units": int(fit.train["unit"].nunique()),
     }
 
-    _save_pipeline(pipeline, sink, summary)
-    sink.add_parquet(
-        "predictions.parquet", table.drop(columns=[c for c in ("nearest",) if c in table])
-    )
-    report = Report(f"pdmkit rul: {model} on the pneumatic air-leak runs")
-    sim = summary["simulation"]
+
+def _leak_report_opening(report: Report, fit: _LeakFit, summary: dict) -> None:
+    """The report's opening and its Indicator section (candidates, the one used)."""
+    sim, ranking = summary["simulation"], fit.ranking
     report.add_text(
-        f"Model: {RUL_MODELS[model]} ({summary['estimator']}). "
+        f"Model: {RUL_MODELS[summary['model']]} ({summary['estimator']}). "
         f"{summary['n_train_units']} training and {summary['n_units']} test units of "
         "the pneumatic twin with a chamber-B air leak whose coefficient C_al grows "
         "log-linearly from 1e-10 to 1e-6 m^2 along a unit-specific random walk "
         f"(gamma steps of shape {sim['walk_shape']:g}); one {sim['t_end']:g} s "
         "recording per cycle; a unit fails at the first cycle with C_al >= 1e-6. "
-        f"Seed {seed}."
+        f"Seed {summary['seed']}."
     )
     report.add_heading("Indicator")
     report.add_text(
@@ -375,7 +431,7 @@ def _run_leak(
         "recording (the seed's shape factor among them) and the log RMS deviation of "
         "each recording from the unit's first (as-new) one, ranked on the training "
         "units by the mean of monotonicity, trendability and prognosability. Used: "
-        f"{', '.join(map(str, cols))}."
+        f"{', '.join(map(str, fit.cols))}."
     )
     if summary["seed_indicator"]["rank"] is not None:
         report.add_text(
@@ -387,24 +443,31 @@ def _run_leak(
     if _SEED_INDICATOR in ranking.index and _SEED_INDICATOR not in shown_rank.index:
         shown_rank = pd.concat([shown_rank, ranking.loc[[_SEED_INDICATOR]]])
     report.add_table(shown_rank, caption="Candidate indicators, best first")
-    if indicator is not None:
+    if fit.pipeline.indicator is not None:
         report.add_figure(
-            _indicator_plot(pipeline.transform(train), estimator, time_unit),
+            _indicator_plot(
+                fit.pipeline.transform(fit.train), fit.pipeline.model, summary["time_unit"]
+            ),
             caption="Health indicator (the chosen indicator mapped to the fraction of "
             "life) of ten training units",
         )
+
+
+def _leak_scores_section(report: Report, fit: _LeakFit, time_unit: str) -> None:
+    """The scores over the last half of life, beside the true-leak ceiling's."""
     report.add_heading("Scores over the last half of life")
     rows = ["rmse", "mae", "coverage"]
     scores = pd.DataFrame(
         {
-            "indicator": [metrics[k] for k in rows] + [fractions[k] for k in _READINGS],
-            "true log10 C_al": [true_metrics[k] for k in rows]
-            + [true_fractions[k] for k in _READINGS],
+            "indicator": [fit.metrics[k] for k in rows]
+            + [fit.fractions[k] for k in _READINGS],
+            "true log10 C_al": [fit.true_metrics[k] for k in rows]
+            + [fit.true_fractions[k] for k in _READINGS],
         },
         index=[
             f"RMSE ({time_unit})",
             f"MAE ({time_unit})",
-            f"{100 * path.level:g} % interval coverage",
+            f"{100 * fit.level:g} % interval coverage",
         ]
         + [f"units: {text}" for text in _READINGS.values()],
     )
@@ -413,15 +476,3 @@ def _run_leak(
         caption="Every prediction from half life to the cycle before failure; the "
         "second column is the same model fed the true leak coefficient",
     )
-    by_life = list(acc.sort_values("life").index)
-    step = max(1, len(by_life) // max(1, n_trajectories))
-    shown = by_life[::step][: max(0, n_trajectories)]
-    if shown:
-        report.add_figure(
-            _trajectory_plot(table, shown, time_unit=time_unit),
-            caption="RUL against cycle for test units (true RUL dashed; dotted: the "
-            "model's interval; shaded: within 10 % of the unit's life over its last "
-            "half)",
-        )
-    report.add_table(acc, caption="Per test unit, over the last half of its life")
-    return _finish(report, summary, sink)

@@ -631,9 +631,6 @@ def seed_air_leak_rul(
     >>> r.metric, r.details["n_train_runs"], round(r.details["leak_scale"])
     ('RUL deviation %', 3, 24)
     """
-    from pdmkit.features import harmonic, stats
-    from pdmkit.rul import LinearDegradationModel
-
     if indicator not in SEED_STATS:
         raise DataError(f"indicator must be one of {list(SEED_STATS)}; got {indicator!r}")
     if int(n_runs) < 2:
@@ -656,39 +653,13 @@ def seed_air_leak_rul(
         unit_variation=bool(unit_variation),
         leak_scale=float(leak_scale),
     )
-    x, _ = runs.stack(signal)
-    fs = float(runs.fs[signal])
-    found = harmonic(x, fs) if indicator in ("SINAD", "SNR", "THD") else stats(x)
-    cond = runs.conditions
-    table = pd.DataFrame(
-        {
-            "unit": cond["unit"].to_numpy(),
-            "time": cond["cycle"].to_numpy(float),
-            "hi": np.asarray(found[indicator], dtype=float),
-            "c_leak": cond["c_leak_schedule"].to_numpy(float),
-        }
-    )
-    table = table[np.isfinite(table["hi"])]
+    table = _leak_indicator_table(runs, signal, indicator)
     threshold, increasing = _leak_threshold(table)
     direction = "increasing" if increasing else "decreasing"
-
-    def predict(test_unit: int) -> tuple[float, float] | None:
-        train = table[table["unit"] != test_unit]
-        test = table[table["unit"] == test_unit].sort_values("time")
-        true_rul = float(_cycles_before(test["hi"].to_numpy(), threshold, increasing))
-        true_rul -= cycles_done
-        if true_rul <= 0 or len(test) <= cycles_done:
-            return None
-        model = LinearDegradationModel(threshold=threshold, direction=direction)
-        model.fit(train[["unit", "time", "hi"]])
-        estimate = float(
-            model.predict(test.iloc[:cycles_done][["unit", "time", "hi"]]).estimate[0]
-        )
-        return estimate, true_rul
-
-    first = predict(0)
+    held_out = (threshold, increasing, cycles_done)
+    first = _predict_held_out(table, 0, *held_out)
     deviation = np.nan if first is None else 100 * abs(first[0] - first[1]) / first[1]
-    every = [predict(int(u)) for u in table["unit"].unique()]
+    every = [_predict_held_out(table, int(u), *held_out) for u in table["unit"].unique()]
     devs = np.array([100 * abs(e - t) / t for e, t in (p for p in every if p is not None)])
     details = {
         "n_train_runs": int(n_runs),
@@ -713,6 +684,50 @@ def seed_air_leak_rul(
         "twin's runs, where the indicator levels off as the seed's did"
     )
     return _result("air_leak_rul", deviation, why, details)
+
+
+def _leak_indicator_table(runs, signal: str, indicator: str) -> pd.DataFrame:
+    """One row per cycle: unit, time (cycle), the indicator ``hi`` and the leak."""
+    from pdmkit.features import harmonic, stats
+
+    x, _ = runs.stack(signal)
+    fs = float(runs.fs[signal])
+    found = harmonic(x, fs) if indicator in ("SINAD", "SNR", "THD") else stats(x)
+    cond = runs.conditions
+    table = pd.DataFrame(
+        {
+            "unit": cond["unit"].to_numpy(),
+            "time": cond["cycle"].to_numpy(float),
+            "hi": np.asarray(found[indicator], dtype=float),
+            "c_leak": cond["c_leak_schedule"].to_numpy(float),
+        }
+    )
+    return table[np.isfinite(table["hi"])]
+
+
+def _predict_held_out(
+    table: pd.DataFrame, test_unit, threshold: float, increasing: bool, cycles_done: int
+) -> tuple[float, float] | None:
+    """(estimated, true) RUL of ``test_unit`` after ``cycles_done`` cycles.
+
+    The model is trained on the other runs; None when the unit reaches the threshold
+    within ``cycles_done`` cycles (or has no more).
+    """
+    from pdmkit.rul import LinearDegradationModel
+
+    direction = "increasing" if increasing else "decreasing"
+    train = table[table["unit"] != test_unit]
+    test = table[table["unit"] == test_unit].sort_values("time")
+    true_rul = float(_cycles_before(test["hi"].to_numpy(), threshold, increasing))
+    true_rul -= cycles_done
+    if true_rul <= 0 or len(test) <= cycles_done:
+        return None
+    model = LinearDegradationModel(threshold=threshold, direction=direction)
+    model.fit(train[["unit", "time", "hi"]])
+    estimate = float(
+        model.predict(test.iloc[:cycles_done][["unit", "time", "hi"]]).estimate[0]
+    )
+    return estimate, true_rul
 
 
 def _leak_threshold(table: pd.DataFrame) -> tuple[float, bool]:

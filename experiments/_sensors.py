@@ -13,8 +13,6 @@ import math
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from importlib import resources
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -23,7 +21,7 @@ from sklearn.base import BaseEstimator
 
 from pdmkit._outputs import to_jsonable
 from pdmkit._progress import progress as progress_bar_over
-from pdmkit.errors import DataError, DataNotFoundError
+from pdmkit.errors import DataError
 from pdmkit.experiments._classify import (
     ClassificationResult,
     _check_table,
@@ -39,8 +37,9 @@ from pdmkit.experiments._classify import (
     classify,
     make_classifier,
 )
+from pdmkit.experiments._sensor_costs import _resolve_costs
 
-__all__ = ["SensorComparison", "SensorCosts", "compare_sensors", "load_sensor_costs"]
+__all__ = ["SensorComparison", "compare_sensors"]
 
 _COLUMNS = [
     "sensor",
@@ -58,181 +57,6 @@ _COLUMNS = [
     "pareto",
     "note",
 ]
-
-
-# --------------------------------------------------------------------------- costs
-class SensorCosts(dict):
-    """Sensor name -> cost: a plain ``dict`` that also remembers its currency and file.
-
-    Attributes
-    ----------
-    currency : str or None
-        Currency or unit of the costs, when the file says.
-    source : str or None
-        The file the costs were read from.
-
-    Examples
-    --------
-    >>> costs = SensorCosts({"DE": 3500.0}, currency="CZK")
-    >>> costs["DE"], costs.currency, isinstance(costs, dict)
-    (3500.0, 'CZK', True)
-    """
-
-    def __init__(self, *args: Any, currency: str | None = None, source: str | None = None):
-        super().__init__(*args)
-        self.currency = currency
-        self.source = source
-
-    def __repr__(self) -> str:
-        return f"SensorCosts({dict.__repr__(self)}, currency={self.currency!r})"
-
-
-def _default_costs_file() -> Path:
-    return Path(str(resources.files("pdmkit.experiments") / "data" / "sensor_costs.toml"))
-
-
-def _number(value: Any) -> float | None:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        return None
-    return float(value)
-
-
-def load_sensor_costs(path: str | os.PathLike | None = None) -> SensorCosts:  # noqa: C901
-    """Read sensor costs from a TOML file.
-
-    Parameters
-    ----------
-    path : path-like, optional
-        The TOML file; default: the file shipped with pdmkit
-        (``pdmkit/experiments/data/sensor_costs.toml``), which holds the seven costed
-        sensor types of the seed thesis' table 9.1 (CZK) and placeholder costs for the
-        CWRU accelerometers ``DE``, ``FE``, ``BA``.
-
-        Format::
-
-            currency = "CZK"          # optional
-            [costs]
-            Flow = 6000               # total cost of the sensor
-            Acc = { unit_cost = 3500, count = 2 }   # installed twice: 7000
-
-    Returns
-    -------
-    SensorCosts
-        A ``dict`` sensor name -> total cost (float), with ``.currency`` and
-        ``.source``.
-
-    Raises
-    ------
-    DataNotFoundError
-        The file does not exist.
-    DataError
-        The file is not valid TOML, lacks a ``[costs]`` table, or a cost is not a
-        finite number >= 0 (the message names the file and the key).
-
-    Examples
-    --------
-    >>> costs = load_sensor_costs()
-    >>> costs["Acc"], costs["Mics"], costs["Flow"], costs.currency
-    (7000.0, 1500.0, 6000.0, 'CZK')
-    """
-    if path is None:
-        path = _default_costs_file()
-    path = Path(path)
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        try:
-            import tomli as tomllib
-        except ModuleNotFoundError:
-            raise ModuleNotFoundError(
-                "reading sensor costs needs tomllib (Python >= 3.11) or the tomli "
-                "package on Python 3.10: pip install tomli"
-            ) from None
-    if not path.is_file():
-        raise DataNotFoundError(
-            f"sensor cost file {str(path)!r} not found; pass the path of a TOML file "
-            "with a [costs] table, or None for pdmkit's default costs"
-        )
-    try:
-        with open(path, "rb") as handle:
-            data = tomllib.load(handle)
-    except tomllib.TOMLDecodeError as exc:
-        raise DataError(
-            f"sensor cost file {str(path)!r} is not valid TOML: {exc}"
-        ) from None
-    where = f"sensor cost file {str(path)!r}"
-    unknown = sorted(set(data) - {"costs", "currency"})
-    if unknown:
-        raise DataError(
-            f"{where}: unknown top-level key(s) {unknown}; expected 'currency' and a "
-            "[costs] table (sensor = cost)"
-        )
-    costs = data.get("costs")
-    if not isinstance(costs, dict):
-        raise DataError(
-            f"{where}: no [costs] table; write the costs as\n[costs]\nSensorName = 1200"
-        )
-    currency = data.get("currency")
-    if currency is not None and not isinstance(currency, str):
-        raise DataError(
-            f"{where}: 'currency' must be a string such as \"EUR\"; got {currency!r}"
-        )
-    out = SensorCosts(currency=currency, source=str(path))
-    for name, value in costs.items():
-        key = f"{where}, key costs.{name}"
-        if isinstance(value, dict):
-            extra = sorted(set(value) - {"unit_cost", "count"})
-            if extra or "unit_cost" not in value:
-                raise DataError(
-                    f"{key}: a table entry needs 'unit_cost' (and optionally 'count'); "
-                    f"got keys {sorted(value)}"
-                )
-            unit = _number(value["unit_cost"])
-            count = value.get("count", 1)
-            if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-                raise DataError(f"{key}: count must be a positive integer; got {count!r}")
-            if unit is None:
-                raise DataError(
-                    f"{key}: unit_cost must be a number; got {value['unit_cost']!r}"
-                )
-            cost = unit * count
-        else:
-            cost = _number(value)
-            if cost is None:
-                raise DataError(
-                    f"{key}: the cost must be a number (or {{ unit_cost = ..., count = ... "
-                    f"}}); got {value!r} ({type(value).__name__})"
-                )
-        if not math.isfinite(cost) or cost < 0:
-            raise DataError(f"{key}: the cost must be finite and >= 0; got {cost!r}")
-        out[str(name)] = cost
-    return out
-
-
-def _resolve_costs(costs: Any) -> tuple[Mapping[str, float], str | None, str]:
-    if costs is None:
-        loaded = load_sensor_costs()
-        return loaded, loaded.currency, "pdmkit's default sensor_costs.toml"
-    if isinstance(costs, str | os.PathLike):
-        loaded = load_sensor_costs(costs)
-        return loaded, loaded.currency, str(costs)
-    if isinstance(costs, Mapping):
-        for name, value in costs.items():
-            number = _number(value) if not isinstance(value, np.number) else float(value)
-            if number is None:
-                raise DataError(
-                    f"costs[{name!r}] must be a number; got {value!r} "
-                    f"({type(value).__name__})"
-                )
-        return (
-            costs,
-            getattr(costs, "currency", None),
-            getattr(costs, "source", None) or ("the costs given"),
-        )
-    raise TypeError(
-        "costs must be a mapping sensor -> cost, the path of a TOML file, or None; got "
-        f"{type(costs).__name__}"
-    )
 
 
 # --------------------------------------------------------------------------- Pareto
@@ -541,7 +365,7 @@ def _sensor_columns(
     return by_signal
 
 
-def compare_sensors(  # noqa: PLR0915
+def compare_sensors(
     table: pd.DataFrame,
     label: str,
     sensors: Mapping[str, Sequence[str]],
@@ -628,126 +452,19 @@ def compare_sensors(  # noqa: PLR0915
             "{'DE': ['DE'], 'Acc1': ['AccX', 'AccY']}"
         )
     cost_map, cost_unit, cost_source = _resolve_costs(costs)
-    feature_cols = _feature_columns(table)
-    all_classes = set(y_full.unique())
-
+    task = _SensorTask(
+        table, label, y_full, _feature_columns(table), cost_map, cost_source,
+        model, top_k, selection, cv, test_size, random_state,
+    )  # fmt: skip
     rows, results = [], {}
     bar = progress_bar_over(
         sensors.items(), desc="sensors", total=len(sensors), enable=progress
     )
     for sensor, signals in bar:
-        if isinstance(signals, str):
-            signals = [signals]
-        signals = list(dict.fromkeys(str(s) for s in signals))
-        if not signals:
-            raise DataError(f"sensor {sensor!r} owns no signals; list at least one")
-        notes: list[str] = []
-        by_signal = _sensor_columns(table, sensor, signals, feature_cols)
-        cols = list(dict.fromkeys(c for cs in by_signal.values() for c in cs))
-
-        present = np.ones(len(table), dtype=bool)
-        for signal, scols in by_signal.items():
-            values = table[scols].to_numpy(dtype=float)
-            finite = np.isfinite(values)
-            absent = np.isnan(values).all(axis=1)
-            partial = ~finite.all(axis=1) & ~absent
-            if partial.any():
-                bad_cols = [
-                    scols[j] for j in np.flatnonzero((~finite[partial]).any(axis=0))
-                ]
-                raise DataError(
-                    f"sensor {sensor!r}, signal {signal!r}: features are NaN or infinite "
-                    f"for members {_show(table.index[partial])} in columns "
-                    f"{_show(bad_cols)}, while their other features of that signal are "
-                    "finite. A missing sensor shows as all-NaN features; fix the "
-                    "extraction or drop those columns."
-                )
-            present &= ~absent
-        n_excluded = int((~present).sum())
-        if n_excluded:
-            notes.append(f"{n_excluded} member(s) without this sensor excluded")
-        y = y_full[present]
-        counts = y.value_counts()
-        lonely = [c for c, n in counts.items() if n < 2]
-        if lonely:
-            keep = ~y.isin(lonely)
-            notes.append(
-                f"class(es) {_show(lonely)} have a single member with this sensor and were "
-                "left out"
-            )
-            y = y[keep]
-        used = table.loc[y.index]
-        missing_classes = _sort_any(all_classes - set(y.unique()))
-        if missing_classes:
-            notes.append(
-                f"classes {_show(missing_classes)} have no (usable) member with this "
-                f"sensor: scored on {y.nunique()} of {len(all_classes)} classes, not "
-                "directly comparable with sensors that see all classes, and left off "
-                "the Pareto front"
-            )
-        if cost_map.get(sensor) is None:
-            cost = math.nan
-            notes.append(f"no cost for sensor {sensor!r} in {cost_source}")
-        else:
-            cost = float(cost_map[sensor])
-
-        row = {
-            "sensor": str(sensor),
-            "signals": ", ".join(signals),
-            "accuracy": math.nan,
-            "accuracy_std": math.nan,
-            "heldout_accuracy": math.nan,
-            "cost": cost,
-            "n_members": len(y),
-            "n_excluded": n_excluded,
-            "n_classes": int(y.nunique()),
-            "n_features": len(cols),
-            "cv_folds": 0,
-            "features": "",
-        }
-        if y.nunique() < 2:
-            notes.append(
-                "fewer than 2 classes among the members with this sensor: not scored"
-            )
-            row["note"] = "; ".join(notes)
-            rows.append(row)
-            continue
-
-        X = used[cols].to_numpy(dtype=float)
-        folds = _cv_folds(y, cv, notes, "members with this sensor")
-        pipe = make_classifier(
-            model, top_k=top_k, selection=selection, random_state=random_state
-        )
-        _fit_to_size(pipe, len(cols), _smallest_fit_size(y, folds), notes, top_k)
-        if folds:
-            scores = _cv_scores(
-                pipe, X, _label_values(y, notes), folds, random_state, progress=False
-            )
-            row["accuracy"] = float(scores.mean())
-            row["accuracy_std"] = float(scores.std())
-            row["cv_folds"] = folds
-        try:
-            res = classify(
-                used,
-                label,
-                features=cols,
-                model=model,
-                top_k=top_k,
-                selection=selection,
-                test_size=test_size,
-                cv=None,
-                random_state=random_state,
-            )
-        except DataError as exc:
-            notes.append(f"no held-out score: {exc}")
-        else:
-            results[str(sensor)] = res
-            row["heldout_accuracy"] = res.accuracy
-            row["features"] = "; ".join(res.features)
-            notes.extend(n for n in res.notes if n not in notes)
-        row["note"] = "; ".join(dict.fromkeys(notes))
+        row, result = _sensor_row(task, sensor, signals)
         rows.append(row)
-
+        if result is not None:
+            results[str(sensor)] = result
     return SensorComparison(
         pd.DataFrame(rows),
         results=results,
@@ -755,6 +472,152 @@ def compare_sensors(  # noqa: PLR0915
         model=_model_name(model),
         cost_unit=cost_unit,
     )
+
+
+@dataclass(frozen=True)
+class _SensorTask:
+    """What every sensor is scored with: the table and its labels, the costs, the model."""
+
+    table: pd.DataFrame
+    label: str
+    y: pd.Series
+    feature_cols: list
+    costs: Mapping[str, float]
+    cost_source: str
+    model: str | BaseEstimator
+    top_k: int
+    selection: str | None
+    cv: int
+    test_size: float
+    random_state: int | None
+
+
+def _sensor_row(task: _SensorTask, sensor, signals) -> tuple[dict, Any]:
+    """One sensor's row of the comparison, and its held-out result (None: not scored)."""
+    if isinstance(signals, str):
+        signals = [signals]
+    signals = list(dict.fromkeys(str(s) for s in signals))
+    if not signals:
+        raise DataError(f"sensor {sensor!r} owns no signals; list at least one")
+    notes: list[str] = []
+    by_signal = _sensor_columns(task.table, sensor, signals, task.feature_cols)
+    cols = list(dict.fromkeys(c for cs in by_signal.values() for c in cs))
+    y, n_excluded = _sensor_members(task, sensor, by_signal, notes)
+    if task.costs.get(sensor) is None:
+        cost = math.nan
+        notes.append(f"no cost for sensor {sensor!r} in {task.cost_source}")
+    else:
+        cost = float(task.costs[sensor])
+    row = {
+        "sensor": str(sensor),
+        "signals": ", ".join(signals),
+        "accuracy": math.nan,
+        "accuracy_std": math.nan,
+        "heldout_accuracy": math.nan,
+        "cost": cost,
+        "n_members": len(y),
+        "n_excluded": n_excluded,
+        "n_classes": int(y.nunique()),
+        "n_features": len(cols),
+        "cv_folds": 0,
+        "features": "",
+    }
+    if y.nunique() < 2:
+        notes.append("fewer than 2 classes among the members with this sensor: not scored")
+        row["note"] = "; ".join(notes)
+        return row, None
+    result = _score_sensor(task, row, y, cols, notes)
+    row["note"] = "; ".join(dict.fromkeys(notes))
+    return row, result
+
+
+def _sensor_members(task: _SensorTask, sensor, by_signal: dict, notes: list[str]):
+    """The labels of the members that have the sensor, and how many do not.
+
+    A member has a sensor when its features of every signal the sensor owns are not all
+    NaN; classes left with a single member are dropped. The notes say what was left out.
+    """
+    table = task.table
+    present = np.ones(len(table), dtype=bool)
+    for signal, scols in by_signal.items():
+        values = table[scols].to_numpy(dtype=float)
+        finite = np.isfinite(values)
+        absent = np.isnan(values).all(axis=1)
+        partial = ~finite.all(axis=1) & ~absent
+        if partial.any():
+            bad_cols = [scols[j] for j in np.flatnonzero((~finite[partial]).any(axis=0))]
+            raise DataError(
+                f"sensor {sensor!r}, signal {signal!r}: features are NaN or infinite "
+                f"for members {_show(table.index[partial])} in columns "
+                f"{_show(bad_cols)}, while their other features of that signal are "
+                "finite. A missing sensor shows as all-NaN features; fix the "
+                "extraction or drop those columns."
+            )
+        present &= ~absent
+    n_excluded = int((~present).sum())
+    if n_excluded:
+        notes.append(f"{n_excluded} member(s) without this sensor excluded")
+    y = task.y[present]
+    lonely = [c for c, n in y.value_counts().items() if n < 2]
+    if lonely:
+        notes.append(
+            f"class(es) {_show(lonely)} have a single member with this sensor and were "
+            "left out"
+        )
+        y = y[~y.isin(lonely)]
+    all_classes = set(task.y.unique())
+    missing_classes = _sort_any(all_classes - set(y.unique()))
+    if missing_classes:
+        notes.append(
+            f"classes {_show(missing_classes)} have no (usable) member with this "
+            f"sensor: scored on {y.nunique()} of {len(all_classes)} classes, not "
+            "directly comparable with sensors that see all classes, and left off "
+            "the Pareto front"
+        )
+    return y, n_excluded
+
+
+def _score_sensor(task: _SensorTask, row: dict, y: pd.Series, cols: list, notes: list):
+    """Cross-validate and hold out on the sensor's members; fill in ``row``.
+
+    Returns the held-out :class:`ClassificationResult`, or None when it failed (noted).
+    """
+    used = task.table.loc[y.index]
+    X = used[cols].to_numpy(dtype=float)
+    folds = _cv_folds(y, task.cv, notes, "members with this sensor")
+    pipe = make_classifier(
+        task.model,
+        top_k=task.top_k,
+        selection=task.selection,
+        random_state=task.random_state,
+    )
+    _fit_to_size(pipe, len(cols), _smallest_fit_size(y, folds), notes, task.top_k)
+    if folds:
+        scores = _cv_scores(
+            pipe, X, _label_values(y, notes), folds, task.random_state, progress=False
+        )
+        row["accuracy"] = float(scores.mean())
+        row["accuracy_std"] = float(scores.std())
+        row["cv_folds"] = folds
+    try:
+        res = classify(
+            used,
+            task.label,
+            features=cols,
+            model=task.model,
+            top_k=task.top_k,
+            selection=task.selection,
+            test_size=task.test_size,
+            cv=None,
+            random_state=task.random_state,
+        )
+    except DataError as exc:
+        notes.append(f"no held-out score: {exc}")
+        return None
+    row["heldout_accuracy"] = res.accuracy
+    row["features"] = "; ".join(res.features)
+    notes.extend(n for n in res.notes if n not in notes)
+    return res
 
 
 def _sort_any(values: set) -> list:

@@ -21,7 +21,7 @@ import pandas as pd
 
 from pdmkit._checks import parse_timestamps
 from pdmkit.errors import DataError, DataWarning, did_you_mean
-from pdmkit.experiments._cli_common import parse_options
+from pdmkit.experiments._cli_common import input_paths, parse_options
 from pdmkit.experiments._messages import say
 
 __all__ = [
@@ -123,9 +123,7 @@ class TableSource:
 
     def input_paths(self) -> list:
         """The files and folders this source reads (never overwritten by an output)."""
-        paths = list(self.members or [])
-        paths += [p for p in (self.ensemble, self.features) if p is not None]
-        return paths
+        return input_paths(self)
 
 
 def extraction_input(

@@ -19,6 +19,7 @@ from pdmkit._outputs import OutputRun
 from pdmkit.errors import DataError, DataWarning, did_you_mean
 from pdmkit.experiments._messages import finish, say
 from pdmkit.experiments._report import Report
+from pdmkit.experiments._sensor_costs import load_sensor_costs
 from pdmkit.experiments._sources import (
     TableSource,
     extraction_input,
@@ -465,7 +466,7 @@ def run_sensors(
     >>> [row["sensor"] for row in summary["sensors"]]
     ['acc', 'mic']
     """
-    from pdmkit.experiments._sensors import compare_sensors, load_sensor_costs
+    from pdmkit.experiments._sensors import compare_sensors
 
     inputs = [*source.input_paths(), *([costs] if costs is not None else [])]
     with OutputRun(out_dir, "sensors", inputs=inputs, json_path=json_path) as run:

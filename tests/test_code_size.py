@@ -33,44 +33,24 @@ LONG_MODULES: dict[str, str] = {
     "models/pneumatic/_twin.py": (
         "the piston's parameters and physics in one place; parameters to their own module"
     ),
-    "_outputs.py": (
-        "everything written into --out; the output-folder checks to their own module"
-    ),
 }
 
 #: "module:function" -> why it is still longer than MAX_FUNCTION_LINES
 LONG_FUNCTIONS: dict[str, str] = {
-    "experiments/_demo.py:_demo": (
-        "the demo's stages in sequence; one function per report section"
-    ),
     "models/pneumatic/_estimate.py:estimate_parameters": (
         "argument checks, starts, search and intervals; to split into steps as "
         "discover_mismatch was"
     ),
-    "experiments/_rul.py:_rul": (
-        "the RUL workflow's stages; to split into data, model, checks and report steps"
-    ),
     "models/mismatch/_cases.py:generate_concealed_case": (
         "generator of concealed cases; excitation, truth and noise steps to split"
     ),
-    "experiments/_rul_leak.py:_run_leak": (
-        "the leak RUL workflow's stages; to split like _rul"
-    ),
-    "experiments/_sensors.py:compare_sensors": "per-sensor loop with its report; to split",
-    "experiments/_classify.py:classify": "selection, model, split and scores; to split",
     "ensembles/_pneumatic.py:simulate_leak_runs": (
         "leak schedule, units and simulation; to split"
-    ),
-    "experiments/_rul_battery.py:run_battery": (
-        "leave-one-cell-out loop and report; to split"
     ),
     "models/pneumatic/_estimate.py:_levenberg_marquardt": (
         "the twin's batched LM; to merge with mismatch's into models/_optim.py"
     ),
     "models/mismatch/_sparse.py:fit_sparse": "sparse path, refits and selection; to split",
-    "experiments/_seed_recipes.py:seed_air_leak_rul": (
-        "the seed's RUL recipe end to end; to split"
-    ),
 }
 
 

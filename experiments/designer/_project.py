@@ -10,11 +10,10 @@ functions.
 from __future__ import annotations
 
 import json
-import math
-import re
 from typing import Any
 
 from pdmkit.errors import DataError
+from pdmkit.experiments._cli_common import parse_options as read_key_values
 
 __all__ = [
     "FORMAT",
@@ -31,7 +30,6 @@ FORMAT = "pdmkit-designer-project"
 VERSION = 1
 MAX_PROJECT_BYTES = 1 << 20
 _MAX_DEPTH = 6
-_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")
 MODELS = ("knn", "bagged_trees", "random_forest", "svm", "lda")
 SELECTIONS = ("kruskal", "anova", "pca", "hand")
 RANK_METHODS = ("kruskal", "anova", "monotonicity", "trendability", "prognosability")
@@ -75,31 +73,13 @@ def _filter(value: Any) -> dict[str, list[str]]:
     }
 
 
-def _option_value(text: str) -> Any:
-    try:
-        value = json.loads(text)
-    except ValueError:
-        return text
-    ok = (int, float, str, bool, type(None))
-    if isinstance(value, list):
-        if len(value) > 64 or not all(
-            isinstance(v, ok) or (isinstance(v, list) and all(isinstance(u, ok) for u in v))
-            for v in value
-        ):
-            raise DataError(f"option value {text!r:.60}: a list of numbers or pairs only")
-        return value
-    if not isinstance(value, ok):
-        raise DataError(f"option value {text!r:.60}: numbers, text, true/false or null")
-    if isinstance(value, float) and not math.isfinite(value):
-        raise DataError(f"option value {text!r:.60} is not finite")
-    return value
-
-
 def parse_options(text: str) -> dict[str, Any]:
     r"""Group options from ``KEY=VALUE`` words, as ``pdmkit --option`` reads them.
 
     Values read as JSON where they parse (numbers, lists, true/false, null), else text.
     ``bearing`` is a bearing spec (a catalogue name such as 6205, or its geometry).
+    The words come from a file pdmkit did not write, so they are read with the checks
+    for untrusted input of :func:`pdmkit.experiments._cli_common.parse_options`.
 
     Examples
     --------
@@ -108,16 +88,11 @@ def parse_options(text: str) -> dict[str, Any]:
     >>> parse_options("nperseg")
     Traceback (most recent call last):
     ...
-    pdmkit.errors.DataError: options take KEY=VALUE words, e.g. nperseg=512; got 'nperseg'
+    pdmkit.errors.DataError: each option takes KEY=VALUE, e.g. nperseg=512; got 'nperseg'
     """
     _text(text, "options", 4000)
-    options: dict[str, Any] = {}
-    for word in text.replace(",\n", "\n").split():
-        key, sep, value = word.partition("=")
-        if not sep or not _NAME.match(key):
-            raise DataError(f"options take KEY=VALUE words, e.g. nperseg=512; got {word!r}")
-        options[key] = _option_value(value)
-    return options
+    words = text.replace(",\n", "\n").split()
+    return read_key_values(words, "each option", "nperseg=512", untrusted=True)
 
 
 def check_indicators(raw: Any) -> dict:

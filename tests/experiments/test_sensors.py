@@ -18,11 +18,8 @@ from sklearn.preprocessing import StandardScaler
 
 import pdmkit.features
 from pdmkit.errors import DataError, DataNotFoundError
-from pdmkit.experiments._sensors import (
-    SensorComparison,
-    compare_sensors,
-    load_sensor_costs,
-)
+from pdmkit.experiments._sensor_costs import load_sensor_costs
+from pdmkit.experiments._sensors import SensorComparison, compare_sensors
 
 matplotlib.use("Agg")
 
