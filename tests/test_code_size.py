@@ -19,16 +19,9 @@ _SKIP = {"tests", "benchmarks", "examples", "build", "docs"}
 
 #: module -> why it is still longer than MAX_MODULE_LINES
 LONG_MODULES: dict[str, str] = {
-    "models/pneumatic/_estimate.py": (
-        "the twin's batched estimation: problem, stepper, LM, intervals; the LM to "
-        "share models/_optim.py with mismatch's (issue 16)"
-    ),
     "ensembles/_pneumatic.py": (
         "the twin's five data-set generators; to split (fault ensembles, the seed's "
         "sets, leak runs)"
-    ),
-    "models/mismatch/_fit.py": (
-        "recordings, the batched fitting problem, LM and scales; the LM to models/_optim.py"
     ),
     "models/pneumatic/_twin.py": (
         "the piston's parameters and physics in one place; parameters to their own module"
@@ -37,20 +30,9 @@ LONG_MODULES: dict[str, str] = {
 
 #: "module:function" -> why it is still longer than MAX_FUNCTION_LINES
 LONG_FUNCTIONS: dict[str, str] = {
-    "models/pneumatic/_estimate.py:estimate_parameters": (
-        "argument checks, starts, search and intervals; to split into steps as "
-        "discover_mismatch was"
-    ),
-    "models/mismatch/_cases.py:generate_concealed_case": (
-        "generator of concealed cases; excitation, truth and noise steps to split"
-    ),
     "ensembles/_pneumatic.py:simulate_leak_runs": (
         "leak schedule, units and simulation; to split"
     ),
-    "models/pneumatic/_estimate.py:_levenberg_marquardt": (
-        "the twin's batched LM; to merge with mismatch's into models/_optim.py"
-    ),
-    "models/mismatch/_sparse.py:fit_sparse": "sparse path, refits and selection; to split",
 }
 
 

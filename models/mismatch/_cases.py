@@ -29,7 +29,8 @@ from pdmkit.models.mismatch._candidates import (
     attach_candidates,
 )
 from pdmkit.models.mismatch._discover import discover_mismatch
-from pdmkit.models.mismatch._fit import Recording, _nominal_scales
+from pdmkit.models.mismatch._recording import Recording
+from pdmkit.models.mismatch._sampling import _nominal_scales
 from pdmkit.models.mismatch._sparse import SparseTerms, Term
 from pdmkit.models.ode import (
     integrate_batch,
@@ -301,7 +302,7 @@ def _with_params_source(source: str, params: dict[str, float]) -> str:
     return re.sub(r"^PARAMS = \{.*\}$", f"PARAMS = {{{text}}}", source, count=1, flags=re.M)
 
 
-def generate_concealed_case(  # noqa: C901, PLR0915
+def generate_concealed_case(
     effect: str,
     strength: float,
     seed: int,
@@ -357,32 +358,7 @@ def generate_concealed_case(  # noqa: C901, PLR0915
         )
     rng = np.random.default_rng(seed)
     noise = float(rng.uniform(0.01, 0.02)) if noise is None else float(noise)
-    if effect == "none":
-        system = ["mass_spring_damper", "two_tanks"][int(rng.integers(2))]
-        place = None
-    else:
-        if effect not in _PLACES:
-            raise ModelError(
-                f"generate_concealed_case: unknown effect {effect!r}; choose from "
-                f"{', '.join(CANDIDATE_IDS)} or 'none'."
-            )
-        places = _PLACES[effect]
-        if system is not None:
-            places = [p for p in places if p[0] == system]
-            if not places:
-                raise ModelError(
-                    f"generate_concealed_case: {effect} is not concealed in {system!r}; "
-                    f"systems: {sorted({p[0] for p in _PLACES[effect]})}."
-                )
-        if target is not None:
-            places = [p for p in places if p[2] == target]
-            if not places:
-                raise ModelError(
-                    f"generate_concealed_case: {effect} cannot be concealed at {target!r}; "
-                    f"places: {sorted({p[2] for p in _PLACES[effect]})}."
-                )
-        place = places[int(rng.integers(len(places)))]
-        system = place[0]
+    system, place = _choose_place(effect, system, target, rng)
     true_model = showcase_model(system)
     ts, n = _TIMING[system]
     if n_samples is not None:
@@ -394,97 +370,21 @@ def generate_concealed_case(  # noqa: C901, PLR0915
         n = int(n_samples)
     time = np.arange(n) * ts
     u = _excitation(system, n, ts, rng)
-    values = {f"p:{k}": v for k, v in true_model.params.items()}
-    values.update({f"x0:{s}": v for s, v in true_model.initial.items()})
-    n_sub = 4
-    X0 = np.array([[true_model.initial[s] for s in true_model.states]])
-    y0, x0t = integrate_batch(
-        true_model, [], [], [], time, u, dict(true_model.params), X0, n_sub, _NP, True
-    )
-    rec = Recording(time, ts, u, {o: y0[0, :, j] for j, o in enumerate(true_model.outputs)})
-    sc = _nominal_scales(true_model, rec, values, n_sub)
-    std = np.std(y0[0], axis=0)
+    truth = _Truth.simulate(true_model, time, ts, u)
     sign = float(rng.choice([-1.0, 1.0]))
-    eff = None
-    params: dict[str, float] = {}
+    params: dict = {}
     if place is None:
-        y_clean = y0[0]
+        y_clean = truth.y0
         achieved = float(strength)
     else:
-        _, attach, tgt, partner = place
-        fine = n_sub * 4
-        if effect == "sparse":
-            eff = probe = _sparse_truth(true_model, system, tgt, x0t[0], u, sc)
-        else:
-            cand = CANDIDATES[effect, attach]
-            probe = Effect(cand, tgt, partner, {})
-            opts = next(
-                e.options
-                for e in attach_candidates(true_model, sc, [effect])
-                if e.candidate is cand and e.target == tgt and e.partner == partner
-            )
-            sharp = {k: (v / 10 if k in ("eps", "w", "wf") else v) for k, v in opts.items()}
-            eff = Effect(cand, tgt, partner, sharp)
-        grid = np.geomspace(1e-3, 1.0, 24)
-        theta = [
-            {
-                p: np.array([_true_params(probe, g, sc, true_model, sign)[p] for g in grid])
-                for p in eff.param_names
-            }
-        ]
-        B = grid.size
-        with np.errstate(all="ignore"):
-            # calibrate on a coarser step; the final truth below uses the fine one
-            Y, _ = integrate_batch(
-                true_model,
-                [eff],
-                theta,
-                [None],
-                time,
-                u,
-                dict(true_model.params),
-                np.repeat(X0, B, 0),
-                fine // 2,
-                _NP,
-            )
-        rel = np.sqrt(np.mean((Y - y0) ** 2, axis=1)) / std[None, :]
-        rel = np.where(np.isfinite(rel), rel, np.inf).max(axis=1)
-        ok = np.flatnonzero(rel >= strength)
-        if ok.size == 0:
-            i = int(np.argmax(np.where(np.isfinite(rel), rel, -1)))
-            m = float(grid[i])
-        elif ok[0] == 0:
-            m = float(grid[0])
-        else:
-            i = int(ok[0])
-            a, b = rel[i - 1], rel[i]
-            f = (strength - a) / (b - a) if b > a else 1.0
-            m = float(
-                np.exp(np.log(grid[i - 1]) + f * (np.log(grid[i]) - np.log(grid[i - 1])))
-            )
-        params = _true_params(probe, m, sc, true_model, sign)
-        th = [{p: np.array([params[p]]) for p in eff.param_names}]
-        if effect == "sparse":
-            ((label, coef),) = eff.candidate.raw(params).items()
-            params = {"term": label, "coefficient": coef}
-        Y, _ = integrate_batch(
-            true_model, [eff], th, [None], time, u, dict(true_model.params), X0, fine, _NP
-        )
-        y_clean = Y[0]
-        achieved = float(np.max(np.sqrt(np.mean((y_clean - y0[0]) ** 2, axis=0)) / std))
+        params, y_clean = _conceal(effect, place, strength, sign, truth)
+        rms = np.sqrt(np.mean((y_clean - truth.y0) ** 2, axis=0))
+        achieved = float(np.max(rms / truth.std))
     noisy = (
         y_clean
         + rng.normal(size=y_clean.shape) * (noise * np.std(y_clean, axis=0))[None, :]
     )
-    free = true_model.free[0]
-    if place is None:
-        factor = 1.0 + float(rng.choice([-1.0, 1.0])) * float(strength)
-    else:
-        factor = 1.0 + float(rng.uniform(-0.1, 0.1))
-    file_params = dict(true_model.params)
-    file_params[free] = true_model.params[free] * factor
-    source = _with_params_source(showcase_source(system), file_params)
-    model = load_model_source(source, name=system)
+    model, source = _misset_model(true_model, system, place, strength, rng)
     import pandas as pd
 
     frame = pd.DataFrame({"time": time, **u})
@@ -503,6 +403,149 @@ def generate_concealed_case(  # noqa: C901, PLR0915
         source=source,
         data=frame,
     )
+
+
+def _choose_place(effect: str, system: str | None, target: str | None, rng):
+    """``(system, place)``: where the effect is concealed (place None for a control)."""
+    if effect == "none":
+        return ["mass_spring_damper", "two_tanks"][int(rng.integers(2))], None
+    if effect not in _PLACES:
+        raise ModelError(
+            f"generate_concealed_case: unknown effect {effect!r}; choose from "
+            f"{', '.join(CANDIDATE_IDS)} or 'none'."
+        )
+    places = _PLACES[effect]
+    if system is not None:
+        places = [p for p in places if p[0] == system]
+        if not places:
+            raise ModelError(
+                f"generate_concealed_case: {effect} is not concealed in {system!r}; "
+                f"systems: {sorted({p[0] for p in _PLACES[effect]})}."
+            )
+    if target is not None:
+        places = [p for p in places if p[2] == target]
+        if not places:
+            raise ModelError(
+                f"generate_concealed_case: {effect} cannot be concealed at {target!r}; "
+                f"places: {sorted({p[2] for p in _PLACES[effect]})}."
+            )
+    place = places[int(rng.integers(len(places)))]
+    return place[0], place
+
+
+@dataclasses.dataclass
+class _Truth:
+    """The effect-free truth: model, record, simulated outputs and states, scales."""
+
+    model: Any
+    time: np.ndarray
+    u: dict
+    X0: np.ndarray  # (1, nx) initial state
+    y0: np.ndarray  # (N, n_out) outputs
+    x0t: np.ndarray  # (N, nx) states
+    sc: Scales
+    std: np.ndarray  # (n_out,) output std
+    n_sub: int = 4
+
+    @classmethod
+    def simulate(cls, true_model, time: np.ndarray, ts: float, u: dict) -> _Truth:
+        """The true model without the effect along the inputs ``u`` (4 RK4 steps)."""
+        values = {f"p:{k}": v for k, v in true_model.params.items()}
+        values.update({f"x0:{s}": v for s, v in true_model.initial.items()})
+        n_sub = 4
+        X0 = np.array([[true_model.initial[s] for s in true_model.states]])
+        y0, x0t = integrate_batch(
+            true_model, [], [], [], time, u, dict(true_model.params), X0, n_sub, _NP, True
+        )
+        outputs = {o: y0[0, :, j] for j, o in enumerate(true_model.outputs)}
+        rec = Recording(time, ts, u, outputs)
+        sc = _nominal_scales(true_model, rec, values, n_sub)
+        std = np.std(y0[0], axis=0)
+        return cls(true_model, time, u, X0, y0[0], x0t[0], sc, std, n_sub)
+
+    def outputs(self, eff: Effect, theta: list, X0, n_sub: int, quiet: bool = False):
+        """Outputs ``(B, N, n_out)`` of the true model with ``eff`` (parameters ``theta``).
+
+        ``quiet``: without floating-point warnings (a calibration that diverges).
+        """
+        model = self.model
+        args = ([eff], theta, [None], self.time, self.u, dict(model.params), X0, n_sub)
+        if not quiet:
+            return integrate_batch(model, *args, _NP)[0]
+        with np.errstate(all="ignore"):
+            return integrate_batch(model, *args, _NP)[0]
+
+
+def _conceal(effect: str, place, strength: float, sign: float, truth: _Truth):
+    """``(true parameters, clean outputs)`` of an effect changing them by ``strength``.
+
+    The effect is sharper than the fitted one (10x narrower smoothing) and simulated
+    with 4x finer steps; its magnitude is calibrated on a grid at 2x finer steps.
+    """
+    model, sc = truth.model, truth.sc
+    system, attach, tgt, partner = place
+    fine = truth.n_sub * 4
+    if effect == "sparse":
+        eff = probe = _sparse_truth(model, system, tgt, truth.x0t, truth.u, sc)
+    else:
+        cand = CANDIDATES[effect, attach]
+        probe = Effect(cand, tgt, partner, {})
+        opts = next(
+            e.options
+            for e in attach_candidates(model, sc, [effect])
+            if e.candidate is cand and e.target == tgt and e.partner == partner
+        )
+        sharp = {k: (v / 10 if k in ("eps", "w", "wf") else v) for k, v in opts.items()}
+        eff = Effect(cand, tgt, partner, sharp)
+    grid = np.geomspace(1e-3, 1.0, 24)
+    theta = [
+        {
+            p: np.array([_true_params(probe, g, sc, model, sign)[p] for g in grid])
+            for p in eff.param_names
+        }
+    ]
+    # calibrate on a coarser step; the final truth below uses the fine one
+    Y = truth.outputs(eff, theta, np.repeat(truth.X0, grid.size, 0), fine // 2, True)
+    rel = np.sqrt(np.mean((Y - truth.y0[None]) ** 2, axis=1)) / truth.std[None, :]
+    rel = np.where(np.isfinite(rel), rel, np.inf).max(axis=1)
+    m = _magnitude(rel, grid, strength)
+    params = _true_params(probe, m, sc, model, sign)
+    th = [{p: np.array([params[p]]) for p in eff.param_names}]
+    if effect == "sparse":
+        ((label, coef),) = eff.candidate.raw(params).items()
+        params = {"term": label, "coefficient": coef}
+    y_clean = truth.outputs(eff, th, truth.X0, fine)[0]
+    return params, y_clean
+
+
+def _magnitude(rel: np.ndarray, grid: np.ndarray, strength: float) -> float:
+    """The magnitude on ``grid`` (log-interpolated) whose change ``rel`` is ``strength``."""
+    ok = np.flatnonzero(rel >= strength)
+    if ok.size == 0:
+        i = int(np.argmax(np.where(np.isfinite(rel), rel, -1)))
+        return float(grid[i])
+    if ok[0] == 0:
+        return float(grid[0])
+    i = int(ok[0])
+    a, b = rel[i - 1], rel[i]
+    f = (strength - a) / (b - a) if b > a else 1.0
+    return float(np.exp(np.log(grid[i - 1]) + f * (np.log(grid[i]) - np.log(grid[i - 1]))))
+
+
+def _misset_model(true_model, system: str, place, strength: float, rng):
+    """``(model, source)`` given to discovery: the free parameter mis-set.
+
+    By ±10 %; in a control (no place) by ±``strength``.
+    """
+    free = true_model.free[0]
+    if place is None:
+        factor = 1.0 + float(rng.choice([-1.0, 1.0])) * float(strength)
+    else:
+        factor = 1.0 + float(rng.uniform(-0.1, 0.1))
+    file_params = dict(true_model.params)
+    file_params[free] = true_model.params[free] * factor
+    source = _with_params_source(showcase_source(system), file_params)
+    return load_model_source(source, name=system), source
 
 
 def example_result(seed: int = 1):

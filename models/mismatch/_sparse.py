@@ -25,12 +25,14 @@ import dataclasses
 import itertools
 import math
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from pdmkit.errors import ModelError
 from pdmkit.models.mismatch._candidates import Candidate, Effect, ParamSpec, Scales
-from pdmkit.models.mismatch._fit import _fd_jacobians, _fd_rows, _lm, _make_jobs
+from pdmkit.models.mismatch._fit_problem import _fd_jacobians, _fd_rows, _lm, _make_jobs
+from pdmkit.models.mismatch._stlsq import stlsq_path
 
 __all__ = ["SparseTerms", "Term", "library_terms", "sparse_equation", "stlsq_path"]
 
@@ -490,87 +492,7 @@ def _bic_lin(cost: float, m: int, k: int) -> float:
     return m * math.log(max(2.0 * cost / m, 1e-300)) + k * math.log(m)
 
 
-def stlsq_path(
-    r: np.ndarray,
-    J: np.ndarray,
-    term_cols: Sequence[int],
-    c0: np.ndarray,
-    n_lambda: int = 14,
-    ridge: float = 1e-8,
-) -> list[tuple[tuple[int, ...], np.ndarray, float]]:
-    """Sequentially thresholded least squares along a path of thresholds.
-
-    Solves ``min ||r + J d||`` where the columns ``term_cols`` are term coefficients
-    (current values ``c0``; a dropped term is set to 0) and the other columns are
-    unpenalised. For each threshold ``lam`` (relative to the largest coefficient of the
-    full solution) terms with ``|c| < lam`` are dropped and the rest refitted until the
-    set stops changing (Brunton et al. 2016).
-
-    Returns
-    -------
-    list of (active term positions, full step ``d``, linearised cost)
-        One entry per distinct active set, empty set included.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from pdmkit.models.mismatch._sparse import stlsq_path
-    >>> rng = np.random.default_rng(0)
-    >>> J = rng.normal(size=(200, 5))
-    >>> r = -(J @ np.array([1.0, 0.0, 0.0, 2.0, 0.0])) + 0.01 * rng.normal(size=200)
-    >>> path = stlsq_path(r, J, [1, 2, 3, 4], np.zeros(4))
-    >>> best = min(path, key=lambda p: p[2] + 5 * len(p[0]))
-    >>> best[0], np.abs(best[1]).round(2).tolist()
-    ((2,), [1.0, 0.0, 0.0, 2.0, 0.0])
-    """
-    term_cols = list(term_cols)
-    n = J.shape[1]
-    other = [i for i in range(n) if i not in term_cols]
-    norms = np.linalg.norm(J, axis=0)
-    norms = np.where(norms > 0, norms, 1.0)
-
-    def solve(active: Sequence[int]) -> tuple[np.ndarray, float]:
-        cols_t = [term_cols[a] for a in active]
-        inactive = [term_cols[a] for a in range(len(term_cols)) if a not in active]
-        d = np.zeros(n)
-        for a in range(len(term_cols)):
-            if a not in active:
-                d[term_cols[a]] = -c0[a]
-        rr = r + J[:, inactive] @ d[inactive] if inactive else r.copy()
-        cols = other + cols_t
-        if cols:
-            A = J[:, cols] / norms[cols]
-            AtA = A.T @ A
-            AtA[np.diag_indices_from(AtA)] += ridge * (np.trace(AtA) / len(cols) + 1e-300)
-            z = np.linalg.solve(AtA, -(A.T @ rr))
-            d[cols] = z / norms[cols]
-            res = rr + A @ z
-        else:
-            res = rr
-        return d, 0.5 * float(np.dot(res, res))
-
-    d_full, cost_full = solve(range(len(term_cols)))
-    c_full = c0 + d_full[term_cols]
-    top = float(np.max(np.abs(c_full))) if len(term_cols) else 0.0
-    out: dict[tuple[int, ...], tuple[np.ndarray, float]] = {
-        tuple(range(len(term_cols))): (d_full, cost_full)
-    }
-    for lam in top * np.geomspace(1e-3, 0.9, n_lambda):
-        active = tuple(range(len(term_cols)))
-        d = d_full
-        for _ in range(12):
-            c = c0 + d[term_cols]
-            new = tuple(a for a in active if abs(c[a]) >= lam)
-            if new == active:
-                break
-            active = new
-            d, cost = solve(active)
-            out.setdefault(active, (d, cost))
-    out.setdefault((), solve(()))
-    return [(k, v[0], v[1]) for k, v in out.items()]
-
-
-def fit_sparse(  # noqa: C901
+def fit_sparse(
     problem,
     model,
     values: Mapping[str, float],
@@ -630,20 +552,34 @@ def fit_sparse(  # noqa: C901
     >>> "x**2*v" in res.verdict["params"]["equation"]
     True
     """
-    rec = problem.rec
     base = {k: v for k, v in values.items() if not k.startswith("sparse@")}
     P = {k: base.get(f"p:{k}", v) for k, v in model.params.items()}
     if x0 is None:
         x0 = np.array([[base[f"x0:{s}"] for s in model.states]])
     if x0.shape[0] != problem.n_pieces:
         x0 = problem.initial_pieces(x0[0])
-    Xt = problem.states(base, x0)  # along the fitted samples
-    X = {s: Xt[:, j] for j, s in enumerate(model.states)}
-    U = {k: v[problem.sample_index()] for k, v in rec.inputs.items()}
     if targets is None:
         targets = [s for s, k in model.states.items() if k in _TARGET_KINDS]
     m = problem.n_res
-    # the first linearisation of every target ranks them; only the best are refitted
+    ctx = _rank_targets(problem, model, targets, base, P, x0, sc, x_scale, max_terms)
+    out = []
+    for _, target, eff_all, lin, ranked in ctx[:max_targets]:
+        fit = _SparseFit(problem, model, eff_all, target, sc, x_scale, m)
+        best_job = fit.select(lin, ranked, max_rounds, refit_sets, max_iter, max_terms)
+        if best_job is not None:
+            out.append(_prune(problem, model, best_job, sc, x_scale, m, max_iter))
+    return out
+
+
+def _rank_targets(problem, model, targets, base, P, x0, sc, x_scale, max_terms):
+    """The first linearisation of every target, best linearised BIC first.
+
+    Returns ``(BIC, target, effect with every term, linearisation, ranked sets)`` per
+    target that has terms and a non-empty path (only the best are refitted).
+    """
+    Xt = problem.states(base, x0)  # along the fitted samples
+    X = {s: Xt[:, j] for j, s in enumerate(model.states)}
+    U = {k: v[problem.sample_index()] for k, v in problem.rec.inputs.items()}
     ctx = []
     for target in targets:
         terms = library_terms(model, target, X, U, P)
@@ -653,69 +589,100 @@ def fit_sparse(  # noqa: C901
         lin = _linearise(
             problem, model, eff_all, base, np.zeros(len(terms)), sc, x_scale, x0
         )
-        ranked = _ranked_sets(lin, m, max_terms)
+        ranked = _ranked_sets(lin, problem.n_res, max_terms)
         if ranked:
             ctx.append((ranked[0][0], target, eff_all, lin, ranked))
     ctx.sort(key=lambda c: c[0])
-    out = []
-    for _, target, eff_all, lin, ranked in ctx[:max_targets]:
-        terms = eff_all.candidate.terms
-        key = eff_all.key
+    return ctx
+
+
+@dataclasses.dataclass
+class _SparseFit:
+    """One target's selection: linearise, refit the best active sets, repeat."""
+
+    problem: Any
+    model: Any
+    eff_all: Effect  # every library term of the target
+    target: str
+    sc: Scales
+    x_scale: Mapping[str, float]
+    m: int  # residuals (for the BIC)
+
+    def bic(self, job) -> float:
+        """Linearised-cost BIC of a fitted job."""
+        return _bic_lin(job.cost, self.m, job.n_fitted)
+
+    def select(self, lin, ranked, max_rounds, refit_sets, max_iter, max_terms):
+        """The best refitted job over at most ``max_rounds`` re-linearisations (or None).
+
+        Each round refits the ``refit_sets`` best active sets by simulation; the
+        selection is linearised again at the best one until the set stops changing.
+        """
+        key, n_terms = self.eff_all.key, len(self.eff_all.candidate.terms)
         chosen: tuple[int, ...] | None = None
         best_job = None
         for _ in range(max_rounds):
-            job_all, recover = lin[0], lin[5]
-            jobs = []
-            for _, active, d in ranked[:refit_sets]:
-                lin_vals = job_all.values(job_all.theta + d)
-                lin_x0 = np.maximum(job_all.x0 + recover(d), job_all.x0_lo[None, :])
-                sub = Effect(
-                    SparseTerms(
-                        [terms[a] for a in active],
-                        [eff_all.candidate.norms[a] for a in active],
-                        eff_all.candidate.eps,
-                    ),
-                    target,
-                )
-                start = {
-                    f"{key}.c{i}": lin_vals[f"{key}.c{a}"] for i, a in enumerate(active)
-                }
-                start_vals = {k: v for k, v in lin_vals.items() if not k.startswith(key)}
-                jobs += _make_jobs(
-                    model,
-                    (sub,),
-                    sc,
-                    [start],
-                    start_vals,
-                    x_scale,
-                    tag=f"sparse@{target}",
-                    x0=lin_x0,
-                )
-                jobs[-1].active = active
-            _lm(problem, jobs, max_iter, ftol=SPARSE_FTOL)
+            jobs = self.refit(lin, ranked[:refit_sets])
+            _lm(self.problem, jobs, max_iter, ftol=SPARSE_FTOL)
             good = [j for j in jobs if math.isfinite(j.cost)]
             if not good:
                 break
-            best = min(good, key=lambda j: _bic_lin(j.cost, m, j.n_fitted))
-            if best_job is None or _bic_lin(best.cost, m, best.n_fitted) < _bic_lin(
-                best_job.cost, m, best_job.n_fitted
-            ):
+            best = min(good, key=self.bic)
+            if best_job is None or self.bic(best) < self.bic(best_job):
                 best_job = best
             if best.active == chosen:
                 break
             chosen = best.active
             bv = best.values()
             point = {k: v for k, v in bv.items() if not k.startswith(key)}
-            coefs = np.zeros(len(terms))
+            coefs = np.zeros(n_terms)
             for i, a in enumerate(best.active):
                 coefs[a] = bv[f"{key}.c{i}"]
-            lin = _linearise(problem, model, eff_all, point, coefs, sc, x_scale, best.x0)
-            ranked = _ranked_sets(lin, m, max_terms)
+            lin = _linearise(
+                self.problem,
+                self.model,
+                self.eff_all,
+                point,
+                coefs,
+                self.sc,
+                self.x_scale,
+                best.x0,
+            )
+            ranked = _ranked_sets(lin, self.m, max_terms)
             if not ranked:
                 break
-        if best_job is not None:
-            out.append(_prune(problem, model, best_job, sc, x_scale, m, max_iter))
-    return out
+        return best_job
+
+    def refit(self, lin, ranked) -> list:
+        """Jobs for the active sets ``ranked``, from the linearised step of each."""
+        job_all, recover = lin[0], lin[5]
+        cand, key = self.eff_all.candidate, self.eff_all.key
+        jobs = []
+        for _, active, d in ranked:
+            lin_vals = job_all.values(job_all.theta + d)
+            lin_x0 = np.maximum(job_all.x0 + recover(d), job_all.x0_lo[None, :])
+            sub = Effect(
+                SparseTerms(
+                    [cand.terms[a] for a in active],
+                    [cand.norms[a] for a in active],
+                    cand.eps,
+                ),
+                self.target,
+            )
+            start = {f"{key}.c{i}": lin_vals[f"{key}.c{a}"] for i, a in enumerate(active)}
+            start_vals = {k: v for k, v in lin_vals.items() if not k.startswith(key)}
+            jobs += _make_jobs(
+                self.model,
+                (sub,),
+                self.sc,
+                [start],
+                start_vals,
+                self.x_scale,
+                tag=f"sparse@{self.target}",
+                x0=lin_x0,
+            )
+            jobs[-1].active = active
+        return jobs
 
 
 def _linearise(problem, model, eff_all, point, coefs, sc, x_scale, x0):

@@ -12,12 +12,12 @@ from scipy import stats
 from pdmkit.errors import ConvergenceWarning, DataError, ModelError
 from pdmkit.models import PneumaticParams, SensorSpec, initial_state, simulate_piston
 from pdmkit.models._xp import get_namespace
-from pdmkit.models.pneumatic._estimate import (
+from pdmkit.models.pneumatic import estimate_parameters
+from pdmkit.models.pneumatic._estimate_inputs import _setup_problem
+from pdmkit.models.pneumatic._estimate_problem import (
     _command_table,
     _readings,
     _run_windows,
-    _setup_problem,
-    estimate_parameters,
 )
 
 SIX = ("c_a_in", "c_a_out", "c_b_in", "c_b_out", "damper_upper", "damper_bottom")

@@ -1,0 +1,178 @@
+"""A measured recording as mismatch discovery fits it: uniform time, inputs, outputs.
+
+:func:`make_recording` checks a table against a model and returns a :class:`Recording`;
+:func:`part` cuts one; :func:`data_states` guesses states from the measured outputs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from pdmkit._checks import uniform_step
+from pdmkit.errors import DataError
+
+__all__ = ["Recording", "data_states", "make_recording", "part"]
+
+
+# ---------------------------------------------------------------------------- data
+@dataclasses.dataclass
+class Recording:
+    """A measured recording: uniform time, the model's inputs and outputs.
+
+    Attributes
+    ----------
+    time : ndarray, shape (N,)
+    ts : float
+        Sample interval (s).
+    inputs : dict of str to ndarray (N,)
+    outputs : dict of str to ndarray (N,)
+    name : str
+        Where it came from (used in messages).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pandas as pd
+    >>> from pdmkit.models.mismatch._fit import make_recording
+    >>> from pdmkit.models.ode import showcase_model
+    >>> msd = showcase_model("mass_spring_damper")
+    >>> t = np.arange(20) * 0.1
+    >>> rec = make_recording(msd, pd.DataFrame({"time": t, "F": 1 + 0 * t, "x": 0 * t}))
+    >>> rec.ts, list(rec.outputs)
+    (0.1, ['x'])
+    """
+
+    time: np.ndarray
+    ts: float
+    inputs: dict[str, np.ndarray]
+    outputs: dict[str, np.ndarray]
+    name: str = "data"
+    #: the inputs between samples: "zoh" (held) or "foh" (straight lines)
+    hold: str = "zoh"
+    #: the time from which a drift counts (None: the first sample; a part of a longer
+    #: record keeps the record's start)
+    t_origin: float | None = None
+
+    @property
+    def n(self) -> int:
+        return self.time.size
+
+    def y(self, model) -> np.ndarray:
+        """Outputs as an ``(N, n_outputs)`` array in the model's output order."""
+        return np.stack([self.outputs[o] for o in model.outputs], 1)
+
+
+def make_recording(model, data: Any, name: str = "data") -> Recording:
+    """Check a table against a model and return a :class:`Recording`.
+
+    Parameters
+    ----------
+    model : OdeModel
+    data : pandas.DataFrame or mapping of column name to 1-D array
+        A ``time`` column (s, uniform, increasing), one column per model input and
+        one per model output, all finite.
+    name : str
+        The data's name or file, used in error messages.
+
+    Returns
+    -------
+    Recording
+
+    Raises
+    ------
+    pdmkit.errors.DataError
+        A column is missing or not numeric, a value is NaN or infinite (the message
+        names the column and the row), or the time is not uniform and increasing.
+
+    Examples
+    --------
+    >>> from pdmkit.models.mismatch._fit import make_recording
+    >>> from pdmkit.models.ode import showcase_model
+    >>> import numpy as np
+    >>> t = np.arange(12) * 0.1
+    >>> t[5:] += 0.1
+    >>> make_recording(showcase_model("mass_spring_damper"),
+    ...                {"time": t, "F": 0 * t, "x": 0 * t}, name="run.csv")
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.DataError: run.csv: time must be uniform; row 5 (time 0.6) is 0.2 s ...
+    """
+    columns = list(data.keys()) if not hasattr(data, "columns") else list(data.columns)
+    need = ["time", *model.input_names, *model.outputs]
+    missing = [c for c in need if c not in columns]
+    if missing:
+        raise DataError(
+            f"{name}: missing column(s) {missing}; the model needs a 'time' column, its "
+            f"inputs {model.input_names} and its outputs {model.outputs}. Found columns: "
+            f"{columns}."
+        )
+    arrays = {}
+    for c in need:
+        raw = np.asarray(data[c])
+        try:
+            v = raw.astype(np.float64)
+        except (TypeError, ValueError):
+            raise DataError(
+                f"{name}: column {c!r} must be numeric; found values such as "
+                f"{raw[:3].tolist()}."
+            ) from None
+        if v.ndim != 1:
+            raise DataError(f"{name}: column {c!r} must be 1-D; got shape {v.shape}.")
+        bad = np.flatnonzero(~np.isfinite(v))
+        if bad.size:
+            raise DataError(
+                f"{name}: column {c!r} has {bad.size} missing or non-finite value(s), "
+                f"first at row {int(bad[0])} ({v[bad[0]]}); fill or drop those rows."
+            )
+        arrays[c] = v
+    t = arrays["time"]
+    if t.size < 10:
+        raise DataError(f"{name}: needs at least 10 samples; got {t.size}.")
+    ts = uniform_step(t, name)
+    t = t[0] + ts * np.arange(t.size)
+    return Recording(
+        time=t,
+        ts=ts,
+        inputs={c: arrays[c] for c in model.input_names},
+        outputs={c: arrays[c] for c in model.outputs},
+        name=name,
+    )
+
+
+def data_states(model, rec: Recording, samples: np.ndarray, fallback) -> np.ndarray:
+    """States at ``samples`` guessed from the data, ``(len(samples), nx)``.
+
+    A measured output is its own state; a velocity is the slope of its measured
+    position (over four samples); any other state takes ``fallback`` (``(nx,)``).
+    """
+    k = np.asarray(samples, dtype=int)
+    X = np.tile(np.asarray(fallback, dtype=float), (k.size, 1))
+    position = [
+        q
+        for q, kq in model.states.items()
+        if kq in ("position", "angle") and q in rec.outputs
+    ]
+    for j, (s, kind) in enumerate(model.states.items()):
+        if s in rec.outputs:
+            X[:, j] = rec.outputs[s][k]
+        elif kind in ("velocity", "angular_velocity") and len(position) == 1:
+            y = rec.outputs[position[0]]
+            lo, hi = np.maximum(k - 2, 0), np.minimum(k + 2, rec.n - 1)
+            X[:, j] = (y[hi] - y[lo]) / ((hi - lo) * rec.ts)
+    lo = np.array([0.0 if kd == "level" else -np.inf for kd in model.states.values()])
+    return np.maximum(X, lo[None, :])
+
+
+def part(rec: Recording, start: int = 0, stop: int | None = None) -> Recording:
+    """Samples ``start:stop`` of a recording (a drift still counts from its start)."""
+    cut = slice(start, stop)
+    return dataclasses.replace(
+        rec,
+        t_origin=float(rec.time[0]) if rec.t_origin is None else rec.t_origin,
+        time=rec.time[cut],
+        inputs={k: v[cut] for k, v in rec.inputs.items()},
+        outputs={k: v[cut] for k, v in rec.outputs.items()},
+    )

@@ -1,0 +1,329 @@
+"""How a record is prepared for fitting: the step, a decimation, pieces; its scales.
+
+:func:`_choose_n_sub` picks the RK4 steps per sample from the model's fastest mode,
+:func:`choose_decimation` / :func:`decimate` thin an oversampled record,
+:func:`choose_pieces` cuts a long one for multiple shooting, and :func:`_nominal_scales`
+measures the trajectory that candidate guesses and widths are scaled by.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from pdmkit.errors import ModelError
+from pdmkit.models._xp import NumpyNamespace
+from pdmkit.models.mismatch._candidates import Scales
+from pdmkit.models.mismatch._recording import Recording, part
+from pdmkit.models.ode import integrate_batch, stable_substeps, state_jacobians
+
+_NP = NumpyNamespace()
+
+__all__ = ["choose_decimation", "choose_pieces", "decimate", "simulate_states"]
+
+
+# ---------------------------------------------------------------------------- scales
+def simulate_states(model, rec: Recording, values: Mapping[str, float], n_sub: int):
+    """States ``(N, n_states)`` of ``model`` with ``values`` along ``rec``'s inputs.
+
+    ``values`` holds ``p:`` parameters and ``x0:`` initial states; missing parameters are
+    nominal.
+    """
+    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    X0 = np.array([[values[f"x0:{s}"] for s in model.states]])
+    with np.errstate(all="ignore"):
+        _, Xt = integrate_batch(
+            model, [], [], [], rec.time, rec.inputs, P, X0, n_sub, _NP, True, hold=rec.hold
+        )
+    return Xt[0]
+
+
+def _nominal_scales(
+    model,
+    rec: Recording,
+    values: Mapping[str, float],
+    n_sub: int,
+    along: tuple[np.ndarray, np.ndarray] | None = None,
+) -> Scales:
+    """Magnitudes of the trajectory simulated with ``values`` (for candidate guesses).
+
+    ``along = (X, index)``: states already simulated at the recording's samples
+    ``index`` (the fitted pieces of a long record), instead of a whole simulation.
+    """
+    t = rec.time
+    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    if along is None:
+        X, index = simulate_states(model, rec, values, n_sub), np.arange(rec.n)
+    else:
+        X, index = along
+    inputs = {k: v[index] for k, v in rec.inputs.items()}
+    if not np.all(np.isfinite(X)):
+        raise ModelError(
+            f"{model.name}: the simulation with the fitted nominal parameters is not "
+            "finite (it diverges); check the model, its parameters or INITIAL."
+        )
+    states = model.state_names
+    xd = {s: X[:, j] for j, s in enumerate(states)}
+    with np.errstate(all="ignore"):
+        d = model.derivatives(xd, dict(inputs), P)
+    F = {s: np.broadcast_to(np.asarray(d[s], dtype=float), (index.size,)) for s in states}
+    stiffness = {}
+    kinds = model.states
+    pos_of = {"velocity": "position", "angular_velocity": "angle"}
+    for v, kv in kinds.items():
+        if kv not in pos_of:
+            continue
+        for p, kp in kinds.items():
+            if kp != pos_of[kv]:
+                continue
+            dx = 1e-6 * max(float(np.std(xd[p])), 1e-9)
+            x2 = dict(xd)
+            x2[p] = xd[p] + dx
+            with np.errstate(all="ignore"):
+                d2 = model.derivatives(x2, dict(inputs), P)
+            k = -(np.asarray(d2[v], dtype=float) - F[v]) / dx
+            k = k[np.isfinite(k)] if np.ndim(k) else np.array([k])
+            stiffness[(v, p)] = float(np.median(k)) if k.size else 0.0
+    input_gain = {}
+    for v, kv in kinds.items():
+        if kv not in pos_of:
+            continue
+        for u in model.inputs:
+            du = 1e-6 * max(float(np.std(inputs[u])), 1e-9)
+            u2 = dict(inputs)
+            u2[u] = inputs[u] + du
+            with np.errstate(all="ignore"):
+                d2 = model.derivatives(xd, u2, P)
+            g = (np.asarray(d2[v], dtype=float) - F[v]) / du
+            g = g[np.isfinite(g)] if np.ndim(g) else np.array([g])
+            input_gain[(v, u)] = float(np.median(g)) if g.size else 0.0
+    measured = {o: np.asarray(rec.outputs[o], dtype=float) for o in model.outputs}
+    return Scales(
+        y_min={o: float(np.nanmin(y)) for o, y in measured.items()},
+        y_max={o: float(np.nanmax(y)) for o, y in measured.items()},
+        input_gain=input_gain,
+        ts=rec.ts,
+        h=rec.ts / n_sub,
+        duration=float(t[-1] - t[0] + rec.ts),
+        x_min={s: float(np.min(xd[s])) for s in states},
+        x_max={s: float(np.max(xd[s])) for s in states},
+        x_std={s: float(np.std(xd[s])) for s in states},
+        x_quantiles={s: np.quantile(xd[s], Scales.QUANTILES) for s in states},
+        f_std={s: float(np.std(F[s])) for s in states},
+        f_absmax={s: float(np.max(np.abs(F[s]))) for s in states},
+        u_min={k: float(np.min(v)) for k, v in rec.inputs.items()},
+        u_max={k: float(np.max(v)) for k, v in rec.inputs.items()},
+        u_std={k: float(np.std(v)) for k, v in rec.inputs.items()},
+        stiffness=stiffness,
+    )
+
+
+#: samples of a record's start simulated to choose the step and the pieces
+_PREFIX = 4000
+
+
+def _choose_n_sub(
+    model,
+    rec: Recording,
+    values: Mapping[str, float],
+    along: tuple[np.ndarray, np.ndarray] | None = None,
+) -> int:
+    """RK4 steps per sample for a stable simulation, from the model's fastest mode.
+
+    The mode is taken along the record's first samples, or along given states
+    ``(X, index)``.
+    """
+    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    if along is None:
+        head = part(rec, 0, _PREFIX)
+        for n_sub in (1, 4, 16):
+            X = simulate_states(model, head, values, n_sub)
+            if np.all(np.isfinite(X)):
+                break
+        else:
+            return 16
+        index = np.arange(head.n)
+    else:
+        X, index = along
+    with np.errstate(all="ignore"):
+        need = stable_substeps(
+            model, P, X, rec.ts, {k: v[index] for k, v in rec.inputs.items()}
+        )
+    return int(min(max(need, 1), 32))
+
+
+#: the step after decimation still resolves the model's fastest mode this many times
+DECIMATE_SAMPLES_PER_TIME_CONSTANT = 20
+#: ... and keeps at least this share of the inputs' variance below half its Nyquist
+DECIMATE_KEEP_POWER = 0.99
+#: largest decimation factor, and fewest samples left
+DECIMATE_MAX, DECIMATE_MIN_SAMPLES = 10, 1000
+
+
+def choose_decimation(
+    model, rec: Recording, values: Mapping[str, float], n_sub: int
+) -> int:
+    """How many samples of an oversampled record to merge into one (1: none).
+
+    A record sampled far faster than the model's fastest mode and its inputs need is
+    decimated: the new step must resolve the fastest mode
+    :data:`DECIMATE_SAMPLES_PER_TIME_CONSTANT` times, the inputs must keep
+    :data:`DECIMATE_KEEP_POWER` of their variance below half the new Nyquist
+    frequency, at most :data:`DECIMATE_MAX`, and :data:`DECIMATE_MIN_SAMPLES` samples
+    must remain (see :func:`decimate`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models.ode import showcase_model
+    >>> from pdmkit.models.mismatch._fit import choose_decimation, make_recording
+    >>> msd = showcase_model("mass_spring_damper")  # resonance near 3 Hz
+    >>> t = np.arange(40000) * 1e-4  # sampled at 10 kHz
+    >>> F = 20 * np.sin(2 * np.pi * 0.5 * t)
+    >>> rec = make_recording(msd, {"time": t, "F": F, "x": 0 * t})
+    >>> values = {"p:" + k: v for k, v in msd.params.items()} | {"x0:x": 0.0, "x0:v": 0.0}
+    >>> choose_decimation(msd, rec, values, 1)
+    10
+    """
+    head = part(rec, 0, min(rec.n, _PREFIX))
+    X = simulate_states(model, head, values, n_sub)
+    if not np.all(np.isfinite(X)):
+        return 1
+    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    fast = [
+        float(np.max(np.abs(np.linalg.eigvals(J))))
+        for J in state_jacobians(model, P, X, head.inputs, 12)
+    ]
+    if not fast or max(fast) <= 0:
+        return 1
+    d = int(1.0 / (DECIMATE_SAMPLES_PER_TIME_CONSTANT * max(fast) * rec.ts))
+    d = min(d, DECIMATE_MAX, rec.n // DECIMATE_MIN_SAMPLES)
+    for u in rec.inputs.values():
+        if d < 2:
+            break
+        spec = np.abs(np.fft.rfft(u - np.mean(u))) ** 2
+        total = float(np.sum(spec[1:]))
+        if total <= 0:
+            continue
+        cum = np.cumsum(spec[1:]) / total
+        f = np.fft.rfftfreq(u.size, rec.ts)[1:]
+        f_need = float(f[min(np.searchsorted(cum, DECIMATE_KEEP_POWER), f.size - 1)])
+        # half the new Nyquist frequency must lie above f_need
+        d = min(d, int(1.0 / (4.0 * f_need * rec.ts)) if f_need > 0 else d)
+    return max(int(d), 1)
+
+
+def decimate(rec: Recording, factor: int) -> Recording:
+    """Every ``factor``-th sample.
+
+    A held input (``rec.hold == "zoh"``) becomes the mean over the ``factor`` samples it
+    stands for (held over that interval it delivers the same impulse); an interpolated one
+    (``"foh"``, a smooth sampled signal) and each output are the samples themselves.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models.mismatch._fit import Recording, decimate
+    >>> t = np.arange(6) * 0.1
+    >>> rec = Recording(t, 0.1, {"u": np.arange(6.0)}, {"y": 10 * np.arange(6.0)})
+    >>> r = decimate(rec, 3)
+    >>> r.time.tolist(), r.inputs["u"].tolist(), r.outputs["y"].tolist()
+    ([0.0, 0.30000000000000004], [1.0, 4.0], [0.0, 30.0])
+    """
+    n = (rec.n // factor) * factor
+    if rec.hold == "zoh":
+        blocks = {k: v[:n].reshape(-1, factor).mean(axis=1) for k, v in rec.inputs.items()}
+    else:
+        blocks = {k: v[:n:factor] for k, v in rec.inputs.items()}
+    return dataclasses.replace(
+        rec,
+        time=rec.time[:n:factor],
+        ts=rec.ts * factor,
+        inputs=blocks,
+        outputs={k: v[:n:factor] for k, v in rec.outputs.items()},
+    )
+
+
+#: records of up to this many fitted samples are simulated whole ...
+PIECES_FROM = 3000
+#: ... unless the model integrates (a pole at zero: a position driven by a force), whose
+#: free-run error drifts without bound: from this many samples such a record is fitted
+#: in pieces too, so that no drift runs longer than a piece (one long drift leaves the
+#: fit with many local minima: open-loop friction fits on EMPS stopped in them)
+PIECES_FROM_INTEGRATING = 1000
+#: at most this many samples in the fitted pieces of a long record
+PIECES_BUDGET = 16000
+#: a piece lasts this many of the model's slowest time constants ...
+PIECE_TIME_CONSTANTS = 5
+#: ... and at least this many samples
+PIECE_MIN = 400
+
+
+def choose_pieces(
+    model, rec: Recording, n_fit: int, values: Mapping[str, float], n_sub: int
+) -> tuple[np.ndarray, int] | None:
+    """Where a long record is cut into pieces for the fit (multiple shooting).
+
+    Returns ``(starts, length)`` or ``None`` (fit the record whole): records of up to
+    :data:`PIECES_FROM` samples (:data:`PIECES_FROM_INTEGRATING` for a model with an
+    integrating mode, a zero eigenvalue of its state Jacobian), and models whose
+    right-hand side reads the time, are fitted whole. A piece lasts
+    :data:`PIECE_TIME_CONSTANTS` of the model's slowest decaying mode (at least
+    :data:`PIECE_MIN` samples), so that its own initial state, fitted with it, has
+    faded long before its end; at most
+    :data:`PIECES_BUDGET` samples are fitted, in pieces spread evenly over the record.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models.ode import showcase_model
+    >>> from pdmkit.models.mismatch._fit import choose_pieces, make_recording
+    >>> msd = showcase_model("mass_spring_damper")
+    >>> t = np.arange(20000) * 0.01
+    >>> rec = make_recording(msd, {"time": t, "F": np.sin(t), "x": 0 * t})
+    >>> values = {"p:" + k: v for k, v in msd.params.items()} | {"x0:x": 0.0, "x0:v": 0.0}
+    >>> starts, length = choose_pieces(msd, rec, rec.n, values, 1)
+    >>> int(starts[0]), len(starts) * length <= 16000
+    (0, True)
+    """
+    if n_fit <= min(PIECES_FROM, PIECES_FROM_INTEGRATING):
+        return None
+    head = part(rec, 0, min(n_fit, _PREFIX))
+    X = simulate_states(model, head, values, n_sub)
+    if not np.all(np.isfinite(X)):
+        return None
+    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    idx = np.unique(np.linspace(0, head.n - 1, 12).astype(int))
+    x = {s: X[idx, j] for j, s in enumerate(model.states)}
+    u = {k: v[idx] for k, v in head.inputs.items()}
+    later = float(head.time[-1] - head.time[0]) * 3.7 + 11.3
+    with np.errstate(all="ignore"):
+        d0 = model.derivatives(x, u, P, t=float(head.time[0]))
+        d1 = model.derivatives(x, u, P, t=float(head.time[0]) + later)
+    for s in model.states:  # the model reads the clock: pieces would shift it
+        a, b = np.asarray(d0[s], dtype=float), np.asarray(d1[s], dtype=float)
+        if not np.allclose(a, b, rtol=1e-12, atol=0.0, equal_nan=True):
+            return None
+    rates, integrating = [], []
+    for J in state_jacobians(model, P, X, {k: v for k, v in head.inputs.items()}, 12):
+        lam = np.linalg.eigvals(J)
+        fast = max(float(np.max(np.abs(lam))), 1e-300)
+        decay = -lam.real[-lam.real > 1e-6 * fast]
+        integrating.append(bool(np.any(np.abs(lam) <= 1e-9 * fast)))
+        if decay.size:
+            rates.append(float(np.min(decay)))
+    if n_fit <= PIECES_FROM and not (integrating and all(integrating)):
+        return None
+    ts = rec.ts
+    if rates:
+        length = math.ceil(PIECE_TIME_CONSTANTS / float(np.median(rates)) / ts)
+    else:  # no decaying mode: long pieces
+        length = n_fit // 4
+    length = int(min(max(length, PIECE_MIN), n_fit // 2))
+    k_all = n_fit // length
+    k = int(max(2, min(k_all, PIECES_BUDGET // length)))
+    starts = np.round(np.linspace(0, n_fit - length, k)).astype(int)
+    return starts, length
