@@ -9,7 +9,7 @@ where resampling computes new samples): ``select``, ``batches``, ``frames`` and
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping, Sequence
-from typing import Any, Self
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -26,6 +26,9 @@ from pdmkit.ensembles._signals import (
     resample_ratio,
 )
 from pdmkit.errors import DataError
+
+if TYPE_CHECKING:
+    from typing import Self  # Python 3.11+; only read by type checkers here
 
 __all__: list[str] = []
 

@@ -13,6 +13,7 @@ import abc
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import pandas as pd
@@ -21,8 +22,27 @@ from pdmkit._checks import check_int, parse_timestamps
 from pdmkit.errors import DataError, NotFittedError
 from pdmkit.rul._result import RULPrediction
 
+if TYPE_CHECKING:
+    from typing import Self
+
 # columns that are labels, never indicators
 LABEL_COLUMNS = ("rul", "rul_true_final", "failed")
+
+
+class RULModel(Protocol):
+    """What the wrappers (pipeline, conformal calibration) ask of a RUL model.
+
+    Every pdmkit RUL estimator has these methods.
+    """
+
+    def fit(self, table: pd.DataFrame, y: object = None) -> Any:
+        """Fit on a long run-to-failure table; return the model."""
+
+    def predict(self, table: pd.DataFrame) -> RULPrediction:
+        """The RUL of each unit at its last time."""
+
+    def predict_trajectory(self, table: pd.DataFrame, **kwargs: Any) -> RULPrediction:
+        """The RUL at every point of each unit's history."""
 
 
 @dataclass
@@ -42,7 +62,7 @@ class Unit:
         return Unit(self.name, self.t[:n], self.x[:n], self.failed)
 
 
-def check_table(table, what: str = "table") -> pd.DataFrame:
+def check_table(table: object, what: str = "table") -> pd.DataFrame:
     if not isinstance(table, pd.DataFrame):
         raise DataError(
             f"{what} must be a pandas DataFrame in long form (one row per unit and time), "
@@ -160,7 +180,7 @@ def resolve_keys(table: pd.DataFrame, unit: str, time: str | None) -> tuple[str,
     return unit, time
 
 
-def as_columns(columns) -> list[str]:
+def as_columns(columns: str | Sequence[str]) -> list[str]:
     if isinstance(columns, str):
         return [columns]
     return list(columns)
@@ -178,7 +198,12 @@ def check_columns(table: pd.DataFrame, columns: Sequence[str], param: str) -> No
         raise DataError(f"{param} columns {bad} are not numeric")
 
 
-def learnable_columns(table: pd.DataFrame, features, keys, owner: str):
+def learnable_columns(
+    table: pd.DataFrame,
+    features: str | Sequence[str] | None,
+    keys: set[str],
+    owner: str,
+) -> tuple[list[str], dict[str, str]]:
     """The feature columns a learned model trains on, and the ones it leaves out.
 
     ``features=None`` takes every numeric, non-boolean column that is not a key or a
@@ -289,14 +314,14 @@ def require_failures(units: Sequence[Unit], model: str) -> None:
         )
 
 
-def check_fitted(estimator, attribute: str) -> None:
+def check_fitted(estimator: object, attribute: str) -> None:
     if not hasattr(estimator, attribute):
         raise NotFittedError(
             f"this {type(estimator).__name__} is not fitted yet; call fit(table) first"
         )
 
 
-def check_rul_model(model, owner: str) -> None:
+def check_rul_model(model: object, owner: str) -> None:
     """A wrapper's ``model=`` must be a pdmkit RUL model (``predict_trajectory``)."""
     if model is None or not hasattr(model, "predict_trajectory"):
         raise TypeError(
@@ -305,7 +330,7 @@ def check_rul_model(model, owner: str) -> None:
         )
 
 
-def check_level(level) -> float:
+def check_level(level: object) -> float:
     if isinstance(level, bool) or not isinstance(level, int | float | np.number):
         raise ValueError(f"level must be a number in (0, 1), got {level!r}")
     if not 0.0 < float(level) < 1.0:
@@ -315,12 +340,12 @@ def check_level(level) -> float:
     return float(level)
 
 
-def check_positive_int(value, name: str, minimum: int = 1) -> int:
+def check_positive_int(value: object, name: str, minimum: int = 1) -> int:
     """:func:`pdmkit._checks.check_int` raising ``ValueError`` (estimator parameters)."""
     return check_int(value, name, minimum=minimum, error=ValueError)
 
 
-def check_max_rul(value) -> float | None:
+def check_max_rul(value: object) -> float | None:
     if value is None:
         return None
     if (
@@ -332,7 +357,7 @@ def check_max_rul(value) -> float | None:
     return float(value)
 
 
-def keep_init_args(estimator, args: dict) -> None:
+def keep_init_args(estimator: object, args: dict[str, Any]) -> None:
     """Store an ``__init__``'s arguments (its ``locals()``) as attributes of the same names.
 
     scikit-learn's ``get_params`` expects them there.
@@ -394,7 +419,9 @@ class TrajectoryMixin:
             what=what,
         )
 
-    def predict_trajectory(self, table, *, every: int = 1, min_length: int | None = None):
+    def predict_trajectory(
+        self, table: pd.DataFrame, *, every: int = 1, min_length: int | None = None
+    ) -> RULPrediction:
         """RUL predicted at every ``every``-th sample of each unit's history.
 
         The unit's history is cut after its ``min_length``-th sample, then every
@@ -436,7 +463,7 @@ class TrajectoryMixin:
         units = self._split(table, what="table")
         return self._predict_units(time_unit_cuts(units, every, first))
 
-    def predict(self, table):
+    def predict(self, table: pd.DataFrame) -> RULPrediction:
         """Predict the RUL of each unit at the last time of its history.
 
         Parameters
@@ -462,7 +489,7 @@ class TrajectoryMixin:
         check_fitted(self, "n_units_")
         return self._predict_units(self._split(table, what="table"))
 
-    def fit_predict(self, table):
+    def fit_predict(self, table: pd.DataFrame) -> RULPrediction:
         """Fit on ``table`` and predict its units (in-sample; for a quick look only).
 
         Examples
@@ -474,6 +501,98 @@ class TrajectoryMixin:
         3
         """
         return self.fit(table).predict(table)
+
+
+class LearnedMixin(TrajectoryMixin):
+    """Shared plumbing of the learned models: gradient-boosted trees and networks.
+
+    The fit-time checks and feature columns, and the cross-conformal intervals: the
+    out-of-fold residuals, binned by the predicted RUL, give each bin's offsets.
+    """
+
+    # integer settings ``fit`` checks, with the smallest value each may take
+    _int_settings: tuple[tuple[str, int], ...] = ()
+    # what the message about constant features calls the model
+    _learner = "model"
+
+    def _split_columns(self) -> list[str]:
+        """The feature columns ``fit`` kept."""
+        return list(self.features_)
+
+    def _check_choices(self) -> None:
+        """Hook: checks of a model's own text settings, run before the integer ones."""
+
+    def _start_fit(self, table: object) -> tuple[list[Unit], float]:
+        """Check the table and settings; the training units and the interval level."""
+        table = check_table(table)
+        self._keys = resolve_keys(table, self.unit, self.time)
+        self._failed = failed_column(table, self.failed)
+        self._check_choices()
+        for name, low in self._int_settings:
+            check_positive_int(getattr(self, name), name, low)
+        level = check_level(self.level)
+        check_max_rul(self.max_rul)
+        keys = {*self._keys, *([self._failed] if self._failed else [])}
+        self.features_, self.dropped_ = learnable_columns(
+            table, self.features, keys, self._learner
+        )
+        units = self._split(table, "training table")
+        require_failures(units, type(self).__name__)
+        return units, level
+
+    def _calibrate(
+        self, pred: np.ndarray, true: np.ndarray, level: float, n_bins: int
+    ) -> None:
+        """``residual_bins_``: interval offsets per bin of predicted RUL.
+
+        The bins are ``n_bins`` quantile bins of ``pred`` (the outer ones open); each
+        bin's offsets are the empirical ``level`` quantiles of ``true - pred`` in it
+        (of all residuals for an empty bin).
+        """
+        resid = true - pred
+        edges = np.unique(np.quantile(pred, np.linspace(0, 1, n_bins + 1)))
+        if len(edges) < 2:
+            edges = np.array([pred.min(), pred.max() + 1e-9])
+        edges[0], edges[-1] = -np.inf, np.inf
+        bins = np.clip(np.searchsorted(edges, pred, side="right") - 1, 0, len(edges) - 2)
+        rows = []
+        for b in range(len(edges) - 1):
+            r = resid[bins == b]
+            r = resid if r.size == 0 else r
+            lo, hi = np.quantile(r, [(1 - level) / 2, (1 + level) / 2])
+            rows.append(
+                {
+                    "low": edges[b],
+                    "high": edges[b + 1],
+                    "n": int((bins == b).sum()),
+                    "lower_offset": float(lo),
+                    "upper_offset": float(hi),
+                }
+            )
+        self.residual_bins_ = pd.DataFrame(rows)
+
+    def _binned_prediction(
+        self, units: Sequence[Unit], est: np.ndarray, top: float, level: float
+    ) -> RULPrediction:
+        """Estimates with the offsets of their bins, clipped to ``[0, top]``.
+
+        An interval always holds its estimate.
+        """
+        bins = self.residual_bins_
+        b = np.clip(
+            np.searchsorted(bins["low"].to_numpy(), est, side="right") - 1, 0, len(bins) - 1
+        )
+        lower = np.clip(est + bins["lower_offset"].to_numpy()[b], 0.0, top)
+        upper = np.clip(est + bins["upper_offset"].to_numpy()[b], 0.0, top)
+        return RULPrediction(
+            [u.name for u in units],
+            [float(u.t[-1]) for u in units],
+            est,
+            np.minimum(lower, est),
+            np.maximum(upper, est),
+            level=level,
+            model=type(self).__name__,
+        )
 
 
 class DegradationMixin(TrajectoryMixin, abc.ABC):
@@ -547,7 +666,7 @@ class DegradationMixin(TrajectoryMixin, abc.ABC):
             stacklevel=3,
         )
 
-    def _finish_fit(self, units: Sequence[Unit], *, positive_horizon: bool = False):
+    def _finish_fit(self, units: Sequence[Unit], *, positive_horizon: bool = False) -> Self:
         """Set ``horizon_``, ``n_units_`` and empty ``states_``.
 
         ``horizon_`` defaults to 10 times the longest training life.

@@ -22,6 +22,9 @@ scikit-learn's own (a test checks it).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator
@@ -29,25 +32,26 @@ from threadpoolctl import threadpool_limits
 
 from pdmkit.errors import DataError
 from pdmkit.rul._base import (
-    TrajectoryMixin,
+    LearnedMixin,
     Unit,
     check_fitted,
-    check_level,
     check_max_rul,
-    check_positive_int,
-    check_table,
-    failed_column,
     keep_init_args,
-    learnable_columns,
-    require_failures,
-    resolve_keys,
 )
-from pdmkit.rul._result import RULPrediction
+
+if TYPE_CHECKING:
+    from typing import Self
+
+    from numpy.typing import ArrayLike
+
+    from pdmkit.rul._result import RULPrediction
 
 _CHUNK = 4096  # rows of windows built at once (memory: rows * window * features)
 
 
-def window_features(t, x, *, window: int = 30, short_window: int = 5) -> np.ndarray:
+def window_features(
+    t: ArrayLike, x: ArrayLike, *, window: int = 30, short_window: int = 5
+) -> np.ndarray:
     """Summary features of the recent past at every sample of one unit's history.
 
     Parameters
@@ -160,7 +164,7 @@ def _walk(trees: dict, X: np.ndarray) -> np.ndarray:
     return total + trees["value"][node].sum(axis=1)
 
 
-class BoostingRULModel(TrajectoryMixin, BaseEstimator):
+class BoostingRULModel(LearnedMixin, BaseEstimator):
     """RUL regression by gradient-boosted trees on windowed indicators.
 
     See the module notes: features of the recent past of each point of a history,
@@ -234,9 +238,20 @@ class BoostingRULModel(TrajectoryMixin, BaseEstimator):
     True
     """
 
+    _int_settings = (
+        ("window", 2),
+        ("short_window", 1),
+        ("n_folds", 2),
+        ("max_iter", 1),
+        ("max_leaf_nodes", 2),
+        ("min_samples_leaf", 1),
+        ("n_bins", 1),
+        ("n_threads", 1),
+    )
+
     def __init__(
         self,
-        features=None,
+        features: Sequence[str] | None = None,
         *,
         window: int = 30,
         short_window: int = 5,
@@ -255,13 +270,10 @@ class BoostingRULModel(TrajectoryMixin, BaseEstimator):
         unit: str = "unit",
         time: str | None = None,
         failed: str | None = None,
-    ):
+    ) -> None:
         keep_init_args(self, locals())
 
     # ------------------------------------------------------------------ data
-    def _split_columns(self) -> list[str]:
-        return list(self.features_)
-
     def _rows(self, u: Unit, last_only: bool = False) -> np.ndarray:
         """Feature rows of a unit: every sample, or only its last one."""
         w = int(self.window)
@@ -292,7 +304,7 @@ class BoostingRULModel(TrajectoryMixin, BaseEstimator):
             random_state=seed,
         )
 
-    def fit(self, table: pd.DataFrame, y=None):
+    def fit(self, table: pd.DataFrame, y: object = None) -> Self:
         """Fit one boosted model per fold of units and calibrate the intervals.
 
         Returns
@@ -318,28 +330,8 @@ class BoostingRULModel(TrajectoryMixin, BaseEstimator):
         """
         from pdmkit._progress import progress
 
-        table = check_table(table)
-        self._keys = resolve_keys(table, self.unit, self.time)
-        self._failed = failed_column(table, self.failed)
-        for name, low in (
-            ("window", 2),
-            ("short_window", 1),
-            ("n_folds", 2),
-            ("max_iter", 1),
-            ("max_leaf_nodes", 2),
-            ("min_samples_leaf", 1),
-            ("n_bins", 1),
-            ("n_threads", 1),
-        ):
-            check_positive_int(getattr(self, name), name, low)
-        level = check_level(self.level)
+        units, level = self._start_fit(table)
         self._cap = check_max_rul(self.max_rul)
-        keys = {*self._keys, *([self._failed] if self._failed else [])}
-        self.features_, self.dropped_ = learnable_columns(
-            table, self.features, keys, "model"
-        )
-        units = self._split(table, "training table")
-        require_failures(units, "BoostingRULModel")
         if len(units) < 2:
             raise DataError(
                 f"BoostingRULModel needs at least 2 training units (its intervals come "
@@ -370,38 +362,17 @@ class BoostingRULModel(TrajectoryMixin, BaseEstimator):
             oof_true.append(np.concatenate([Y[i] for i in held]))
         pred, true = np.concatenate(oof_pred), np.concatenate(oof_true)
         self.train_range_ = (float(true.min()), float(true.max()))
-        self._calibrate(pred, true, level)
+        self._calibrate(pred, true, level, int(self.n_bins))
+        self.level_ = level
         self.n_units_ = len(units)
         return self
 
-    def _clip(self, values: np.ndarray) -> np.ndarray:
-        top = np.inf if self._cap is None else self._cap
-        return np.clip(values, 0.0, top)
+    def _top(self) -> float:
+        """The largest RUL the model answers (``max_rul``, or no limit)."""
+        return np.inf if self._cap is None else self._cap
 
-    def _calibrate(self, pred, true, level):
-        """Interval offsets per bin of predicted RUL (empirical residual quantiles)."""
-        resid = true - pred
-        edges = np.unique(np.quantile(pred, np.linspace(0, 1, int(self.n_bins) + 1)))
-        if len(edges) < 2:
-            edges = np.array([pred.min(), pred.max() + 1e-9])
-        edges[0], edges[-1] = -np.inf, np.inf
-        bins = np.clip(np.searchsorted(edges, pred, side="right") - 1, 0, len(edges) - 2)
-        rows = []
-        for b in range(len(edges) - 1):
-            r = resid[bins == b]
-            r = resid if r.size == 0 else r
-            lo, hi = np.quantile(r, [(1 - level) / 2, (1 + level) / 2])
-            rows.append(
-                {
-                    "low": edges[b],
-                    "high": edges[b + 1],
-                    "n": int((bins == b).sum()),
-                    "lower_offset": float(lo),
-                    "upper_offset": float(hi),
-                }
-            )
-        self.residual_bins_ = pd.DataFrame(rows)
-        self.level_ = level
+    def _clip(self, values: np.ndarray) -> np.ndarray:
+        return np.clip(values, 0.0, self._top())
 
     # ------------------------------------------------------------------ prediction
     def _estimate(self, X: np.ndarray) -> np.ndarray:
@@ -410,23 +381,9 @@ class BoostingRULModel(TrajectoryMixin, BaseEstimator):
     def _predict_units(self, units):
         X = np.vstack([self._rows(u, last_only=True) for u in units])
         est = self._estimate(X)
-        bins = self.residual_bins_
-        b = np.clip(
-            np.searchsorted(bins["low"].to_numpy(), est, side="right") - 1, 0, len(bins) - 1
-        )
-        lower = self._clip(est + bins["lower_offset"].to_numpy()[b])
-        upper = self._clip(est + bins["upper_offset"].to_numpy()[b])
-        return RULPrediction(
-            [u.name for u in units],
-            [float(u.t[-1]) for u in units],
-            est,
-            np.minimum(lower, est),
-            np.maximum(upper, est),
-            level=float(self.level_),
-            model="BoostingRULModel",
-        )
+        return self._binned_prediction(units, est, self._top(), float(self.level_))
 
-    def predict(self, table):
+    def predict(self, table: pd.DataFrame) -> RULPrediction:
         """Predict the RUL of each unit from the recent past of its history.
 
         Returns

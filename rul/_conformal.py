@@ -29,12 +29,15 @@ guarantee of one score per unit.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, clone
 
 from pdmkit.errors import DataError
 from pdmkit.rul._base import (
+    RULModel,
     check_fitted,
     check_level,
     check_positive_int,
@@ -42,6 +45,9 @@ from pdmkit.rul._base import (
     resolve_keys,
 )
 from pdmkit.rul._result import RULPrediction
+
+if TYPE_CHECKING:
+    from typing import Self
 
 
 def _conformal_quantile(scores: np.ndarray, q: float) -> float:
@@ -106,7 +112,7 @@ class ConformalRUL(BaseEstimator):
 
     def __init__(
         self,
-        model=None,
+        model: RULModel | None = None,
         *,
         level: float | None = None,
         n_folds: int = 5,
@@ -128,7 +134,7 @@ class ConformalRUL(BaseEstimator):
             return check_level(self.level)
         return check_level(getattr(self.model, "level", 0.9) or 0.9)
 
-    def fit(self, table: pd.DataFrame, y=None):
+    def fit(self, table: pd.DataFrame, y: object = None) -> Self:
         """Calibrate on out-of-fold trajectories, then fit the model on all units.
 
         Parameters
@@ -235,7 +241,7 @@ class ConformalRUL(BaseEstimator):
         check_fitted(self, "model_")
         return self._calibrated(self.model_.predict(table))
 
-    def predict_trajectory(self, table: pd.DataFrame, **kwargs) -> RULPrediction:
+    def predict_trajectory(self, table: pd.DataFrame, **kwargs: Any) -> RULPrediction:
         """The model's trajectory predictions with calibrated intervals."""
         check_fitted(self, "model_")
         return self._calibrated(self.model_.predict_trajectory(table, **kwargs))

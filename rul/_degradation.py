@@ -23,6 +23,8 @@ prediction's extra columns).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator
@@ -36,6 +38,11 @@ from pdmkit.rul._base import (
     check_positive_int,
     keep_init_args,
 )
+
+if TYPE_CHECKING:
+    from typing import Self
+
+    from pdmkit.rul._result import RULPrediction
 
 _BIG = 1e300
 
@@ -94,7 +101,7 @@ class _BayesianDegradation(DegradationMixin, BaseEstimator):
         return None
 
     # -------------------------------------------------------------- fitting
-    def fit(self, table: pd.DataFrame, y=None):
+    def fit(self, table: pd.DataFrame, y: object = None) -> Self:
         """Estimate the prior, the noise variance and the threshold from training units.
 
         Parameters
@@ -282,7 +289,7 @@ class _BayesianDegradation(DegradationMixin, BaseEstimator):
         check_fitted(self, "prior_mean_")
         return {u.name: self._unit_posterior(u) for u in self._split(table)}
 
-    def update(self, table: pd.DataFrame):
+    def update(self, table: pd.DataFrame) -> Self:
         """Fold new measurements into each unit's posterior (sequential Bayes).
 
         The posterior after several updates equals the one from all the data at once.
@@ -371,7 +378,7 @@ class _BayesianDegradation(DegradationMixin, BaseEstimator):
         times = [last for *_, last in self.states_.values()]
         return self._summarise(names, times, posts)
 
-    def predict(self, table: pd.DataFrame | None = None):
+    def predict(self, table: pd.DataFrame | None = None) -> RULPrediction:
         """RUL of each unit at its last time, from its posterior.
 
         Parameters

@@ -11,6 +11,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import pandas as pd
 
@@ -30,7 +32,7 @@ def _numeric_keys(table, unit, time):
 def ood_scores(
     train: pd.DataFrame,
     test: pd.DataFrame,
-    columns,
+    columns: str | Sequence[str],
     *,
     unit: str = "unit",
     time: str | None = None,
@@ -115,7 +117,7 @@ def ood_scores(
 
 def shutdown_endings(
     table: pd.DataFrame,
-    columns,
+    columns: str | Sequence[str],
     *,
     unit: str = "unit",
     time: str | None = None,

@@ -18,6 +18,7 @@ RUL example walks it:
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -38,11 +39,16 @@ from pdmkit.rul._base import (
     split_units,
 )
 
+if TYPE_CHECKING:
+    from typing import Self
+
 _SMOOTHERS = ("ewm", "moving_average", "moving_median")
 _PROGNOSTIC = ("monotonicity", "trendability", "prognosability")
 
 
-def _candidate_columns(table: pd.DataFrame, keys: Sequence[str], exclude=()) -> list[str]:
+def _candidate_columns(
+    table: pd.DataFrame, keys: Sequence[str], exclude: Sequence[str] = ()
+) -> list[str]:
     skip = set(keys) | set(LABEL_COLUMNS) | set(exclude)
     return [
         c
@@ -56,7 +62,7 @@ def _candidate_columns(table: pd.DataFrame, keys: Sequence[str], exclude=()) -> 
 # --------------------------------------------------------------------------- smoothing
 def smooth_indicators(
     table: pd.DataFrame,
-    columns=None,
+    columns: str | Sequence[str] | None = None,
     *,
     method: str = "ewm",
     span: float = 10,
@@ -187,7 +193,7 @@ class RegimeNormalizer(BaseEstimator):
             raise DataError("settings columns have NaN or inf values")
         return self.kmeans_.predict((s - self.settings_mean_) / self.settings_scale_)
 
-    def fit(self, table: pd.DataFrame, y=None):
+    def fit(self, table: pd.DataFrame, y: object = None) -> Self:
         """Learn the regimes and the per-regime statistics.
 
         Returns
@@ -295,7 +301,7 @@ class RegimeNormalizer(BaseEstimator):
         out[self.columns_] = z
         return out
 
-    def fit_transform(self, table: pd.DataFrame, y=None) -> pd.DataFrame:
+    def fit_transform(self, table: pd.DataFrame, y: object = None) -> pd.DataFrame:
         """Fit, then transform the same table.
 
         Examples
@@ -539,7 +545,7 @@ class HealthIndicator(BaseEstimator):
     ) -> None:
         keep_init_args(self, locals())
 
-    def fit(self, table: pd.DataFrame, y=None):
+    def fit(self, table: pd.DataFrame, y: object = None) -> Self:
         """Select and fuse the candidates on run-to-failure training units.
 
         Returns
@@ -670,7 +676,7 @@ class HealthIndicator(BaseEstimator):
             )
         return out
 
-    def fit_transform(self, table: pd.DataFrame, y=None) -> pd.DataFrame:
+    def fit_transform(self, table: pd.DataFrame, y: object = None) -> pd.DataFrame:
         """Fit, then transform the same table.
 
         Examples

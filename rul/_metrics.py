@@ -19,9 +19,14 @@ prognostic horizon).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from pdmkit.errors import DataError
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 def _vector(values, name: str) -> np.ndarray:
@@ -52,7 +57,7 @@ def _pair(rul_true, rul_pred) -> tuple[np.ndarray, np.ndarray]:
     return t, p
 
 
-def rmse(rul_true, rul_pred) -> float:
+def rmse(rul_true: ArrayLike, rul_pred: ArrayLike) -> float:
     """Root mean squared error of the predicted RULs.
 
     Parameters
@@ -75,7 +80,7 @@ def rmse(rul_true, rul_pred) -> float:
     return float(np.sqrt(np.mean((p - t) ** 2)))
 
 
-def mae(rul_true, rul_pred) -> float:
+def mae(rul_true: ArrayLike, rul_pred: ArrayLike) -> float:
     """Mean absolute error of the predicted RULs.
 
     Examples
@@ -88,7 +93,7 @@ def mae(rul_true, rul_pred) -> float:
     return float(np.mean(np.abs(p - t)))
 
 
-def phm08_score(rul_true, rul_pred) -> float:
+def phm08_score(rul_true: ArrayLike, rul_pred: ArrayLike) -> float:
     """The asymmetric scoring function of the PHM08 data challenge (lower is better).
 
     With ``d = rul_pred - rul_true``, each unit scores ``exp(-d / 13) - 1`` when it is
@@ -124,7 +129,7 @@ def phm08_score(rul_true, rul_pred) -> float:
     return float(s.sum())
 
 
-def interval_coverage(rul_true, lower, upper) -> float:
+def interval_coverage(rul_true: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> float:
     """Fraction of true RULs inside their predicted intervals ``[lower, upper]``.
 
     Examples
@@ -181,8 +186,14 @@ def _at_lambda(t, r, eol, lam, t_start):
 
 
 def alpha_lambda_accuracy(
-    time, rul_pred, eol, *, alpha: float = 0.2, lam=0.5, t_start=None
-):
+    time: ArrayLike,
+    rul_pred: ArrayLike,
+    eol: float,
+    *,
+    alpha: float = 0.2,
+    lam: float | ArrayLike = 0.5,
+    t_start: float | None = None,
+) -> bool | np.ndarray:
     """Whether the prediction at ``t_lambda`` lies within ``±alpha`` of the true RUL.
 
     ``t_lambda = t_P + lam * (eol - t_P)`` with ``t_P`` the first prediction time (or
@@ -226,7 +237,14 @@ def alpha_lambda_accuracy(
     return bool(ok) if np.ndim(lam) == 0 else ok
 
 
-def relative_accuracy(time, rul_pred, eol, *, lam=0.5, t_start=None):
+def relative_accuracy(
+    time: ArrayLike,
+    rul_pred: ArrayLike,
+    eol: float,
+    *,
+    lam: float | ArrayLike = 0.5,
+    t_start: float | None = None,
+) -> float | np.ndarray:
     """Relative accuracy ``1 - |r* - r| / r*`` of the prediction at ``t_lambda``.
 
     The prediction is chosen as in :func:`alpha_lambda_accuracy`; 1 is perfect, and it
@@ -246,7 +264,9 @@ def relative_accuracy(time, rul_pred, eol, *, lam=0.5, t_start=None):
     return float(ra) if np.ndim(lam) == 0 else ra
 
 
-def prognostic_horizon(time, rul_pred, eol, *, alpha: float = 0.05) -> float:
+def prognostic_horizon(
+    time: ArrayLike, rul_pred: ArrayLike, eol: float, *, alpha: float = 0.05
+) -> float:
     """Prognostic horizon: how long before failure the predictions became trustworthy.
 
     ``PH = eol - t_i`` where ``t_i`` is the first prediction time from which every
@@ -285,7 +305,12 @@ def prognostic_horizon(time, rul_pred, eol, *, alpha: float = 0.05) -> float:
     return float(eol - t[first])
 
 
-def rul_metrics(rul_true, rul_pred, lower=None, upper=None) -> dict:
+def rul_metrics(
+    rul_true: ArrayLike,
+    rul_pred: ArrayLike,
+    lower: ArrayLike | None = None,
+    upper: ArrayLike | None = None,
+) -> dict[str, float]:
     """RMSE, MAE, PHM08 score, mean error and (with intervals) coverage and width.
 
     Parameters

@@ -13,26 +13,20 @@ Training is seeded (``random_state``) and runs on the CPU with ``n_threads`` thr
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator
 
 from pdmkit.errors import DataError
-from pdmkit.rul._base import (
-    TrajectoryMixin,
-    Unit,
-    check_fitted,
-    check_level,
-    check_max_rul,
-    check_positive_int,
-    check_table,
-    failed_column,
-    keep_init_args,
-    learnable_columns,
-    require_failures,
-    resolve_keys,
-)
-from pdmkit.rul._result import RULPrediction
+from pdmkit.rul._base import LearnedMixin, Unit, check_fitted, keep_init_args
+
+if TYPE_CHECKING:
+    from typing import Self
+
+    from pdmkit.rul._result import RULPrediction
 
 
 def _network(arch: str, n_inputs: int, window: int, hidden: int):
@@ -90,6 +84,8 @@ def _network(arch: str, n_inputs: int, window: int, hidden: int):
     return {"lstm": LSTMNet, "cnn": CNNNet, "mlp": MLPNet}[arch]()
 
 
+_N_BINS = 4  # bins of predicted RUL for the interval offsets
+
 _MALLOC_TUNED = False
 
 
@@ -140,7 +136,7 @@ class _Threads:
         torch.set_num_threads(self.old)
 
 
-class NeuralRULModel(TrajectoryMixin, BaseEstimator):
+class NeuralRULModel(LearnedMixin, BaseEstimator):
     """RUL regression by a small LSTM or 1-D CNN over windows of indicators.
 
     Parameters
@@ -214,9 +210,19 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
     True
     """
 
+    _int_settings = (
+        ("window", 2),
+        ("hidden", 1),
+        ("epochs", 1),
+        ("batch_size", 1),
+        ("n_folds", 1),
+        ("n_threads", 1),
+    )
+    _learner = "network"
+
     def __init__(
         self,
-        features=None,
+        features: Sequence[str] | None = None,
         *,
         window: int = 30,
         arch: str = "lstm",
@@ -234,17 +240,21 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         unit: str = "unit",
         time: str | None = None,
         failed: str | None = None,
-    ):
+    ) -> None:
         keep_init_args(self, locals())
 
     @property
     def _min_history(self):
         return int(self.window) if self.pad == "error" else 1
 
-    # ------------------------------------------------------------------ data
-    def _split_columns(self) -> list[str]:
-        return list(self.features_)
+    def _check_choices(self) -> None:
+        """``arch`` and ``pad`` must be among their choices."""
+        if self.arch not in ("lstm", "cnn", "mlp"):
+            raise ValueError(f"arch must be 'lstm', 'cnn' or 'mlp', got {self.arch!r}")
+        if self.pad not in ("error", "edge"):
+            raise ValueError(f"pad must be 'error' or 'edge', got {self.pad!r}")
 
+    # ------------------------------------------------------------------ data
     def _inputs(self, u: Unit) -> np.ndarray:
         x = u.x
         if self.time_feature:
@@ -317,7 +327,7 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
                 out += np.concatenate(parts) if parts else np.zeros(0)
         return out / len(nets)
 
-    def fit(self, table: pd.DataFrame, y=None):
+    def fit(self, table: pd.DataFrame, y: object = None) -> Self:
         """Train the networks on run-to-failure units and calibrate the intervals.
 
         Returns
@@ -340,30 +350,7 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         >>> NeuralRULModel(window=5, hidden=4, epochs=1, n_folds=2).fit(t).n_units_
         2
         """
-        table = check_table(table)
-        self._keys = resolve_keys(table, self.unit, self.time)
-        self._failed = failed_column(table, self.failed)
-        if self.arch not in ("lstm", "cnn", "mlp"):
-            raise ValueError(f"arch must be 'lstm', 'cnn' or 'mlp', got {self.arch!r}")
-        if self.pad not in ("error", "edge"):
-            raise ValueError(f"pad must be 'error' or 'edge', got {self.pad!r}")
-        for name, low in (
-            ("window", 2),
-            ("hidden", 1),
-            ("epochs", 1),
-            ("batch_size", 1),
-            ("n_folds", 1),
-            ("n_threads", 1),
-        ):
-            check_positive_int(getattr(self, name), name, low)
-        level = check_level(self.level)
-        check_max_rul(self.max_rul)
-        keys = {*self._keys, *([self._failed] if self._failed else [])}
-        self.features_, self.dropped_ = learnable_columns(
-            table, self.features, keys, "network"
-        )
-        units = self._split(table, "training table")
-        require_failures(units, "NeuralRULModel")
+        units, level = self._start_fit(table)
         n_folds = min(int(self.n_folds), len(units))
         if int(self.n_folds) > 1 and n_folds < 2:
             raise DataError("cross-conformal intervals need at least 2 training units")
@@ -408,33 +395,9 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         self.history_ = pd.DataFrame(history)
         pred = np.clip(np.concatenate(oof_pred), 0, 1) * self._cap
         true = np.concatenate(oof_true) * self._cap
-        self._calibrate(pred, true, level)
+        self._calibrate(pred, true, level, _N_BINS)
         self.n_units_ = len(units)
         return self
-
-    def _calibrate(self, pred, true, level, n_bins: int = 4):
-        resid = true - pred
-        edges = np.unique(np.quantile(pred, np.linspace(0, 1, n_bins + 1)))
-        if len(edges) < 2:
-            edges = np.array([pred.min(), pred.max() + 1e-9])
-        edges[0], edges[-1] = -np.inf, np.inf
-        bins = np.clip(np.searchsorted(edges, pred, side="right") - 1, 0, len(edges) - 2)
-        rows = []
-        for b in range(len(edges) - 1):
-            r = resid[bins == b]
-            if r.size == 0:
-                r = resid
-            lo, hi = np.quantile(r, [(1 - level) / 2, (1 + level) / 2])
-            rows.append(
-                {
-                    "low": edges[b],
-                    "high": edges[b + 1],
-                    "n": int((bins == b).sum()),
-                    "lower_offset": float(lo),
-                    "upper_offset": float(hi),
-                }
-            )
-        self.residual_bins_ = pd.DataFrame(rows)
 
     # ------------------------------------------------------------------ pickling
     def __getstate__(self):
@@ -478,25 +441,9 @@ class NeuralRULModel(TrajectoryMixin, BaseEstimator):
         )
         with _Threads(int(self.n_threads)):
             est = np.clip(self._run(self.models_, X), 0, 1) * self._cap
-        bins = self.residual_bins_
-        b = np.clip(
-            np.searchsorted(bins["low"].to_numpy(), est, side="right") - 1, 0, len(bins) - 1
-        )
-        lower = np.clip(est + bins["lower_offset"].to_numpy()[b], 0, self._cap)
-        upper = np.clip(est + bins["upper_offset"].to_numpy()[b], 0, self._cap)
-        lower = np.minimum(lower, est)
-        upper = np.maximum(upper, est)
-        return RULPrediction(
-            [u.name for u in units],
-            [float(u.t[-1]) for u in units],
-            est,
-            lower,
-            upper,
-            level=float(self.level),
-            model="NeuralRULModel",
-        )
+        return self._binned_prediction(units, est, self._cap, float(self.level))
 
-    def predict(self, table):
+    def predict(self, table: pd.DataFrame) -> RULPrediction:
         """Predict the RUL of each unit from its last ``window`` samples.
 
         Returns

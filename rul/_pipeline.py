@@ -8,10 +8,18 @@ the way it was on the training units, and the estimator predicts.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import pandas as pd
 from sklearn.base import BaseEstimator
 
-from pdmkit.rul._base import check_fitted, check_rul_model
+from pdmkit.rul._base import RULModel, check_fitted, check_rul_model
+
+if TYPE_CHECKING:
+    from typing import Self
+
+    from pdmkit.rul._indicators import HealthIndicator
+    from pdmkit.rul._result import RULPrediction
 
 
 class RULPipeline(BaseEstimator):
@@ -52,14 +60,16 @@ class RULPipeline(BaseEstimator):
     (True, [1])
     """
 
-    def __init__(self, indicator=None, model=None) -> None:
+    def __init__(
+        self, indicator: HealthIndicator | None = None, model: RULModel | None = None
+    ) -> None:
         self.indicator = indicator
         self.model = model
 
     def _inputs(self, table: pd.DataFrame) -> pd.DataFrame:
         return table if self.indicator is None else self.indicator.transform(table)
 
-    def fit(self, table: pd.DataFrame, y=None):
+    def fit(self, table: pd.DataFrame, y: object = None) -> Self:
         """Fit the indicator on ``table``, then the model on the indicator."""
         check_rul_model(self.model, "RULPipeline")
         data = table if self.indicator is None else self.indicator.fit_transform(table)
@@ -72,12 +82,12 @@ class RULPipeline(BaseEstimator):
         check_fitted(self, "n_units_")
         return self._inputs(table)
 
-    def predict(self, table: pd.DataFrame):
+    def predict(self, table: pd.DataFrame) -> RULPrediction:
         """RUL of each unit of ``table`` at its last row (a :class:`RULPrediction`)."""
         check_fitted(self, "n_units_")
         return self.model.predict(self._inputs(table))
 
-    def predict_trajectory(self, table: pd.DataFrame, **kwargs):
+    def predict_trajectory(self, table: pd.DataFrame, **kwargs: Any) -> RULPrediction:
         """RUL at every point of each unit's history (see the model's method)."""
         check_fitted(self, "n_units_")
         return self.model.predict_trajectory(self._inputs(table), **kwargs)

@@ -2,10 +2,17 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 
 from pdmkit.errors import DataError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 
 class RULPrediction:
@@ -58,15 +65,15 @@ class RULPrediction:
 
     def __init__(
         self,
-        unit,
-        time,
-        estimate,
-        lower,
-        upper,
+        unit: ArrayLike,
+        time: ArrayLike,
+        estimate: ArrayLike,
+        lower: ArrayLike,
+        upper: ArrayLike,
         *,
         level: float = 0.9,
         model: str = "",
-        extra: dict | None = None,
+        extra: Mapping[str, ArrayLike] | None = None,
         time_unit: str = "",
     ) -> None:
         self.unit = np.asarray(unit)
@@ -126,7 +133,7 @@ class RULPrediction:
             frame[key] = list(values) if not isinstance(values, np.ndarray) else values
         return frame
 
-    def evaluate(self, rul_true) -> dict:
+    def evaluate(self, rul_true: ArrayLike | Mapping[object, float]) -> dict[str, float]:
         """RMSE, MAE, PHM08 score and interval coverage against the true RULs.
 
         Parameters
@@ -158,13 +165,13 @@ class RULPrediction:
 
     def plot(
         self,
-        ax=None,
+        ax: Axes | None = None,
         *,
-        true=None,
-        units=None,
+        true: ArrayLike | None = None,
+        units: Sequence[object] | None = None,
         max_units: int = 6,
         time_unit: str | None = None,
-    ):
+    ) -> Axes:
         """Plot the predictions with their intervals.
 
         With several rows per unit (a trajectory), RUL against time, one line and

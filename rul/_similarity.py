@@ -26,6 +26,8 @@ spaced for the matching; remaining lives use the training units' time values.
 from __future__ import annotations
 
 import abc
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -45,6 +47,9 @@ from pdmkit.rul._base import (
     require_failures,
     resolve_keys,
 )
+
+if TYPE_CHECKING:
+    from typing import Self
 
 _DISTANCES = ("euclidean", "absolute", "correlation", "dtw")
 
@@ -86,18 +91,11 @@ def _sliding_corr(f: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 class _SimilarityBase(TrajectoryMixin, BaseEstimator, abc.ABC):
-    def __init__(
-        self,
-        indicator="hi",
-        *,
-        k=10,
-        level=0.9,
-        max_rul=None,
-        unit="unit",
-        time=None,
-        failed=None,
-    ):
-        keep_init_args(self, locals())
+    """The library, the fit-time checks and the k-nearest prediction of the three models.
+
+    Each model's own ``__init__`` lists its parameters (scikit-learn's ``get_params``
+    reads them there).
+    """
 
     def _split_columns(self) -> list[str]:
         return list(self._columns)
@@ -105,7 +103,7 @@ class _SimilarityBase(TrajectoryMixin, BaseEstimator, abc.ABC):
     def _validate_extra(self):  # subclass hook
         pass
 
-    def fit(self, table: pd.DataFrame, y=None):
+    def fit(self, table: pd.DataFrame, y: object = None) -> Self:
         """Build the library from run-to-failure training units.
 
         Parameters
@@ -247,17 +245,17 @@ class ResidualSimilarityModel(_SimilarityBase):
 
     def __init__(
         self,
-        indicator="hi",
+        indicator: str | Sequence[str] = "hi",
         *,
         degree: int = 3,
         k: int = 10,
         align: str = "best",
         level: float = 0.9,
-        max_rul=None,
-        unit="unit",
-        time=None,
-        failed=None,
-    ):
+        max_rul: float | None = None,
+        unit: str = "unit",
+        time: str | None = None,
+        failed: str | None = None,
+    ) -> None:
         keep_init_args(self, locals())
 
     def _validate_extra(self):
@@ -378,18 +376,18 @@ class PairwiseSimilarityModel(_SimilarityBase):
 
     def __init__(
         self,
-        indicator="hi",
+        indicator: str | Sequence[str] = "hi",
         *,
         distance: str = "euclidean",
         k: int = 10,
         align: str = "best",
         window: int | None = None,
         level: float = 0.9,
-        max_rul=None,
-        unit="unit",
-        time=None,
-        failed=None,
-    ):
+        max_rul: float | None = None,
+        unit: str = "unit",
+        time: str | None = None,
+        failed: str | None = None,
+    ) -> None:
         keep_init_args(self, locals())
 
     def _validate_extra(self):
@@ -498,19 +496,19 @@ class HashSimilarityModel(_SimilarityBase):
 
     def __init__(
         self,
-        indicator="hi",
+        indicator: str | Sequence[str] = "hi",
         *,
         window: int = 20,
-        features=("mean", "std", "slope", "last"),
+        features: Sequence[str] = ("mean", "std", "slope", "last"),
         stride: int = 1,
-        pad="error",
+        pad: str = "error",
         k: int = 10,
         level: float = 0.9,
-        max_rul=None,
-        unit="unit",
-        time=None,
-        failed=None,
-    ):
+        max_rul: float | None = None,
+        unit: str = "unit",
+        time: str | None = None,
+        failed: str | None = None,
+    ) -> None:
         keep_init_args(self, locals())
 
     @property

@@ -18,6 +18,8 @@ its median is the estimate, its quantiles the interval.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -37,6 +39,11 @@ from pdmkit.rul._base import (
     keep_init_args,
     resolve_keys,
 )
+
+if TYPE_CHECKING:
+    from typing import Self
+
+    from numpy.typing import ArrayLike
 
 _DISTRIBUTIONS = {
     # name: (scipy distribution, parameter names; every parameter positive)
@@ -127,14 +134,14 @@ class ReliabilitySurvivalModel(_SurvivalBase):
         distribution: str = "weibull",
         *,
         level: float = 0.9,
-        max_rul=None,
+        max_rul: float | None = None,
         unit: str = "unit",
         time: str | None = None,
         failed: str | None = None,
-    ):
+    ) -> None:
         keep_init_args(self, locals())
 
-    def fit(self, table: pd.DataFrame, y=None):
+    def fit(self, table: pd.DataFrame, y: object = None) -> Self:
         """Fit the distribution to the lifetimes of the units in a long table.
 
         Each unit's lifetime is the time of its last row; ``failed`` False marks it
@@ -162,7 +169,7 @@ class ReliabilitySurvivalModel(_SurvivalBase):
             np.array([u.t[-1] for u in units]), np.array([u.failed for u in units])
         )
 
-    def fit_lifetimes(self, lifetimes, failed=None):
+    def fit_lifetimes(self, lifetimes: ArrayLike, failed: ArrayLike | None = None) -> Self:
         """Fit the distribution to lifetimes directly.
 
         Parameters
@@ -237,7 +244,7 @@ class ReliabilitySurvivalModel(_SurvivalBase):
         self.n_censored_ = int((~e).sum())
         return self
 
-    def survival_function(self, t):
+    def survival_function(self, t: ArrayLike) -> np.ndarray:
         """Probability of surviving beyond ``t``.
 
         Examples
@@ -250,7 +257,7 @@ class ReliabilitySurvivalModel(_SurvivalBase):
         check_fitted(self, "dist_")
         return self.dist_.sf(np.asarray(t, dtype=float))
 
-    def rul_quantiles(self, age, q):
+    def rul_quantiles(self, age: ArrayLike, q: ArrayLike) -> np.ndarray:
         """Quantiles ``q`` of the remaining life of units that have survived to ``age``.
 
         Examples
@@ -328,15 +335,15 @@ class CovariateSurvivalModel(_SurvivalBase):
 
     def __init__(
         self,
-        covariates,
+        covariates: str | Sequence[str],
         *,
         penalizer: float = 0.0,
         level: float = 0.9,
-        max_rul=None,
+        max_rul: float | None = None,
         unit: str = "unit",
         time: str | None = None,
         failed: str | None = None,
-    ):
+    ) -> None:
         keep_init_args(self, locals())
 
     def _split_columns(self) -> list[str]:
@@ -390,7 +397,7 @@ class CovariateSurvivalModel(_SurvivalBase):
         g_gamma = (w * dh) @ z - z[event].sum(axis=0)
         return nll, np.concatenate([[g_u, g_v], g_gamma])
 
-    def fit(self, table: pd.DataFrame, y=None):
+    def fit(self, table: pd.DataFrame, y: object = None) -> Self:
         """Fit the baseline and the covariate effects by maximum likelihood.
 
         Returns
@@ -497,7 +504,7 @@ class CovariateSurvivalModel(_SurvivalBase):
         self.n_censored_ = int((~failed).sum())
         return self
 
-    def rul_quantiles(self, age, z, q):
+    def rul_quantiles(self, age: ArrayLike, z: ArrayLike, q: ArrayLike) -> np.ndarray:
         """Quantiles ``q`` of the RUL at ``age`` with covariates ``z`` (raw units) held.
 
         ``z`` is one covariate vector or one row per unit (broadcast against ``age``).

@@ -39,6 +39,7 @@ RUL 0. The mean RUL is not reported: with a normal drift it is infinite.
 from __future__ import annotations
 
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -48,8 +49,21 @@ from sklearn.base import BaseEstimator
 from pdmkit.errors import DataError
 from pdmkit.rul._base import DegradationMixin, Unit, check_fitted, keep_init_args
 
+if TYPE_CHECKING:
+    from typing import Self
 
-def wiener_first_passage_cdf(t, distance, drift_mean, drift_var, diffusion_var):
+    from numpy.typing import ArrayLike
+
+    from pdmkit.rul._result import RULPrediction
+
+
+def wiener_first_passage_cdf(
+    t: ArrayLike,
+    distance: ArrayLike,
+    drift_mean: ArrayLike,
+    drift_var: ArrayLike,
+    diffusion_var: ArrayLike,
+) -> np.ndarray:
     """Distribution function of the first-passage time of a Wiener process.
 
     ``X(t) = mu t + sigma B(t)`` starting at 0, threshold ``distance > 0``, drift
@@ -270,7 +284,7 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
         return best
 
     # -------------------------------------------------------------- fitting
-    def fit(self, table: pd.DataFrame, y=None):
+    def fit(self, table: pd.DataFrame, y: object = None) -> Self:
         """Estimate the drift prior, the diffusion and the threshold from training units.
 
         Parameters
@@ -471,7 +485,7 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
             out.append(tuple(float(v) for v in post))
         return out
 
-    def update(self, table: pd.DataFrame):
+    def update(self, table: pd.DataFrame) -> Self:
         """Fold new measurements into each unit's state (sequential Bayes).
 
         The drift's sufficient statistics are the first and the latest value, so the
@@ -579,7 +593,7 @@ class WienerDegradationModel(DegradationMixin, BaseEstimator):
             [v[-1] for v in z],
         )
 
-    def predict(self, table: pd.DataFrame | None = None):
+    def predict(self, table: pd.DataFrame | None = None) -> RULPrediction:
         """RUL of each unit at its last time: the first-passage time to the threshold.
 
         Parameters

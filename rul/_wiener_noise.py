@@ -37,6 +37,8 @@ as the known start (tested), so the plain model is the special case of no noise.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 from scipy.linalg import cho_solve_banded, cholesky_banded
@@ -45,6 +47,9 @@ from scipy.optimize import minimize
 from pdmkit.errors import DataError
 from pdmkit.rul._base import check_fitted, keep_init_args
 from pdmkit.rul._wiener import WienerDegradationModel, wiener_first_passage_cdf
+
+if TYPE_CHECKING:
+    from typing import Self
 
 _HERMITE_NODES, _HERMITE_WEIGHTS = np.polynomial.hermite.hermgauss(20)
 
@@ -299,7 +304,7 @@ n_units_
         _, _, m, pmm, _ = self._filter(units)
         return [(float(a), float(b)) for a, b in zip(m, pmm, strict=True)]
 
-    def update(self, table: pd.DataFrame):
+    def update(self, table: pd.DataFrame) -> Self:
         """Fold new measurements into each unit's state (the Kalman filter, continued).
 
         Returns
