@@ -1,10 +1,10 @@
 """Hammerstein-Wiener coefficients vs signal indicators on the pneumatic twin.
 
-Seed 001 (section 8.2.1) identified a Hammerstein-Wiener model for each encoder-position
-recording of the pneumatic piston and classified the six primary fault states from its
-coefficients; the accuracy "did not exceed 40 %". This script repeats the experiment on
-the twin and puts the whole-recording signal indicators beside it, on the same members
-and the same held-out split:
+Voronin's thesis (section 8.2.1) identified a Hammerstein-Wiener model for each
+encoder-position recording of the pneumatic piston and classified the six primary fault
+states from its coefficients; the accuracy "did not exceed 40 %". This script repeats the
+experiment on the twin and puts the whole-recording signal indicators beside it, on the
+same members and the same held-out split:
 
 * ensemble: ``simulate_fault_ensemble`` with the six codes of ``fault_labels(1)``
   (healthy + five single faults), ``--members`` members of ``--seconds`` s, encoder

@@ -5,8 +5,8 @@ crack from the displacement of one mass with five methods: symbolic dynamics wit
 SFNN and the wavelet-space partitions
 (:class:`~pdmkit.models.diagnosis.SymbolicAnomaly`), principal component analysis (PCA),
 a radial-basis-function neural network (RBFNN) and a multilayer perceptron (MLPNN),
-citing Chin, Ray & Rajagopalan (Signal Processing 85, 2005) for the details, which the
-seed does not reprint. pdmkit's versions, each fitted on the nominal record and scoring
+citing Chin, Ray & Rajagopalan (Signal Processing 85, 2005) for the details, which they
+do not reprint. pdmkit's versions, each fitted on the nominal record and scoring
 later records by how far they have moved from it:
 
 - :class:`PCAAnomaly` - the record is cut into delay windows; the principal
@@ -15,10 +15,10 @@ later records by how far they have moved from it:
   measure is ``||P - P0||_F / ||P0||_F`` (sign-free form of Chin et al.'s
   eigenvalue-weighted principal vectors).
 - :class:`RBFAnomaly` - a Gaussian radial-basis-function network (centres by k-means,
-  linear output by ridge least squares; Bishop 1995, seed reference 12) trained on the
+  linear output by ridge least squares; Bishop 1995, their reference 12) trained on the
   nominal record to predict the next sample from the last ``n_lags``;
 - :class:`MLPAnomaly` - a multilayer perceptron (scikit-learn's ``MLPRegressor``,
-  ``tanh``; Haykin 1999, seed reference 13) trained the same way.
+  ``tanh``; Haykin 1999, their reference 13) trained the same way.
 
 The two networks' measure is the change of their prediction error,
 ``|rms(e) / rms(e0) - 1|``, with ``e0`` the error on held-out nominal data: the network
@@ -28,11 +28,17 @@ the signal in units of the nominal standard deviation, so a change of amplitude 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = ["MLPAnomaly", "PCAAnomaly", "RBFAnomaly"]
 
@@ -87,7 +93,9 @@ class _Measure(BaseEstimator):
         out.update(self._summary())
         return pd.Series(out, dtype=object)
 
-    def plot(self, x, ax=None, *, time=None):
+    def plot(
+        self, x: ArrayLike, ax: Axes | None = None, *, time: ArrayLike | None = None
+    ) -> Axes:
         """The measure of each member of ``x`` (against ``time``); returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -147,7 +155,7 @@ class PCAAnomaly(_Measure):
         lam, V = np.linalg.eigh(C)
         return lam[::-1], V[:, ::-1]
 
-    def fit(self, x_nominal):
+    def fit(self, x_nominal: ArrayLike) -> PCAAnomaly:
         """Learn the nominal scale, the number of directions and ``P0``."""
         if not 0 < float(self.variance) <= 1:
             raise ModelError(f"variance must be in (0, 1]; got {self.variance!r}.")
@@ -162,7 +170,7 @@ class PCAAnomaly(_Measure):
         self.P0_ = (V[:, :k] * lam[:k]) @ V[:, :k].T
         return self
 
-    def score(self, x) -> np.ndarray:
+    def score(self, x: ArrayLike) -> np.ndarray:
         """The measure ``||P - P0|| / ||P0||`` of each member of ``x``."""
         self._check()
         X = _rows(x, "x", 4 * int(self.window))
@@ -188,7 +196,7 @@ class _Predictor(_Measure):
         y = z[L - 1 + h :]
         return X, y
 
-    def fit(self, x_nominal):
+    def fit(self, x_nominal: ArrayLike) -> _Predictor:
         """Train on the first 70 % of the nominal record, calibrate on the rest."""
         if int(self.n_lags) < 1 or int(self.horizon) < 1:
             raise ModelError(
@@ -207,7 +215,7 @@ class _Predictor(_Measure):
         self.rms0_ = float(np.sqrt(np.mean((self._predict(A[cut:]) - y[cut:]) ** 2)))
         return self
 
-    def prediction_error(self, x) -> np.ndarray:
+    def prediction_error(self, x: ArrayLike) -> np.ndarray:
         """RMS one-step prediction error (nominal-std units) of each member."""
         self._check()
         X = _rows(x, "x", 2 * (int(self.n_lags) + int(self.horizon)))
@@ -217,7 +225,7 @@ class _Predictor(_Measure):
             out.append(np.sqrt(np.mean((self._predict(A) - y) ** 2)))
         return np.array(out)
 
-    def score(self, x) -> np.ndarray:
+    def score(self, x: ArrayLike) -> np.ndarray:
         """The measure ``|rms(e) / rms(e0) - 1|`` of each member of ``x``."""
         return np.abs(self.prediction_error(x) / self.rms0_ - 1.0)
 

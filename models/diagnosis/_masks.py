@@ -2,28 +2,33 @@
 
 A *diagnostic mask* is a tolerance band on one tracked quantity (a natural frequency,
 a damping ratio, a residual): the quantity is a symptom when it leaves the band. As in
-the seed report (sec. 3.4), false alarms are suppressed by an *alarm delay* (the
-quantity must stay outside for ``delay`` consecutive samples before the alarm rises)
-and *hysteresis* (once raised, the alarm clears only when the quantity is back inside
-the band narrowed by ``hysteresis`` for ``delay`` samples). A mask is *static* (limits
-given) or *self-tuned* from a history window of healthy operation (centre and spread
-estimated robustly).
+the rotor-diagnostics monograph (sec. 3.4), false alarms are suppressed by an *alarm
+delay* (the quantity must stay outside for ``delay`` consecutive samples before the alarm
+rises) and *hysteresis* (once raised, the alarm clears only when the quantity is back
+inside the band narrowed by ``hysteresis`` for ``delay`` samples). A mask is *static*
+(limits given) or *self-tuned* from a history window of healthy operation (centre and
+spread estimated robustly).
 
-The *binary diagnostic matrix* (seed sec. 2.8.2) maps a vector of binary symptoms to
-a fault; every fault must have its own symptom vector, or the faults cannot be told
-apart.
+The *binary diagnostic matrix* (the monograph's sec. 2.8.2) maps a vector of binary
+symptoms to a fault; every fault must have its own symptom vector, or the faults cannot
+be told apart.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = ["DiagnosticMask", "DiagnosticMatrix", "MaskResult"]
 
@@ -78,7 +83,7 @@ class MaskResult:
             }
         )
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """The quantity, the band and the alarm periods (shaded); returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -161,7 +166,7 @@ class DiagnosticMask(BaseEstimator):
         self.delay = delay
         self.relative = relative
 
-    def fit(self, history=None) -> DiagnosticMask:
+    def fit(self, history: ArrayLike | None = None) -> DiagnosticMask:
         """Set the band: the static limits, or self-tuned from ``history`` (healthy)."""
         if (
             isinstance(self.delay, bool)
@@ -202,7 +207,7 @@ class DiagnosticMask(BaseEstimator):
         self.hysteresis_ = float(self.hysteresis) * (spread if self.relative else 1.0)
         return self
 
-    def evaluate(self, x, time=None) -> MaskResult:
+    def evaluate(self, x: ArrayLike, time: ArrayLike | None = None) -> MaskResult:
         """Symptoms and alarms of the record ``x`` (1-D)."""
         if not hasattr(self, "lower_"):
             if self.lower is None and self.upper is None:
@@ -272,7 +277,11 @@ class DiagnosticMatrix:
     ['misalignment', 'normal', 'unknown']
     """
 
-    def __init__(self, table, symptoms: Sequence[str] | None = None):
+    def __init__(
+        self,
+        table: pd.DataFrame | Mapping[str, Sequence[int]],
+        symptoms: Sequence[str] | None = None,
+    ) -> None:
         if isinstance(table, pd.DataFrame):
             frame = table.copy()
         elif isinstance(table, Mapping):
@@ -332,7 +341,7 @@ class DiagnosticMatrix:
                 )
             seen[key] = fault
 
-    def diagnose(self, symptoms) -> np.ndarray:
+    def diagnose(self, symptoms: ArrayLike | pd.DataFrame) -> np.ndarray:
         """Fault name of each symptom vector.
 
         The exact match, ``"normal"`` for no symptom, ``"unknown"`` for a pattern no fault
@@ -368,7 +377,7 @@ class DiagnosticMatrix:
         """The matrix (faults x symptoms)."""
         return self.table.copy()
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """The matrix as a black/white grid; returns the axes."""
         import matplotlib.pyplot as plt
 

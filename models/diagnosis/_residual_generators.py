@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -32,6 +33,10 @@ from sklearn.base import BaseEstimator
 from pdmkit._checks import check_fs
 from pdmkit.errors import DataError, ModelError, NotFittedError
 from pdmkit.models.ident import IdentifiedModel, arx, select_order
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "ParityEquations",
@@ -54,8 +59,8 @@ def _signal(x, name: str) -> np.ndarray:
 
 
 def channel_to_channel(
-    y_in,
-    y_out,
+    y_in: ArrayLike,
+    y_out: ArrayLike,
     fs: float,
     *,
     order: int | None = None,
@@ -68,13 +73,13 @@ def channel_to_channel(
     Parameters
     ----------
     y_in, y_out : array_like (n,)
-        The channel taken as the virtual input (seed: ``#2``) and as the output
+        The channel taken as the virtual input (the monograph: ``#2``) and as the output
         (``#4``); both are responses of the machine to the same unmeasured excitation.
     fs : float
         Sampling rate (Hz).
     order : int, optional
         ``na = nb = order``; None selects it from ``orders`` by ``criterion``
-        (:func:`pdmkit.models.ident.select_order`, seed appendix A, sec. 6.5).
+        (:func:`pdmkit.models.ident.select_order`, the monograph's appendix A, sec. 6.5).
     nk : int, default 0
         Delay of the input channel in samples (0: both channels see the excitation at
         the same time, the usual case for vibration probes).
@@ -113,7 +118,9 @@ def channel_to_channel(
     return model
 
 
-def parity_residual(model: IdentifiedModel, y_in, y_out) -> np.ndarray:
+def parity_residual(
+    model: IdentifiedModel, y_in: ArrayLike, y_out: ArrayLike
+) -> np.ndarray:
     """Equation error ``A(q) y_out - B(q) y_in`` of an ARX parity relation.
 
     The offsets removed at estimation are removed again; the first ``max(na, nb + nk)``
@@ -189,7 +196,7 @@ class ParityResult:
             data[f"{name} ratio"] = self.ratio[:, k]
         return pd.DataFrame(data)
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """The RMS ratios against time; returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -211,13 +218,13 @@ class ParityEquations(BaseEstimator):
     ----------
     pairs : sequence of (int, int)
         ``(input column, output column)`` of each relation, e.g. ``[(1, 3), (0, 2)]``
-        for the seed's ``#2 -> #4`` and ``#1 -> #3``.
+        for the monograph's ``#2 -> #4`` and ``#1 -> #3``.
     order : int, optional
         ARX order of every relation; None selects each by ``criterion``.
     criterion : {"aic", "bic", "mdl"}, default "mdl"
     forgetting : float, default 0.996
         Forgetting factor of the running RMS (memory ``1 / (1 - forgetting)`` samples;
-        0.996 is the seed's 256-sample buffer).
+        0.996 is the monograph's 256-sample buffer).
     notch : sequence of float, default ()
         Frequencies (Hz) taken out of the residuals by notch filters (quality factor
         ``notch_q``) before their RMS: on a rotor the synchronous components (1X, 2X)
@@ -251,7 +258,7 @@ class ParityEquations(BaseEstimator):
 
     def __init__(
         self,
-        pairs,
+        pairs: Sequence[tuple[int, int]],
         *,
         order: int | None = None,
         criterion: str = "mdl",
@@ -280,7 +287,7 @@ class ParityEquations(BaseEstimator):
                 )
         return Y
 
-    def fit(self, Y, fs: float) -> ParityEquations:
+    def fit(self, Y: ArrayLike, fs: float) -> ParityEquations:
         """Identify every relation on the healthy record ``Y`` (n_samples, n_channels)."""
         if not 0 < float(self.forgetting) < 1:
             raise ModelError(f"forgetting must be in (0, 1); got {self.forgetting!r}.")
@@ -315,7 +322,7 @@ class ParityEquations(BaseEstimator):
             res = signal.lfilter(b, a, res, axis=0)
         return res
 
-    def residuals(self, Y) -> ParityResult:
+    def residuals(self, Y: ArrayLike) -> ParityResult:
         """Residuals and RMS ratios of the record ``Y`` (same channels as at fit)."""
         if not hasattr(self, "relations_"):
             raise NotFittedError("ParityEquations is not fitted; call fit(Y, fs) first.")
@@ -324,15 +331,15 @@ class ParityEquations(BaseEstimator):
         return ParityResult(np.arange(Y.shape[0]) / self.fs_, res, ratio, self.names_)
 
 
-def reconstruct_input(model: IdentifiedModel, y) -> np.ndarray:
+def reconstruct_input(model: IdentifiedModel, y: ArrayLike) -> np.ndarray:
     """The input an ARX model needs to produce ``y``: ``u_hat = B(q)^-1 A(q) y``.
 
-    The seed's input-based residual (sec. 2.5, Fig. 12): the inverse model connected
+    The monograph's input-based residual (sec. 2.5, Fig. 12): the inverse model connected
     after the system gives back its excitation, ``H(z) H_inv(z) = 1``. The delay
     ``nk`` is undone by shifting (``u_hat[t]`` is the input at ``t``; the last ``nk``
     samples are NaN). A zero of ``B`` outside the unit circle makes the exact inverse
     unstable; it is reflected inside (same magnitude response, the phase of an
-    all-pass is lost), as the seed's "feasible inversion" does.
+    all-pass is lost), as the monograph's "feasible inversion" does.
 
     Parameters
     ----------

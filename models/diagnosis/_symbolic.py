@@ -22,11 +22,19 @@ between the vectors).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "SymbolicAnomaly",
@@ -52,7 +60,7 @@ def _rows(x, name: str) -> np.ndarray:
     return arr
 
 
-def max_entropy_partition(x, n_symbols: int) -> np.ndarray:
+def max_entropy_partition(x: ArrayLike, n_symbols: int) -> np.ndarray:
     """Interior cell boundaries at the quantiles of ``x`` (equal-probability cells).
 
     Parameters
@@ -80,7 +88,7 @@ def max_entropy_partition(x, n_symbols: int) -> np.ndarray:
     return np.quantile(x, np.arange(1, n) / n)
 
 
-def uniform_partition(x, n_symbols: int) -> np.ndarray:
+def uniform_partition(x: ArrayLike, n_symbols: int) -> np.ndarray:
     """Interior boundaries of ``n_symbols`` cells of equal width over the range of ``x``.
 
     Parameters
@@ -174,8 +182,8 @@ class _SFNN:
 
 
 def sfnn_fraction(
-    x,
-    boundaries,
+    x: ArrayLike,
+    boundaries: ArrayLike,
     *,
     word_length: int = 5,
     dim: int = 3,
@@ -233,7 +241,7 @@ def sfnn_fraction(
 
 
 def sfnn_partition(
-    x,
+    x: ArrayLike,
     n_symbols: int,
     *,
     word_length: int = 5,
@@ -307,7 +315,7 @@ def sfnn_partition(
     return at(u)
 
 
-def symbolize(x, boundaries) -> np.ndarray:
+def symbolize(x: ArrayLike, boundaries: ArrayLike) -> np.ndarray:
     """Symbols ``0..len(boundaries)`` of the samples of ``x`` (cell index).
 
     Examples
@@ -321,7 +329,7 @@ def symbolize(x, boundaries) -> np.ndarray:
     )
 
 
-def state_probabilities(symbols, n_symbols: int, depth: int = 1) -> np.ndarray:
+def state_probabilities(symbols: ArrayLike, n_symbols: int, depth: int = 1) -> np.ndarray:
     """Probabilities of the states (last ``depth`` symbols) of a D-Markov machine.
 
     Parameters
@@ -423,7 +431,7 @@ class SymbolicAnomaly(BaseEstimator):
         depth: int = 1,
         *,
         metric: str = "l2",
-        wavelet_scales=None,
+        wavelet_scales: Sequence[float] | None = None,
         partition: str = "max_entropy",
         sfnn_options: dict | None = None,
     ):
@@ -437,7 +445,7 @@ class SymbolicAnomaly(BaseEstimator):
     def _prep(self, X):
         return X if self.wavelet_scales is None else _wavelet(X, self.wavelet_scales)
 
-    def fit(self, x_nominal):
+    def fit(self, x_nominal: ArrayLike) -> SymbolicAnomaly:
         """Learn the partition and the nominal state probabilities."""
         if self.metric not in ("l2", "l1", "angle"):
             raise ModelError(f"metric must be 'l2', 'l1' or 'angle'; got {self.metric!r}.")
@@ -459,7 +467,7 @@ class SymbolicAnomaly(BaseEstimator):
         ).mean(axis=0)
         return self
 
-    def state_probabilities(self, x) -> np.ndarray:
+    def state_probabilities(self, x: ArrayLike) -> np.ndarray:
         """State probabilities of each member of ``x`` under the nominal partition."""
         if not hasattr(self, "p0_"):
             raise NotFittedError(
@@ -470,7 +478,7 @@ class SymbolicAnomaly(BaseEstimator):
             symbolize(X, self.boundaries_), self.n_symbols, self.depth
         )
 
-    def score(self, x) -> np.ndarray:
+    def score(self, x: ArrayLike) -> np.ndarray:
         """Anomaly measure of each member of ``x`` (one value per row)."""
         P = self.state_probabilities(x)
         d = P - self.p0_
@@ -489,7 +497,7 @@ class SymbolicAnomaly(BaseEstimator):
             )
         return pd.DataFrame({"state": np.arange(self.p0_.size), "p_nominal": self.p0_})
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Bar chart of the nominal state probabilities; returns the axes."""
         import matplotlib.pyplot as plt
 

@@ -2,10 +2,11 @@
 
 Rational and grey-box fits, reduction and fractional-order models.
 
-The frequency-domain path of seeds ``002`` (swept-sine FRFs of a mass-beam rig, an
-``invfreqz`` rational fit, balanced reduction) and ``003`` (FRFs at several excitation
-amplitudes, filtered by coherence, physical parameters fitted with a coherence-weighted
-error), and the fractional-order models of seed ``004``:
+The frequency-domain path of Khatkhate, Ray & Keller (2007), with swept-sine FRFs of a
+mass-beam rig, an ``invfreqz`` rational fit and balanced reduction; of the S-Mobile paper,
+with FRFs at several excitation amplitudes filtered by coherence and physical parameters
+fitted with a coherence-weighted error; and the fractional-order models of the
+fractional-calculus paper:
 
 - :func:`frf_estimate` (H1 with coherence), :func:`amplitude_dependence`,
   :func:`frf_comparison` and :func:`align_phase` (model vs data on the same branch);
@@ -14,7 +15,8 @@ error), and the fractional-order models of seed ``004``:
 - :func:`fit_frf_params`: physical parameters of a user FRF function;
 - :func:`hankel_singular_values`, :func:`balanced_truncation`;
 - :class:`FractionalTF`, :func:`fit_fractional_tf`, :func:`fit_fractional_frf`,
-  :func:`fit_fractional_simplex` (seed 004's Nelder-Mead on ``|G_EETF - G|``),
+  :func:`fit_fractional_simplex` (the fractional-calculus paper's Nelder-Mead on
+  ``|G_EETF - G|``),
   :func:`gl_simulate`, :func:`oustaloup`, :class:`FractionalConditionClassifier`.
 
 Frequencies are in Hz in the public arguments (``freq``).

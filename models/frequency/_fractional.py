@@ -1,7 +1,7 @@
 """Fractional-order models: simulation, approximation, fitting and condition distances.
 
-Seed ``004`` (fractional calculus for condition-based diagnosis of a motor + gearbox)
-models the empirical transfer function of each machine condition with
+The fractional-calculus paper (condition-based diagnosis of a motor + gearbox) models
+the empirical transfer function of each machine condition with
 
     G(s) = 1 / (a s^alpha + b s^beta + c)
 
@@ -12,13 +12,13 @@ fractional model fitting better than the integer one (alpha = 2, beta = 1).
 - :class:`FractionalTF` - ``sum_j b_j s^nu_j / sum_i a_i s^alpha_i``: frequency response,
   Grünwald-Letnikov simulation (:func:`gl_simulate`), Oustaloup rational approximation
   (:func:`oustaloup`);
-- :func:`fit_fractional_frf` - fit the seed's structure (or one with 1 or 3 denominator
+- :func:`fit_fractional_frf` - fit the paper's structure (or one with 1 or 3 denominator
   terms, or fixed orders such as the integer model) to FRF data: for fixed orders the
   coefficients are linear in ``1/H``, so the orders are searched on a grid and refined
   (variable projection), then all parameters polished on the relative error of ``H``;
 - :func:`fit_fractional_tf` - the same from input/output records, in the frequency domain
   (H1 estimate) or in the time domain (output error of the GL simulation);
-- :func:`model_distance`, :class:`FractionalConditionClassifier` - seed 004's failure
+- :func:`model_distance`, :class:`FractionalConditionClassifier` - the paper's failure
   indices and kNN diagnosis.
 
 This module holds the models, their simulation and the distance; the fits live in
@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -36,6 +37,10 @@ import scipy.signal as ss
 
 from pdmkit.errors import DataError, ModelError
 from pdmkit.models.frequency._frf import _as_float_array
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = ["FractionalTF", "gl_simulate", "gl_weights", "model_distance", "oustaloup"]
 
@@ -64,7 +69,7 @@ def gl_weights(alpha: float, n: int) -> np.ndarray:
 
 
 def gl_simulate(
-    u,
+    u: ArrayLike,
     dt: float,
     den_coefs: Sequence[float],
     den_orders: Sequence[float],
@@ -162,7 +167,7 @@ class FractionalTF:
     --------
     >>> import numpy as np
     >>> from pdmkit.models.frequency import FractionalTF
-    >>> g = FractionalTF((2.0, 0.5, 1.0), (1.6, 0.7, 0.0))   # seed 004's structure
+    >>> g = FractionalTF((2.0, 0.5, 1.0), (1.6, 0.7, 0.0))   # the paper's structure
     >>> complex(np.round(g.frequency_response([0.0])[0], 6))
     (1+0j)
     """
@@ -173,11 +178,15 @@ class FractionalTF:
     num_orders: tuple = (0.0,)
 
     @classmethod
-    def seed004(cls, a, alpha, b, beta, c) -> FractionalTF:
-        """``1 / (a s^alpha + b s^beta + c)`` (seed 004, eq. 8)."""
+    def seed004(
+        cls, a: float, alpha: float, b: float, beta: float, c: float
+    ) -> FractionalTF:
+        """``1 / (a s^alpha + b s^beta + c)`` (the fractional-calculus paper, eq. 8)."""
         return cls((a, b, c), (alpha, beta, 0.0))
 
-    def frequency_response(self, omega, *, dt: float | None = None) -> np.ndarray:
+    def frequency_response(
+        self, omega: ArrayLike, *, dt: float | None = None
+    ) -> np.ndarray:
         """Complex response at angular frequencies ``omega`` (rad/s).
 
         With ``dt`` the response of the Grünwald-Letnikov discretisation
@@ -196,7 +205,7 @@ class FractionalTF:
             )
         return num / den
 
-    def simulate(self, u, dt: float, *, memory: int | None = None) -> np.ndarray:
+    def simulate(self, u: ArrayLike, dt: float, *, memory: int | None = None) -> np.ndarray:
         """Grünwald-Letnikov simulation from rest (:func:`gl_simulate`)."""
         return gl_simulate(
             u,
@@ -216,7 +225,7 @@ class FractionalTF:
         ]
         return pd.DataFrame(rows, columns=["part", "coef", "order"])
 
-    def plot(self, ax=None, *, omega=None):
+    def plot(self, ax: Axes | None = None, *, omega: ArrayLike | None = None) -> Axes:
         """Magnitude response (dB) over ``omega`` (default 0.01 to 1000 rad/s)."""
         import matplotlib.pyplot as plt
 
@@ -229,7 +238,9 @@ class FractionalTF:
         return ax
 
 
-def oustaloup(alpha: float, wb: float, wh: float, order: int = 5):
+def oustaloup(
+    alpha: float, wb: float, wh: float, order: int = 5
+) -> tuple[np.ndarray, np.ndarray, float]:
     """Oustaloup's recursive rational approximation of ``s^alpha`` on ``[wb, wh]`` rad/s.
 
     ``s^alpha ~ K prod_{k=-N..N} (s + w'_k) / (s + w_k)`` with
@@ -280,8 +291,13 @@ _SEED_NAMES = ("a", "alpha", "b", "beta", "c")
 
 
 # ----------------------------------------------------------------------------- diagnosis
-def model_distance(H, model: FractionalTF, freq, *, relative: bool = False) -> np.ndarray:
-    """Seed 004's failure index: mean squared difference between ETFEs and a model.
+def model_distance(
+    H: ArrayLike, model: FractionalTF, freq: ArrayLike, *, relative: bool = False
+) -> np.ndarray:
+    """Failure index: mean squared difference between ETFEs and a model.
+
+    The distance of a member to a condition's model that the fractional-calculus paper
+    uses to diagnose.
 
     Parameters
     ----------

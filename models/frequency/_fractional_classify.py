@@ -1,6 +1,8 @@
-"""Condition classification from fractional-order fits of frequency responses (seed 004)."""
+"""Condition classification from fractional-order fits of frequency responses."""
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
@@ -11,18 +13,21 @@ from pdmkit.models.frequency._fractional import model_distance
 from pdmkit.models.frequency._fractional_fit import fit_fractional_frf
 from pdmkit.models.frequency._fractional_simplex import fit_fractional_simplex
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
 __all__ = ["FractionalConditionClassifier"]
 
 
 class FractionalConditionClassifier(ClassifierMixin, BaseEstimator):
-    """Seed 004's diagnosis: one fractional model per condition, distances, then kNN.
+    """The fractional-calculus paper's diagnosis: a model per condition, distances, kNN.
 
-    ``fit`` fits the seed's model ``1/(a s^alpha + b s^beta + c)`` to the empirical
-    transfer functions of each class (:func:`fit_fractional_frf`, or the seed's simplex
+    ``fit`` fits the paper's model ``1/(a s^alpha + b s^beta + c)`` to the empirical
+    transfer functions of each class (:func:`fit_fractional_frf`, or the paper's simplex
     :func:`fit_fractional_simplex` with ``fit_method="simplex"``), computes every
     training member's distance to each class model (:func:`model_distance`; the
-    seed's failure indices, its figure 5) and trains a k-nearest-neighbour classifier
-    on those distances (seed 004, algorithm 1; k = 3 as its table 2).
+    paper's failure indices, its figure 5) and trains a k-nearest-neighbour classifier
+    on those distances (the paper's algorithm 1; k = 3 as its table 2).
 
     A scikit-learn classifier: ``get_params`` / ``set_params`` / ``clone`` work, ``fit``
     returns ``self``, learned attributes end in ``_``, ``predict`` on an unfitted
@@ -38,12 +43,12 @@ class FractionalConditionClassifier(ClassifierMixin, BaseEstimator):
     n_neighbors : int, default 3
     den_terms : int, default 2
         Terms of the least-squares fit (``fit_method="lsq"``; the simplex fits the
-        seed's two).
+        paper's two).
     relative : bool, default True
         Relative distances (log-scaled features for the kNN).
     fit_method : {"lsq", "simplex"}, default "lsq"
         How each class model is fitted: all the class's members at once by the
-        seed's simplex on ``|G_EETF - G|``, or the least-squares fit of their mean.
+        paper's simplex on ``|G_EETF - G|``, or the least-squares fit of their mean.
 
     Attributes
     ----------
@@ -71,7 +76,7 @@ class FractionalConditionClassifier(ClassifierMixin, BaseEstimator):
 
     def __init__(
         self,
-        freq=None,
+        freq: ArrayLike | None = None,
         *,
         n_neighbors: int = 3,
         den_terms: int = 2,
@@ -94,7 +99,7 @@ class FractionalConditionClassifier(ClassifierMixin, BaseEstimator):
             )
         return H
 
-    def fit(self, H, y):
+    def fit(self, H: ArrayLike, y: ArrayLike) -> FractionalConditionClassifier:
         """Fit one model per class and the kNN on the training distances."""
         from sklearn.neighbors import KNeighborsClassifier
 
@@ -126,7 +131,7 @@ class FractionalConditionClassifier(ClassifierMixin, BaseEstimator):
         self.knn_ = KNeighborsClassifier(n_neighbors=k).fit(self.transform(H), y)
         return self
 
-    def transform(self, H) -> np.ndarray:
+    def transform(self, H: ArrayLike) -> np.ndarray:
         """Distances (log10) of each member to each class model, ``(n, n_classes)``."""
         check_is_fitted(self, "models_")
         H = self._check_H(H)
@@ -138,7 +143,7 @@ class FractionalConditionClassifier(ClassifierMixin, BaseEstimator):
         )
         return np.log10(d + 1e-300)
 
-    def predict(self, H) -> np.ndarray:
+    def predict(self, H: ArrayLike) -> np.ndarray:
         """Predicted condition of each member."""
         check_is_fitted(self, "knn_")
         return self.knn_.predict(self.transform(H))

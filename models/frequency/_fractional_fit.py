@@ -1,8 +1,9 @@
 """Fitting fractional-order transfer functions ``1/(a s^alpha + b s^beta + c)`` to data.
 
 In the frequency domain (:func:`fit_fractional_frf`: a grid over the orders and least
-squares for the coefficients) and in the time domain (:func:`fit_fractional_tf`); seed
-004's simplex fit (:func:`fit_fractional_simplex`) is in ``_fractional_simplex.py``.
+squares for the coefficients) and in the time domain (:func:`fit_fractional_tf`); the
+fractional-calculus paper's simplex fit (:func:`fit_fractional_simplex`) is in
+``_fractional_simplex.py``.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -18,6 +20,10 @@ import scipy.optimize as sopt
 from pdmkit.errors import DataError, ModelError
 from pdmkit.models.frequency._fractional import FractionalTF, _causal_conv, gl_weights
 from pdmkit.models.frequency._frf import _as_float_array, _check_fs, frf_estimate
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "FractionalFit",
@@ -37,15 +43,17 @@ class FractionalFit:
     alpha, beta : float
         The two largest denominator orders (``beta`` is NaN with one term).
     a, b, c : float
-        Their coefficients and the constant term (seed 004 notation).
+        Their coefficients and the constant term (the fractional-calculus paper's
+        notation).
     error : float
         RMS relative error ``sqrt(mean |H - G|^2 / |H|^2)`` on the fitted data (frequency
-        fits), RMS output error (time fits), or seed 004's objective
-        ``mean |G_EETF - G|`` (:func:`fit_fractional_simplex`).
+        fits), RMS output error (time fits), or the fractional-calculus paper's
+        objective ``mean |G_EETF - G|`` (:func:`fit_fractional_simplex`).
     fit_percent : float
         ``100 (1 - ||H - G|| / ||H - mean H||)`` (or the same on the output).
     method : str
-        ``"lsq"`` (variable projection + least squares) or ``"simplex"`` (seed 004).
+        ``"lsq"`` (variable projection + least squares) or ``"simplex"`` (the
+        fractional-calculus paper's Nelder-Mead).
 
 
     Examples
@@ -107,7 +115,7 @@ class FractionalFit:
             {**self.params, "error": self.error, "fit_percent": self.fit_percent}
         )
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Data and model magnitude; returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -193,12 +201,12 @@ class _Orders:
 
 
 def fit_fractional_frf(
-    freq,
-    H,
+    freq: ArrayLike,
+    H: ArrayLike,
     *,
     den_terms: int = 2,
     fixed_orders: Mapping[str, float] | None = None,
-    weight=None,
+    weight: ArrayLike | None = None,
     order_bounds: tuple[float, float] = (0.05, 2.5),
     grid: int = 12,
     fit_gain: bool = False,
@@ -206,14 +214,15 @@ def fit_fractional_frf(
     min_gap: float = 0.05,
     constrain: bool = True,
 ) -> FractionalFit:
-    """Fit ``1 / (a s^alpha + b s^beta + c)`` (seed 004, eq. 8) to frequency-response data.
+    """Fit ``1 / (a s^alpha + b s^beta + c)`` to frequency-response data.
 
     For given orders the denominator is linear in its coefficients, and ``1/G`` is fitted
     to ``1/H`` with weights ``|H|`` (a relative error). The orders are searched on a grid,
     the best few refined with the coefficients projected out, and the winner polished on
     the relative complex error ``(H - G)/|H|`` with all parameters free
-    (:func:`scipy.optimize.least_squares`). Seed 004 minimises ``|G_EETF - G|`` with
-    Nelder-Mead; the relative error weights every decade alike.
+    (:func:`scipy.optimize.least_squares`). The model is eq. 8 of the fractional-calculus
+    paper, which minimises ``|G_EETF - G|`` with Nelder-Mead; the relative error weights
+    every decade alike.
 
     Parameters
     ----------
@@ -223,10 +232,10 @@ def fit_fractional_frf(
         FRF values.
     den_terms : {1, 2, 3}
         Fractional terms in the denominator besides the constant ``c``: 1 gives
-        ``a s^alpha + c``, 2 the seed's structure, 3 adds ``d s^gamma``.
+        ``a s^alpha + c``, 2 the paper's structure, 3 adds ``d s^gamma``.
     fixed_orders : dict, optional
         Orders held fixed, by name (``"alpha"``, ``"beta"``, ``"gamma"``), e.g.
-        ``{"alpha": 2, "beta": 1}`` for the integer-order model of seed 004 table 1.
+        ``{"alpha": 2, "beta": 1}`` for the integer-order model of the paper's table 1.
     weight : array_like, optional
         Extra weight per frequency (e.g. coherence).
     order_bounds : (float, float)
@@ -234,7 +243,7 @@ def fit_fractional_frf(
     grid : int
         Grid points per free order for the start.
     fit_gain : bool
-        Fit a numerator gain too (otherwise 1, as in the seed; the gain is absorbed by
+        Fit a numerator gain too (otherwise 1, as in the paper; the gain is absorbed by
         ``a, b, c`` anyway).
     dt : float, optional
         Fit the Grünwald-Letnikov discretisation with this step instead of the
@@ -432,8 +441,8 @@ def _polish_all_parameters(prob, sign, x_best):
 
 
 def fit_fractional_tf(
-    u,
-    y,
+    u: ArrayLike,
+    y: ArrayLike,
     fs: float,
     *,
     domain: str = "frequency",
@@ -451,10 +460,10 @@ def fit_fractional_tf(
     """Fit ``1/(a s^alpha + b s^beta + c)`` from input and output records.
 
     ``domain="frequency"`` estimates the FRF (H1,
-    :func:`~pdmkit.models.frequency.frf_estimate`; seed 004's empirical transfer
-    function) and fits it (:func:`fit_fractional_frf`), weighting each frequency by
-    its coherence (frequencies below ``coherence_min`` dropped) by the inverse variance
-    of the H1 estimate, ``g2 / (1 - g2)``.
+    :func:`~pdmkit.models.frequency.frf_estimate`; the fractional-calculus paper's
+    empirical transfer function) and fits it (:func:`fit_fractional_frf`), weighting
+    each frequency by its coherence (frequencies below ``coherence_min`` dropped) by the
+    inverse variance of the H1 estimate, ``g2 / (1 - g2)``.
     ``domain="time"`` starts there and then minimises the output error of the
     Grünwald-Letnikov simulation (:func:`gl_simulate`) over all parameters.
 

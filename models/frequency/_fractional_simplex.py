@@ -1,4 +1,4 @@
-"""Seed 004's fit of ``1/(a s^alpha + b s^beta + c)``: Nelder-Mead on ``|G_EETF - G|``.
+"""The fractional-calculus paper's fit of ``1/(a s^alpha + b s^beta + c)`` by Nelder-Mead.
 
 The simplex of :func:`fit_fractional_simplex` on the error between the empirical transfer
 function estimates and the model, started from a grid of orders with least-squares
@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.optimize as sopt
@@ -17,6 +18,9 @@ from pdmkit.errors import DataError, ModelError
 from pdmkit.models.frequency._fractional import _SEED_NAMES, FractionalTF
 from pdmkit.models.frequency._fractional_fit import FractionalFit, _coefs_for_orders
 from pdmkit.models.frequency._frf import _as_float_array
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["fit_fractional_simplex"]
 
@@ -59,8 +63,8 @@ def _simplex_starts(s, Hr, fixed, bounds, n_starts, power):
 
 
 def fit_fractional_simplex(
-    freq,
-    H,
+    freq: ArrayLike,
+    H: ArrayLike,
     *,
     fixed_orders: Mapping[str, float] | None = None,
     start: Mapping[str, float] | None = None,
@@ -69,36 +73,36 @@ def fit_fractional_simplex(
     n_starts: int = 6,
     maxiter: int = 4000,
 ) -> FractionalFit:
-    """Seed 004's fit: Nelder-Mead of ``1/(a s^alpha + b s^beta + c)`` on ``|G_EETF - G|``.
+    """Fit ``1/(a s^alpha + b s^beta + c)`` by Nelder-Mead on ``|G_EETF - G|``.
 
-    Seed 004 (section 4.1, eqs. 6-9) minimises the error between the empirical
-    transfer functions of its tuning records and the model,
+    The fractional-calculus paper (section 4.1, eqs. 6-9) minimises the error between the
+    empirical transfer functions of its tuning records and the model,
     ``f_e = |G_EETF(omega) - G(omega, [a, b, c, alpha, beta])|``, with the simplex
     method of Lagarias et al. (1998), i.e. MATLAB's ``fminsearch``; here
     :func:`scipy.optimize.minimize` with ``method="Nelder-Mead"`` (the same algorithm:
     initial simplex 5 % along each coordinate, standard reflection / expansion /
     contraction coefficients), restarted from its own result until it stops improving.
     The objective is the mean over the records and frequencies of ``|H - G|``
-    (``loss="abs"``, the seed's ``f_e``) or of ``|H - G|^2`` (``"squared"``, the mean
-    square error the seed uses as failure index). Nelder-Mead is local: it starts
+    (``loss="abs"``, the paper's ``f_e``) or of ``|H - G|^2`` (``"squared"``, the mean
+    square error the paper uses as failure index). Nelder-Mead is local: it starts
     from the best ``n_starts`` orders of a grid (step 0.25) with their coefficients
     from a weighted linear least-squares fit of ``1/H``, or from ``start``.
 
     Parameters
     ----------
     freq : array_like, shape (n_freq,)
-        Frequencies in Hz (seed 004 uses 100-1000 rad/s).
+        Frequencies in Hz (the paper uses 100-1000 rad/s).
     H : array_like of complex, shape (n_freq,) or (n_records, n_freq)
         Empirical transfer functions; the objective averages over all records (the
-        seed's 20 tuning data sets per condition).
+        paper's 20 tuning data sets per condition).
     fixed_orders : dict, optional
-        ``{"alpha": 2, "beta": 1}`` gives the integer-order model (IOM) of seed 004,
+        ``{"alpha": 2, "beta": 1}`` gives the integer-order model (IOM) of the paper's
         table 1; other orders are free in ``order_bounds``.
     start : dict, optional
         Start values of ``a, alpha, b, beta, c`` (instead of the grid).
     loss : {"abs", "squared"}
     order_bounds : (float, float), default (0, 4)
-        Range of the free orders (the seed leaves them free; a measured ETFE can fall
+        Range of the free orders (the paper leaves them free; a measured ETFE can fall
         off faster than ``1/s^3``).
     n_starts : int, default 6
     maxiter : int, default 4000
@@ -107,7 +111,7 @@ def fit_fractional_simplex(
     Returns
     -------
     FractionalFit
-        ``method="simplex"``; ``error`` is the objective at the optimum (the seed's
+        ``method="simplex"``; ``error`` is the objective at the optimum (the paper's
         ``f_e`` for ``loss="abs"``), ``H`` the mean of the records.
 
     Examples

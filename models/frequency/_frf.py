@@ -1,8 +1,8 @@
 """Frequency-domain identification: FRF estimates, rational fits, grey-box fits, reduction.
 
-The frequency-domain path of seeds ``002`` (Khatkhate, Ray & Keller 2007, section 4:
-swept-sine FRFs of a mass-beam rig, an ``invfreqz`` rational fit, minimal realisation and
-balanced reduction) and ``003`` (FRFs at several excitation amplitudes, filtered by
+The frequency-domain path of Khatkhate, Ray & Keller (2007, section 4: swept-sine FRFs
+of a mass-beam rig, an ``invfreqz`` rational fit, minimal realisation and balanced
+reduction) and of the S-Mobile paper (FRFs at several excitation amplitudes, filtered by
 coherence, and physical parameters fitted to them with a coherence-weighted magnitude +
 phase error):
 
@@ -15,7 +15,7 @@ phase error):
   Gauss-Newton output-error refinement, unstable poles reflected into the stable region),
   as MATLAB's ``invfreqs`` / ``invfreqz``;
 - :func:`fit_frf_params` - physical parameters of a user FRF function fitted to measured
-  FRFs with the coherence-weighted error of seed 003;
+  FRFs with the coherence-weighted error of the S-Mobile paper;
 - :func:`hankel_singular_values`, :func:`balanced_truncation` - square-root balanced
   truncation (Laub et al. 1987; Glover 1984 for the error bound) with scipy.linalg only, so
   that it works without slycot (python-control's ``balred`` needs slycot).
@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -37,6 +38,10 @@ import scipy.stats as sst
 
 from pdmkit._checks import check_fs as _check_fs
 from pdmkit.errors import DataError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "FRF",
@@ -145,7 +150,7 @@ class FRF:
             frames.append(df)
         return pd.concat(frames, ignore_index=True)
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Bode magnitude plot (and phase on a twin axis); returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -163,8 +168,8 @@ class FRF:
 
 
 def frf_estimate(
-    u,
-    y,
+    u: ArrayLike,
+    y: ArrayLike,
     fs: float,
     *,
     nperseg: int | None = None,
@@ -265,7 +270,7 @@ def frf_estimate(
     return FRF(f[keep], H[..., keep], coh[..., keep], amps, int(n_avg))
 
 
-def align_phase(model_deg, data_deg) -> np.ndarray:
+def align_phase(model_deg: ArrayLike, data_deg: ArrayLike) -> np.ndarray:
     """Unwrapped model phase moved by whole turns onto the data phase's branch.
 
     Both phases are unwrapped along frequency; the model's is then shifted by the
@@ -300,8 +305,8 @@ def align_phase(model_deg, data_deg) -> np.ndarray:
 
 
 def frf_comparison(
-    u,
-    y,
+    u: ArrayLike,
+    y: ArrayLike,
     fs: float,
     response: Callable,
     *,
@@ -430,7 +435,7 @@ class AmplitudeDependence:
             }
         )
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Magnitude deviation against amplitude; returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -453,11 +458,11 @@ def amplitude_dependence(
     """Detect a nonlinearity from FRFs measured at several excitation amplitudes.
 
     A linear system has the same FRF at every amplitude; friction, backlash, dead zones
-    and saturation make gain and phase depend on it (seed 003, section 3). Each row is
-    compared with the reference row (default: the largest amplitude) at the frequencies
-    where both coherences reach ``coherence_min``; the difference of ``ln H`` is tested
-    against the random error of H1 estimates (chi-square with one degree of freedom per
-    frequency line after normalising by the expected variance).
+    and saturation make gain and phase depend on it (the S-Mobile paper, section 3).
+    Each row is compared with the reference row (default: the largest amplitude) at the
+    frequencies where both coherences reach ``coherence_min``; the difference of ``ln H``
+    is tested against the random error of H1 estimates (chi-square with one degree of
+    freedom per frequency line after normalising by the expected variance).
 
     Parameters
     ----------

@@ -1,9 +1,10 @@
-"""Physical parameters fitted to measured FRFs with seed 003's coherence-weighted error."""
+"""Physical parameters fitted to measured FRFs with the S-Mobile paper's weighted error."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -11,6 +12,9 @@ import scipy.optimize as sopt
 
 from pdmkit.errors import DataError, ModelError
 from pdmkit.models.frequency._frf import _DB, FRF
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 __all__ = ["GreyBoxFit", "fit_frf_params"]
 
@@ -63,7 +67,7 @@ class GreyBoxFit:
             {**self.params, "rms_db": self.rms_db, "rms_deg": self.rms_deg}, dtype=float
         )
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Measured and fitted magnitude; returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -90,14 +94,14 @@ def fit_frf_params(
     method: str = "least_squares",
     log_params: bool = True,
 ) -> GreyBoxFit:
-    """Fit physical parameters of a model FRF to measured FRFs (seed 003, section 4).
+    """Fit physical parameters of a model FRF to measured FRFs (S-Mobile paper, sec. 4).
 
     The error at each frequency is the complex-log difference ``ln(H_meas / H_model)``:
     its real part times 8.69 is the magnitude error in dB, its imaginary part the phase
     error (radians, wrapped to (-pi, pi], so no unwrapping is needed). Each frequency
-    is weighted by the measurement's coherence (zero below ``coherence_min``), as seed
-    003 weights its RMS amplitude and phase errors by the coherence-dependent factor
-    ``k_eval``; several rows (amplitudes) are fitted together.
+    is weighted by the measurement's coherence (zero below ``coherence_min``), as the
+    S-Mobile paper weights its RMS amplitude and phase errors by the coherence-dependent
+    factor ``k_eval``; several rows (amplitudes) are fitted together.
 
     Parameters
     ----------
@@ -117,7 +121,7 @@ def fit_frf_params(
         Weight of the phase error relative to the magnitude error (1: one radian counts
         as one neper, 8.69 dB).
     method : {"least_squares", "nelder-mead"}
-        Trust-region least squares, or the Nelder-Mead simplex seed 003 uses.
+        Trust-region least squares, or the Nelder-Mead simplex the S-Mobile paper uses.
     log_params : bool
         Optimise ``log(p)`` of positive parameters (scale-free; keeps them positive).
 

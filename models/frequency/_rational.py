@@ -8,6 +8,7 @@ Sanathanan & Koerner 1963); ``s`` or ``z`` domain.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -16,6 +17,11 @@ import scipy.optimize as sopt
 from pdmkit._checks import check_fs as _check_fs
 from pdmkit.errors import DataError, ModelError
 from pdmkit.models.frequency._frf import _DB, _as_float_array
+
+if TYPE_CHECKING:
+    import control
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = ["TFFit", "fit_tf"]
 
@@ -75,12 +81,12 @@ class TFFit:
         b = np.trim_zeros(self.num, "f")
         return np.roots(b) if b.size > 1 else np.array([])
 
-    def frequency_response(self, freq) -> np.ndarray:
+    def frequency_response(self, freq: ArrayLike) -> np.ndarray:
         """Complex response at frequencies ``freq`` (Hz)."""
         w = 2 * np.pi * np.asarray(freq, dtype=float)
         return _tf_eval(self.num, self.den, w, self.domain, self.dt)
 
-    def to_control(self):
+    def to_control(self) -> control.TransferFunction:
         """A :class:`control.TransferFunction`."""
         import control
 
@@ -101,7 +107,7 @@ class TFFit:
             {"pole_real": p.real, "pole_imag": p.imag, "wn_rad_s": wn, "zeta": zeta}
         )
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Data and model magnitude (dB) against frequency; returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -185,14 +191,14 @@ def _reflect(a: np.ndarray, domain: str) -> tuple[np.ndarray, int]:
 
 
 def fit_tf(
-    freq,
-    H,
+    freq: ArrayLike,
+    H: ArrayLike,
     nb: int,
     na: int,
     *,
     domain: str = "s",
     fs: float | None = None,
-    weight=None,
+    weight: ArrayLike | None = None,
     n_iter: int = 30,
     refine: bool = True,
     stable: bool = True,
@@ -222,8 +228,8 @@ def fit_tf(
     fs : float
         Sampling rate (Hz) of a ``z`` model; required for ``domain="z"``.
     weight : array_like, optional
-        Non-negative weight per frequency (e.g. coherence; seed 002 uses ``1/|H|`` for a
-        relative error). Default ones.
+        Non-negative weight per frequency (e.g. coherence; Khatkhate, Ray & Keller
+        (2007) use ``1/|H|`` for a relative error). Default ones.
     n_iter : int
         Maximum Sanathanan-Koerner iterations (0: Levy only).
     refine : bool

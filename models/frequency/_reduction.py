@@ -7,12 +7,22 @@ bound): python-control's ``balred`` needs slycot, this does not.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 import scipy.linalg as sla
 
 from pdmkit.errors import ModelError
+
+if TYPE_CHECKING:
+    import control
+    import scipy.signal
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
+
+    #: ``(A, B, C, D[, dt])``, a :class:`control.StateSpace` or a scipy one.
+    StateSpaceLike = tuple | control.StateSpace | scipy.signal.StateSpace
 
 __all__ = ["ReducedModel", "balanced_truncation", "hankel_singular_values"]
 
@@ -80,7 +90,7 @@ def _psd_factor(M):
     return V * np.sqrt(np.clip(w, 0.0, None))[None, :]
 
 
-def hankel_singular_values(sys) -> np.ndarray:
+def hankel_singular_values(sys: StateSpaceLike) -> np.ndarray:
     """Hankel singular values of a stable state-space system, largest first.
 
     ``sigma_i = sqrt(lambda_i(P Q))`` with the controllability and observability
@@ -152,11 +162,11 @@ class ReducedModel:
         """Eigenvalues of the reduced ``A``."""
         return np.linalg.eigvals(self.A)
 
-    def frequency_response(self, freq) -> np.ndarray:
+    def frequency_response(self, freq: ArrayLike) -> np.ndarray:
         """Complex response, shape ``(n_out, n_in, n_freq)``, at ``freq`` (Hz)."""
         return _ss_freqresp(self.A, self.B, self.C, self.D, self.dt, freq)
 
-    def to_control(self):
+    def to_control(self) -> control.StateSpace:
         """A :class:`control.StateSpace`."""
         import control
 
@@ -168,7 +178,7 @@ class ReducedModel:
             {"hsv": self.hsv, "kept": np.arange(self.hsv.size) < self.order}
         )
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Bar plot of the Hankel singular values; returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -193,7 +203,9 @@ def _ss_freqresp(A, B, C, D, dt, freq):
     return out
 
 
-def balanced_truncation(sys, order: int | None = None, *, tol: float | None = None):
+def balanced_truncation(
+    sys: StateSpaceLike, order: int | None = None, *, tol: float | None = None
+) -> ReducedModel:
     """Reduce a stable state-space model by square-root balanced truncation.
 
     The Gramians' factors ``P = Lp Lp^T`` and ``Q = Lq Lq^T`` give the Hankel singular
@@ -201,8 +213,8 @@ def balanced_truncation(sys, order: int | None = None, *, tol: float | None = No
     ``T = Lp V_r S_r^-1/2``, ``T_i = S_r^-1/2 U_r^T Lq^T`` keeps the ``order`` most
     controllable-and-observable states (Laub, Heath, Paige & Ward 1987). The reduced
     model is stable and ``||G - G_r||_inf <= 2 sum(sigma_{r+1..n})`` (Glover 1984). This
-    is what seed 002 does with MATLAB's ``sysbal`` + ``modred``; python-control's
-    ``balred`` needs slycot, which this function does not.
+    is what Khatkhate, Ray & Keller (2007) do with MATLAB's ``sysbal`` + ``modred``;
+    python-control's ``balred`` needs slycot, which this function does not.
 
     Parameters
     ----------

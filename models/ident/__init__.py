@@ -6,12 +6,12 @@ identification (:func:`n4sid`), the order by AIC/BIC/MDL (:func:`select_order`,
 :func:`identify`, which grows its search past the edge of the range); every one returns
 an :class:`IdentifiedModel` (poles, :func:`physical_modes`, simulation, prediction,
 residual tests). Recursive ARX with pole tracking over time (:class:`RecursiveARX`,
-:func:`track_poles`; seed ``000``) and Hammerstein-Wiener models
-(:class:`HammersteinWiener`; seed ``001`` section 8.2). Identification in closed loop
-(seed ``003``): :func:`direct_identification`, :func:`indirect_identification` (the
-:class:`KnownController` removed), :func:`joint_identification` and the nonparametric
-:func:`closed_loop_frf`, each plant a :class:`ClosedLoopModel`. Ljung, *System
-Identification*, 2nd ed., 1999.
+:func:`track_poles`; from the rotor-diagnostics monograph) and Hammerstein-Wiener models
+(:class:`HammersteinWiener`; Voronin's thesis, section 8.2). Identification in closed
+loop, as the S-Mobile paper does it: :func:`direct_identification`,
+:func:`indirect_identification` (the :class:`KnownController` removed),
+:func:`joint_identification` and the nonparametric :func:`closed_loop_frf`, each plant a
+:class:`ClosedLoopModel`. Ljung, *System Identification*, 2nd ed., 1999.
 
 Examples
 --------

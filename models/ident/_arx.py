@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from pdmkit._checks import check_fs as _check_fs
@@ -14,10 +16,13 @@ from pdmkit.models.ident._model import (
     _lag_matrix,
 )
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
 __all__ = ["ar", "arx"]
 
 
-def ar(y, na: int, *, fs: float = 1.0) -> IdentifiedModel:
+def ar(y: ArrayLike, na: int, *, fs: float = 1.0) -> IdentifiedModel:
     """AR model ``A(q) y = e`` of order ``na`` by least squares (covariance method).
 
     Parameters
@@ -78,7 +83,14 @@ def _arx_theta(uc: np.ndarray, yc: np.ndarray, na: int, nb: int, nk: int) -> np.
 
 
 def arx(
-    u, y, na: int, nb: int, nk: int = 1, *, fs: float = 1.0, remove_mean: bool = True
+    u: ArrayLike,
+    y: ArrayLike,
+    na: int,
+    nb: int,
+    nk: int = 1,
+    *,
+    fs: float = 1.0,
+    remove_mean: bool = True,
 ) -> IdentifiedModel:
     """ARX model ``A(q) y = B(q) u + e`` by linear least squares.
 

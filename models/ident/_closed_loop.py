@@ -3,7 +3,8 @@
 An unstable plant can only be measured under a stabilising controller, and then its
 input is correlated with the output noise (the controller feeds the noise back). The
 classical answers (Ljung 1999, sec. 13.5; Forssell & Ljung, *Closed-loop
-identification revisited*, Automatica 1999) that seed ``003`` names in its section 2.2:
+identification revisited*, Automatica 1999) that the S-Mobile paper names in its
+section 2.2:
 
 - **direct** (:func:`direct_identification`): identify the plant from its measured
   input ``u`` and output ``y`` as if there were no loop. With a prediction-error
@@ -14,7 +15,7 @@ identification revisited*, Automatica 1999) that seed ``003`` names in its secti
   reference ``r`` (which the noise does not reach) to the outputs, a stable system,
   then remove the known controller: with ``u = F_r r - F_y y`` the closed loop's
   input sensitivity is ``T_u = F_r - F_y T_y`` and the plant ``G = T_y T_u^-1``
-  (seed eqs. 5-8).
+  (the S-Mobile paper's eqs. 5-8).
 - **joint input-output** (:func:`joint_identification`): identify ``r -> (y, u)`` as
   one stable model and take ``G = T_y T_u^-1`` from its two parts; no controller
   knowledge needed.
@@ -28,6 +29,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -40,6 +42,12 @@ from pdmkit.models.ident._arx import arx
 from pdmkit.models.ident._model import _as_signal
 from pdmkit.models.ident._order import select_order
 from pdmkit.models.ident._subspace import n4sid
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable
+
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "ClosedLoopModel",
@@ -97,7 +105,7 @@ class KnownController:
         """Measured outputs the controller feeds back."""
         return self.feedback.shape[0]
 
-    def apply(self, r, y) -> np.ndarray:
+    def apply(self, r: ArrayLike, y: ArrayLike) -> np.ndarray:
         """The controller's output for a reference ``r`` (n,) and outputs ``y`` (n, n_y)."""
         r = np.asarray(r, dtype=float)
         y = np.asarray(y, dtype=float).reshape(r.size, -1)
@@ -176,7 +184,7 @@ class ClosedLoopModel:
         real = s[(np.abs(s.imag) < 1e-6 * np.maximum(1.0, np.abs(s))) & (s.real > 0)]
         return np.sort(real.real)[::-1]
 
-    def frequency_response(self, f) -> np.ndarray:
+    def frequency_response(self, f: ArrayLike) -> np.ndarray:
         """``C (zI - A)^-1 B + D`` at ``f`` (Hz), shape ``(len(f), n_outputs)``."""
         f = np.atleast_1d(np.asarray(f, dtype=float))
         z = np.exp(2j * np.pi * f / self.fs)
@@ -192,7 +200,7 @@ class ClosedLoopModel:
             zeta = np.where(wn > 0, -s.real / wn, np.nan)
         return pd.DataFrame({"real": s.real, "imag": s.imag, "wn_rad_s": wn, "zeta": zeta})
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Continuous pole map; returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -220,14 +228,14 @@ def _outputs(y, n: int) -> np.ndarray:
 
 
 def direct_identification(
-    u,
-    y,
+    u: ArrayLike,
+    y: ArrayLike,
     fs: float,
     *,
     order: int | None = None,
     nk: int = 1,
     criterion: str = "mdl",
-    orders=range(1, 11),
+    orders: Iterable[int] = range(1, 11),
 ) -> ClosedLoopModel:
     """Plant from its input and output as if the loop were open (ARX, SISO).
 
@@ -350,8 +358,8 @@ def _fit_loop(r, Y, fs, nx, max_order, horizon):
 
 
 def indirect_identification(
-    r,
-    y,
+    r: ArrayLike,
+    y: ArrayLike,
     fs: float,
     controller: KnownController,
     *,
@@ -427,9 +435,9 @@ def indirect_identification(
 
 
 def joint_identification(
-    r,
-    u,
-    y,
+    r: ArrayLike,
+    u: ArrayLike,
+    y: ArrayLike,
     fs: float,
     *,
     order: int | None = None,
@@ -469,7 +477,9 @@ def joint_identification(
     )
 
 
-def closed_loop_frf(r, u, y, fs: float, **welch):
+def closed_loop_frf(
+    r: ArrayLike, u: ArrayLike, y: ArrayLike, fs: float, **welch: Any
+) -> FRF:
     """Nonparametric plant FRF from closed-loop data: ``G = S_ry / S_ru``.
 
     Both cross-spectra are taken with the reference, which the noise fed back by the

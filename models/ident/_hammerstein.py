@@ -3,12 +3,13 @@
 ``u -> f(u) -> B(q)/F(q) -> g(.) -> y``: an input nonlinearity ``f`` (actuator: dead
 zone, saturation, polynomial, piecewise linear), a linear output-error block with
 ``nb`` numerator and ``nf`` denominator coefficients and an input delay of ``nk``
-samples, and an output nonlinearity ``g`` (sensor or end stops). Seed 001 (section
-5.2.1, 8.2.1) identified such a model for every recording of the pneumatic piston with
-MATLAB's ``nlhw`` and used the coefficients as condition indicators; the classifier did
-not exceed 40 % accuracy. :class:`HammersteinWiener` fits all blocks together by
-simulation-error minimisation (:func:`scipy.optimize.least_squares`), so the fitted
-coefficients can be compared with the seed's experience (``benchmarks/hw_vs_signal.py``).
+samples, and an output nonlinearity ``g`` (sensor or end stops). Voronin's thesis
+(sections 5.2.1, 8.2.1) identified such a model for every recording of the pneumatic
+piston with MATLAB's ``nlhw`` and used the coefficients as condition indicators; the
+classifier did not exceed 40 % accuracy. :class:`HammersteinWiener` fits all blocks
+together by simulation-error minimisation (:func:`scipy.optimize.least_squares`), so the
+fitted coefficients can be compared with the thesis's experience
+(``benchmarks/hw_vs_signal.py``).
 
 Gain ambiguity: a gain can move between the blocks without changing the output. The
 nonlinearities are therefore normalised (unit slope outside a dead zone, inside a
@@ -19,6 +20,7 @@ free-form, and the linear block's DC gain is then fixed at 1.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -27,6 +29,10 @@ import scipy.signal as ss
 from sklearn.base import BaseEstimator
 
 from pdmkit.errors import DataError, ModelError, NotFittedError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "DeadZone",
@@ -56,13 +62,13 @@ class Identity:
     def __call__(self, x, theta):
         return x
 
-    def initial(self, x):
+    def initial(self, x: np.ndarray) -> np.ndarray:
         return np.array([])
 
-    def bounds(self, x):
+    def bounds(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.array([]), np.array([])
 
-    def starts(self, x):
+    def starts(self, x: np.ndarray) -> list[np.ndarray]:
         return [self.initial(x)]
 
 
@@ -84,15 +90,15 @@ class DeadZone(Identity):
         lo, hi = min(theta[0], theta[1]), max(theta[0], theta[1])
         return np.where(x > hi, x - hi, np.where(x < lo, x - lo, 0.0))
 
-    def initial(self, x):
+    def initial(self, x: np.ndarray) -> np.ndarray:
         s = np.std(x)
         return np.array([-0.1 * s, 0.1 * s])
 
-    def bounds(self, x):
+    def bounds(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         r = np.max(np.abs(x))
         return np.array([-r, -r]), np.array([r, r])
 
-    def starts(self, x):
+    def starts(self, x: np.ndarray) -> list[np.ndarray]:
         s = np.std(x)
         return [np.array([-k * s, k * s]) for k in (0.05, 0.3, 0.8)]
 
@@ -115,15 +121,15 @@ class Saturation(Identity):
         lo, hi = min(theta[0], theta[1]), max(theta[0], theta[1])
         return np.clip(x, lo, hi)
 
-    def initial(self, x):
+    def initial(self, x: np.ndarray) -> np.ndarray:
         return np.quantile(x, [0.02, 0.98])
 
-    def bounds(self, x):
+    def bounds(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         lo, hi = np.min(x), np.max(x)
         pad = 2 * (hi - lo) + 1e-12
         return np.array([lo - pad, lo - pad]), np.array([hi + pad, hi + pad])
 
-    def starts(self, x):
+    def starts(self, x: np.ndarray) -> list[np.ndarray]:
         return [np.quantile(x, [q, 1 - q]) for q in (0.02, 0.15)]
 
 
@@ -155,14 +161,14 @@ class Polynomial(Identity):
             out = out + c * x**k
         return out
 
-    def initial(self, x):
+    def initial(self, x: np.ndarray) -> np.ndarray:
         return np.zeros(self.degree - 1)
 
-    def bounds(self, x):
+    def bounds(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         n = self.degree - 1
         return np.full(n, -np.inf), np.full(n, np.inf)
 
-    def starts(self, x):
+    def starts(self, x: np.ndarray) -> list[np.ndarray]:
         return [self.initial(x)]
 
 
@@ -198,7 +204,7 @@ class PiecewiseLinear(Identity):
         out = np.where(x < xk[0], yk[0] + lo_s * (x - xk[0]), out)
         return np.where(x > xk[-1], yk[-1] + hi_s * (x - xk[-1]), out)
 
-    def initial(self, x):
+    def initial(self, x: np.ndarray) -> np.ndarray:
         q = np.linspace(0.02, 0.98, self.n_breakpoints)
         knots = np.unique(np.quantile(x, q))
         if knots.size < self.n_breakpoints:
@@ -206,11 +212,11 @@ class PiecewiseLinear(Identity):
         self.knots_ = knots
         return knots.copy()
 
-    def bounds(self, x):
+    def bounds(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         n = self.n_breakpoints
         return np.full(n, -np.inf), np.full(n, np.inf)
 
-    def starts(self, x):
+    def starts(self, x: np.ndarray) -> list[np.ndarray]:
         return [self.initial(x)]
 
 
@@ -224,7 +230,7 @@ _NL = {
 }
 
 
-def nonlinearity(spec, which: str = "nonlinearity"):
+def nonlinearity(spec: str | Identity | None, which: str = "nonlinearity") -> Identity:
     """The static nonlinearity block a Hammerstein-Wiener model uses for ``spec``.
 
     Parameters
@@ -331,7 +337,7 @@ class HammersteinWiener(BaseEstimator):
         Nonlinearity parameters by name.
     coef_ : ndarray
         All parameters in one vector (names in ``coef_names_``): the condition
-        indicators of seed 001.
+        indicators of Voronin's thesis.
     fit_percent_ : float
         ``100 (1 - ||y - y_sim|| / ||y - mean y||)`` on the training data.
     cost_ : float
@@ -350,8 +356,8 @@ class HammersteinWiener(BaseEstimator):
 
     def __init__(
         self,
-        input_nl="deadzone",
-        output_nl=None,
+        input_nl: str | Identity | None = "deadzone",
+        output_nl: str | Identity | None = None,
         *,
         nb: int = 2,
         nf: int = 2,
@@ -392,7 +398,7 @@ class HammersteinWiener(BaseEstimator):
         return self._out(self._linear(self._in(U, th_in), b, f), th_out)
 
     # -------------------------------------------------------------- API
-    def fit(self, u, y):
+    def fit(self, u: ArrayLike, y: ArrayLike) -> HammersteinWiener:
         """Fit all blocks to input ``u`` and output ``y`` (1-D, or one row per record).
 
         Returns
@@ -537,7 +543,7 @@ class HammersteinWiener(BaseEstimator):
             f = np.real(np.poly(r))[1:]
         return b, f
 
-    def predict(self, u) -> np.ndarray:
+    def predict(self, u: ArrayLike) -> np.ndarray:
         """Simulated output for input ``u`` (same shape as ``u``)."""
         if not hasattr(self, "theta_"):
             raise NotFittedError("HammersteinWiener is not fitted; call fit(u, y) first.")
@@ -561,7 +567,7 @@ class HammersteinWiener(BaseEstimator):
             }
         )
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """The fitted input nonlinearity on the input range; returns the axes."""
         import matplotlib.pyplot as plt
 

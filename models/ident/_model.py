@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -21,6 +21,10 @@ from pdmkit._checks import check_fs as _check_fs
 from pdmkit.errors import DataError, ModelError
 from pdmkit.models._residuals import whiteness_test
 from pdmkit.models.ident._statespace import ss_predict, ss_simulate
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "CANCEL_TOL",
@@ -39,7 +43,7 @@ CANCEL_TOL = 1e-3
 
 
 # --------------------------------------------------------------------------- helpers
-def fit_percent(y, y_hat) -> float:
+def fit_percent(y: ArrayLike, y_hat: ArrayLike) -> float:
     """Normalised-RMSE fit in percent: ``100 * (1 - ||y - y_hat|| / ||y - mean(y)||)``.
 
     100 is a perfect fit, 0 is no better than the mean; it is negative for worse.
@@ -66,7 +70,9 @@ def fit_percent(y, y_hat) -> float:
     return float(np.mean(100.0 * (1.0 - num / den)))
 
 
-def modes_from_poles(poles, fs: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def modes_from_poles(
+    poles: ArrayLike, fs: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Natural frequencies (Hz) and damping ratios of discrete poles, one per mode.
 
     Each pole maps to continuous time by ``s = fs * log(z)`` (exact for a zero-order
@@ -105,8 +111,8 @@ _MODE_COLUMNS = [
 
 
 def physical_modes(
-    poles,
-    zeros=(),
+    poles: ArrayLike,
+    zeros: ArrayLike = (),
     fs: float = 1.0,
     *,
     band: tuple[float, float] | None = None,
@@ -473,7 +479,7 @@ class IdentifiedModel:
             raise DataError(f"u has {arr.shape[0]} samples but y has {n}.")
         return arr - self.u_offset
 
-    def simulate(self, u, x0=None) -> np.ndarray:
+    def simulate(self, u: ArrayLike, x0: ArrayLike | None = None) -> np.ndarray:
         """Simulated output for the input ``u`` (zero initial state unless ``x0``).
 
         Parameters
@@ -494,7 +500,9 @@ class IdentifiedModel:
             return y + self.y_offset
         return signal.lfilter(self.B, np.convolve(self.A, self.F), uc) + self.y_offset
 
-    def predict(self, u, y, horizon: int | None = 1) -> np.ndarray:
+    def predict(
+        self, u: ArrayLike | None, y: ArrayLike, horizon: int | None = 1
+    ) -> np.ndarray:
         """``horizon``-step-ahead prediction of ``y`` (Ljung 1999, sec. 3.2).
 
         ``y_hat(t | t - k) = y(t) - W_k(q) (y(t) - G(q) u(t))`` with
@@ -533,11 +541,13 @@ class IdentifiedModel:
         e = yc - gu
         return yc - signal.lfilter(w_num, self.C, e) + self.y_offset
 
-    def prediction_errors(self, u, y) -> np.ndarray:
+    def prediction_errors(self, u: ArrayLike | None, y: ArrayLike) -> np.ndarray:
         """One-step prediction errors ``y - predict(u, y, 1)`` (the innovations)."""
         return np.asarray(y, dtype=float) - self.predict(u, y, 1)
 
-    def compare(self, u, y, horizon: int | None = None) -> float:
+    def compare(
+        self, u: ArrayLike | None, y: ArrayLike, horizon: int | None = None
+    ) -> float:
         """NRMSE fit (%) of the ``horizon``-step prediction (default: simulation).
 
         A prediction leaves out its first ``max(orders)`` samples (at most a tenth of
@@ -554,7 +564,9 @@ class IdentifiedModel:
             return fit_percent(y[skip:], pred[skip:])
         return fit_percent(y, pred)
 
-    def residual_test(self, u, y, max_lag: int | None = None) -> dict:
+    def residual_test(
+        self, u: ArrayLike | None, y: ArrayLike, max_lag: int | None = None
+    ) -> dict:
         """Whiteness of the one-step prediction errors and their correlation with ``u``.
 
         Uses :func:`pdmkit.models.mismatch.whiteness_test` (Ljung-Box test and
@@ -577,7 +589,7 @@ class IdentifiedModel:
         e1 = e[skip:] if e.ndim == 1 else e[skip:, 0]
         return whiteness_test(e1, inputs, max_lag=max_lag)
 
-    def frequency_response(self, f) -> np.ndarray:
+    def frequency_response(self, f: ArrayLike) -> np.ndarray:
         """Complex frequency response of the input-output model at ``f`` (Hz).
 
         Shape ``(len(f),)`` for SISO, ``(len(f), n_outputs, n_inputs)`` otherwise;
@@ -661,7 +673,7 @@ class IdentifiedModel:
             "mdl": float(self.mdl),
         }
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Pole-zero map in the z-plane with the unit circle; returns the axes."""
         import matplotlib.pyplot as plt
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -15,6 +16,10 @@ from pdmkit.models.ident._arx import ar, arx
 from pdmkit.models.ident._model import CRITERIA, IdentifiedModel
 from pdmkit.models.ident._pem import armax, bj, oe
 from pdmkit.models.ident._subspace import n4sid
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = ["STRUCTURES", "OrderSelection", "identify", "select_order"]
 
@@ -61,7 +66,7 @@ class OrderSelection:
         """The comparison table."""
         return self.table.copy()
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Criterion against the number of parameters; returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -120,8 +125,8 @@ def _fit_structure(structure: str, u, y, fs: float, order: dict, **kw) -> Identi
 
 
 def select_order(
-    u,
-    y,
+    u: ArrayLike | None,
+    y: ArrayLike,
     structure: str = "arx",
     orders: Iterable = range(1, 11),
     criterion: str = "aic",
@@ -190,8 +195,8 @@ def select_order(
 
 
 def identify(
-    u,
-    y,
+    u: ArrayLike | None,
+    y: ArrayLike,
     fs: float,
     structure: str = "arx",
     order: int | dict | None = None,

@@ -15,6 +15,7 @@ of BJ, Steiglitz-McBride iterations for the OE part of OE and BJ.
 from __future__ import annotations
 
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import optimize, signal
@@ -30,6 +31,9 @@ from pdmkit.models.ident._model import (
     _lag_matrix,
     _stabilise,
 )
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["armax", "bj", "oe"]
 
@@ -121,8 +125,8 @@ def _pem(u, y, x0, unpack, max_nfev: int):
 
 
 def armax(
-    u,
-    y,
+    u: ArrayLike,
+    y: ArrayLike,
     na: int,
     nb: int,
     nc: int,
@@ -195,7 +199,14 @@ def armax(
 
 
 def oe(
-    u, y, nb: int, nf: int, nk: int = 1, *, fs: float = 1.0, max_nfev: int = 200
+    u: ArrayLike,
+    y: ArrayLike,
+    nb: int,
+    nf: int,
+    nk: int = 1,
+    *,
+    fs: float = 1.0,
+    max_nfev: int = 200,
 ) -> IdentifiedModel:
     """Output-error model ``y = B / F u + e`` by the prediction-error method.
 
@@ -257,8 +268,8 @@ def oe(
 
 
 def bj(
-    u,
-    y,
+    u: ArrayLike,
+    y: ArrayLike,
     nb: int,
     nc: int,
     nd: int,

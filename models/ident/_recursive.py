@@ -7,7 +7,7 @@ The poles of every estimate are tracked over time with each pole matched to the
 nearest pole of the previous step (an optimal assignment), so that modes keep their
 track and do not swap when they are sorted afresh.
 
-As in the seed report's processing chain (identification -> preprocessing ->
+As in the rotor-diagnostics monograph's processing chain (identification -> preprocessing ->
 diagnosis), the tracks of natural frequency and damping are cleaned by a median filter
 (impulse-like outliers) and then a Savitzky-Golay filter (smoothing); the defaults are
 its Table 15: median buffer 50, Savitzky-Golay order 2 over 151 samples.
@@ -16,6 +16,7 @@ its Table 15: median buffer 50, Savitzky-Golay order 2 over 151 samples.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -25,10 +26,16 @@ from sklearn.base import BaseEstimator
 from pdmkit.errors import DataError, ModelError, NotFittedError
 from pdmkit.models.ident._model import _as_signal, _check_fs, _check_order, modes_from_poles
 
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
+
 __all__ = ["PoleTracks", "RecursiveARX", "smooth_tracks", "track_poles"]
 
 
-def smooth_tracks(x, median: int = 50, savgol: int = 151, polyorder: int = 2, axis=0):
+def smooth_tracks(
+    x: ArrayLike, median: int = 50, savgol: int = 151, polyorder: int = 2, axis: int = 0
+) -> np.ndarray:
     """Median filter, then Savitzky-Golay smoothing, along ``axis`` (time).
 
     Parameters
@@ -65,7 +72,7 @@ def smooth_tracks(x, median: int = 50, savgol: int = 151, polyorder: int = 2, ax
     return out
 
 
-def track_poles(pole_sets) -> np.ndarray:
+def track_poles(pole_sets: ArrayLike) -> np.ndarray:
     """Order poles so that each column follows one pole over time.
 
     Each row's poles are assigned to the previous row's (already ordered) poles by
@@ -131,7 +138,7 @@ class PoleTracks:
     smoothed: dict = field(default_factory=dict, repr=False)
 
     @classmethod
-    def from_poles(cls, time, poles, fs: float) -> PoleTracks:
+    def from_poles(cls, time: ArrayLike, poles: ArrayLike, fs: float) -> PoleTracks:
         """Build tracks (modes ordered by mean frequency) from ordered pole columns."""
         poles = np.asarray(poles, dtype=complex)
         keep = np.mean(poles.imag, axis=0) >= -1e-12
@@ -164,7 +171,7 @@ class PoleTracks:
             data[f"zeta{k + 1}"] = self.damping[:, k]
         return pd.DataFrame(data)
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Natural frequencies (and damping on a twin axis) against time; the axes."""
         import matplotlib.pyplot as plt
 
@@ -252,7 +259,7 @@ class RecursiveARX(BaseEstimator):
         lam = float(self.forgetting)
         return float("inf") if lam >= 1 else 1.0 / (1.0 - lam)
 
-    def fit(self, y, u=None) -> RecursiveARX:
+    def fit(self, y: ArrayLike, u: ArrayLike | None = None) -> RecursiveARX:
         """Run the recursion over the record ``y`` (and input ``u`` for ARX).
 
         The output comes first and the input is optional: tracking mostly runs on the

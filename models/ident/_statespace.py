@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from scipy import linalg, signal
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["ss_predict", "ss_simulate"]
 
@@ -37,7 +42,14 @@ def _states(A: np.ndarray, B: np.ndarray, u: np.ndarray, x0=None) -> np.ndarray:
     return X
 
 
-def ss_simulate(A, B, C, D, u, x0=None) -> np.ndarray:
+def ss_simulate(
+    A: ArrayLike,
+    B: ArrayLike,
+    C: ArrayLike,
+    D: ArrayLike,
+    u: ArrayLike,
+    x0: ArrayLike | None = None,
+) -> np.ndarray:
     """Output of a discrete state-space model for the input ``u`` (N, m).
 
     Examples
@@ -56,7 +68,16 @@ def ss_simulate(A, B, C, D, u, x0=None) -> np.ndarray:
     return X @ np.asarray(C).T + u @ np.asarray(D).T
 
 
-def ss_predict(A, B, C, D, K, u, y, horizon: int = 1) -> np.ndarray:
+def ss_predict(
+    A: ArrayLike,
+    B: ArrayLike,
+    C: ArrayLike,
+    D: ArrayLike,
+    K: ArrayLike,
+    u: ArrayLike,
+    y: ArrayLike,
+    horizon: int = 1,
+) -> np.ndarray:
     """``horizon``-step-ahead prediction of the innovation-form model.
 
     ``x(t+1|t) = (A - K C) x + (B - K D) u + K y``; further steps propagate the

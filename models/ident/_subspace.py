@@ -19,6 +19,7 @@ shape) before ``B`` and ``D`` are estimated, and the model says so in
 from __future__ import annotations
 
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import linalg, optimize
@@ -26,6 +27,9 @@ from scipy import linalg, optimize
 from pdmkit.errors import ConvergenceWarning, DataError, ModelError
 from pdmkit.models.ident._model import IdentifiedModel, _as_signal, _check_fs, _check_order
 from pdmkit.models.ident._statespace import _states, ss_predict
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["n4sid", "stabilise_matrix"]
 
@@ -201,8 +205,8 @@ def _kalman_gain(A, B, C, D, us, ys, max_nfev: int, max_samples_k: int):
 
 
 def n4sid(
-    u,
-    y,
+    u: ArrayLike,
+    y: ArrayLike,
     nx: int,
     *,
     fs: float = 1.0,

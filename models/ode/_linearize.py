@@ -1,9 +1,9 @@
 """Linearisation of pdmkit ODE models at an operating point (torch autograd).
 
 ``dx/dt = f(t, x, u)`` near ``(x0, u0)``: ``A = df/dx``, ``B = df/du``, outputs ``y = C x``
-(the measured states), ``D = 0``. Seed 003 linearises its ball-balancing robot at the
-quasi-stable point to fit physical parameters to measured FRFs; the poles of ``A`` are
-the model's natural frequencies and damping there.
+(the measured states), ``D = 0``. The S-Mobile paper linearises its ball-balancing robot
+at the quasi-stable point to fit physical parameters to measured FRFs; the poles of ``A``
+are the model's natural frequencies and damping there.
 
 :func:`linearize` takes a user :class:`~pdmkit.models.ode.OdeModel` (the model-file
 contract ``rhs(t, x, u, p)`` with dicts), or any function ``fun(t, x, *args)`` on a
@@ -13,13 +13,20 @@ valve command, is a function of time, so only ``A`` is returned there).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
 from pdmkit.errors import ModelError
+from pdmkit.models.ode._modelfile import OdeModel
+
+if TYPE_CHECKING:
+    import control
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = ["LinearModel", "linearize"]
 
@@ -69,7 +76,7 @@ class LinearModel:
         scale = max(1.0, float(np.max(np.abs(self.A)) * np.max(np.abs(self.x0), initial=1)))
         return bool(np.max(np.abs(self.f0), initial=0.0) <= 1e-9 * scale)
 
-    def frequency_response(self, omega) -> np.ndarray:
+    def frequency_response(self, omega: ArrayLike) -> np.ndarray:
         """``C (j omega I - A)^-1 B + D``, shape ``(n_out, n_in, n_omega)``."""
         w = np.asarray(omega, float).reshape(-1)
         n = self.A.shape[0]
@@ -79,7 +86,7 @@ class LinearModel:
             out[:, :, i] += self.D
         return out
 
-    def to_control(self):
+    def to_control(self) -> control.StateSpace:
         """A :class:`control.StateSpace`."""
         import control
 
@@ -93,7 +100,7 @@ class LinearModel:
             zeta = np.where(wn > 0, -p.real / wn, np.nan)
         return pd.DataFrame({"real": p.real, "imag": p.imag, "wn_rad_s": wn, "zeta": zeta})
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Pole map; returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -123,7 +130,15 @@ def _vec(values, names, what) -> np.ndarray:
     return arr
 
 
-def linearize(model, x0, u0=None, *, params=None, t: float = 0.0, args=()) -> LinearModel:
+def linearize(
+    model: OdeModel | Callable[..., Any],
+    x0: Mapping[str, float] | ArrayLike,
+    u0: Mapping[str, float] | ArrayLike | None = None,
+    *,
+    params: Mapping[str, float] | None = None,
+    t: float = 0.0,
+    args: tuple = (),
+) -> LinearModel:
     """Jacobians of a model at an operating point, by torch autograd.
 
     Parameters
@@ -163,8 +178,6 @@ def linearize(model, x0, u0=None, *, params=None, t: float = 0.0, args=()) -> Li
     [-4.429, 4.429]
     """
     import torch
-
-    from pdmkit.models.ode import OdeModel
 
     dtype = torch.float64
     if isinstance(model, OdeModel):

@@ -3,12 +3,17 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pdmkit.errors import ModelError
 from pdmkit.models._xp import is_torch
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = ["ResponseData"]
 
@@ -74,7 +79,7 @@ class ResponseData:
 
     def __init__(
         self,
-        time,
+        time: ArrayLike,
         states: Mapping[str, Any] | None = None,
         outputs: Mapping[str, Any] | None = None,
         inputs: Mapping[str, Any] | None = None,
@@ -146,7 +151,7 @@ class ResponseData:
         return member % self.n_members
 
     # ------------------------------------------------------------------ export
-    def to_pandas(self, member: int = 0, groups: Sequence[str] = _GROUPS):
+    def to_pandas(self, member: int = 0, groups: Sequence[str] = _GROUPS) -> pd.DataFrame:
         """One member's signals as a DataFrame indexed by time (s).
 
         Columns are ``"<name> [<unit>]"`` (just ``<name>`` when the unit is unknown), in
@@ -188,8 +193,11 @@ class ResponseData:
         return list(self.outputs or self.states)[:4]
 
     def plot(
-        self, ax=None, signals: Sequence[str] | None = None, member: int | Sequence = 0
-    ):
+        self,
+        ax: Axes | Sequence[Axes] | None = None,
+        signals: Sequence[str] | None = None,
+        member: int | Sequence = 0,
+    ) -> np.ndarray:
         """Plot signals against time (matplotlib imported here).
 
         Parameters

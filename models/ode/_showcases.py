@@ -10,7 +10,7 @@ from __future__ import annotations
 from importlib import resources
 
 from pdmkit.errors import ModelError
-from pdmkit.models.ode._modelfile import load_model_source
+from pdmkit.models.ode._modelfile import OdeModel, load_model_source
 
 __all__ = ["SHOWCASE_NAMES", "showcase_model", "showcase_source"]
 
@@ -46,7 +46,7 @@ def showcase_source(name: str) -> str:
     return (_SHOWCASES / f"{name}.py").read_text(encoding="utf-8")
 
 
-def showcase_model(name: str, **params: float):
+def showcase_model(name: str, **params: float) -> OdeModel:
     """A built-in showcase model as an :class:`OdeModel` (nominal values overridable).
 
     Examples

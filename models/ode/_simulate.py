@@ -13,13 +13,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pdmkit.errors import ModelError
 from pdmkit.models._xp import NumpyNamespace, TorchNamespace, is_torch
 from pdmkit.models.ode._response import ResponseData
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from pdmkit.models.ode._modelfile import OdeModel
 
 __all__ = [
     "DERIVATIVE_ATTACH",
@@ -72,21 +77,21 @@ DERIVATIVE_ATTACH = ("velocity", "velocity_position", "level", "state")
 
 
 def integrate_batch(
-    model,
+    model: OdeModel,
     effects: Sequence,
     theta: Sequence[Mapping[str, Any]],
     masks: Sequence[Any],
     t: np.ndarray,
     useq: Mapping[str, Any],
     params: Mapping[str, Any],
-    x0,
+    x0: Any,
     n_sub: int,
-    xp,
+    xp: NumpyNamespace | TorchNamespace,
     want_states: bool = False,
     hold: str = "zoh",
     segments: tuple[np.ndarray, int] | None = None,
     t_origin: float | None = None,
-):
+) -> tuple[Any, Any | None]:
     """Integrate a batch; return ``(y (B, N, n_out), x (B, N, nx) or None)``.
 
     ``t_origin`` is the time from which time-dependent sensor effects (a drift) count
@@ -505,8 +510,8 @@ def _batch_size(where: str, *collections) -> int:
 
 
 def simulate_ode(
-    model,
-    time,
+    model: OdeModel,
+    time: ArrayLike,
     inputs: Mapping[str, Any] | None = None,
     *,
     params: Mapping[str, Any] | None = None,
@@ -515,7 +520,7 @@ def simulate_ode(
     effect_params: Mapping[str, Any] | None = None,
     n_sub: int = 1,
     hold: str = "zoh",
-):
+) -> ResponseData:
     """Simulate an :class:`OdeModel` (optionally with candidate effects) for a batch.
 
     Classical fourth-order Runge-Kutta with ``n_sub`` steps per sample interval; inputs
@@ -619,7 +624,13 @@ def simulate_ode(
     return ResponseData(t, states=states, outputs=outputs, inputs=shown, name=model.name)
 
 
-def stable_substeps(model, params, x_traj: np.ndarray, ts: float, u_traj=None) -> int:
+def stable_substeps(
+    model: OdeModel,
+    params: Mapping[str, Any],
+    x_traj: np.ndarray,
+    ts: float,
+    u_traj: Mapping[str, ArrayLike] | None = None,
+) -> int:
     """Smallest RK4 sub-step count keeping ``h * |lambda_max| <= 0.5`` along a trajectory.
 
     The local Jacobian is estimated by finite differences at a few points of ``x_traj``
@@ -642,7 +653,13 @@ def stable_substeps(model, params, x_traj: np.ndarray, ts: float, u_traj=None) -
     return max(1, math.ceil(ts * lam / 0.5))
 
 
-def state_jacobians(model, params, x_traj: np.ndarray, u_traj, n_points: int):
+def state_jacobians(
+    model: OdeModel,
+    params: Mapping[str, Any],
+    x_traj: np.ndarray,
+    u_traj: Mapping[str, ArrayLike] | None,
+    n_points: int,
+) -> list[np.ndarray]:
     """Finite-difference state Jacobians of ``rhs`` at ``n_points`` points of a trajectory.
 
     The trajectory is ``x_traj (N, nx)`` (inputs ``u_traj``); only finite Jacobians are

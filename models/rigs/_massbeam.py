@@ -26,12 +26,18 @@ paper's 28.9 and 87.8 rad/s; the rest is table 1.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
 from pdmkit.errors import ModelError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = ["FatigueRun", "MassBeamRig", "beam_fe_modes"]
 
@@ -45,7 +51,7 @@ def _rect_I(width: float, thickness: float) -> float:
 
 @dataclass(frozen=True)
 class MassBeamRig:
-    """Parameters and linear models of the seed-002 mass-beam rig (SI units).
+    """Parameters and linear models of Khatkhate et al.'s mass-beam rig (SI units).
 
     Parameters
     ----------
@@ -106,8 +112,8 @@ class MassBeamRig:
         L4, L5 = self.L4, self.L5
         return 3 * self.E4I4 / (L4 * (3 * L5**2 - 3 * L5 * L4 + L4**2))
 
-    def system1(self):
-        """``(A, B, C, D)`` of system 1 (seed eqs. 4-5; ``B = 1/m3``, force input).
+    def system1(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(A, B, C, D)`` of system 1 (the paper's eqs. 4-5; ``B = 1/m3``, force input).
 
         The paper prints ``B = (0, 1)`` for the equation ``m x'' + k x = F1``; here the
         input is the force, so ``B = (0, 1/m3)``.
@@ -138,7 +144,7 @@ class MassBeamRig:
         )
         return np.array([[a1, a2], [a2, a4]])
 
-    def system2(self):
+    def system2(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(A, B, C, D)`` of system 2 (eq. 8): states ``(y2, y2', y3, y3')``.
 
         ``P, Q, R, S`` are the entries of the inverse flexibility matrix; the input is
@@ -167,7 +173,7 @@ class MassBeamRig:
         w2 = np.sort(np.abs(np.linalg.eigvals(self.system2()[0]).imag))[::2]
         return [w1, *map(float, w2)]
 
-    def frequency_response(self, omega, *, damping: float = 0.0) -> np.ndarray:
+    def frequency_response(self, omega: ArrayLike, *, damping: float = 0.0) -> np.ndarray:
         """Receptances (m/N) at ``omega`` rad/s, rows: ``m3/F1``, ``m1/F2``, ``m2/F2``.
 
         ``damping`` adds a modal damping ratio (the paper's structure is lightly damped;
@@ -209,7 +215,7 @@ class MassBeamRig:
     # ------------------------------------------------------------------ fatigue
     def vibration_record(
         self,
-        stiffness=None,
+        stiffness: float | ArrayLike | None = None,
         *,
         breathing: bool = True,
         duration: float = 120.0,
@@ -221,17 +227,17 @@ class MassBeamRig:
         force_drift: float = 0.005,
         sensor_noise: float = 5e-5,
         warmup: float = 10.0,
-        rng=None,
+        rng: np.random.Generator | int | None = None,
     ) -> np.ndarray:
         """Displacement of ``m3`` (m) under shaker 1's sine, as in the paper's section 6.
 
         ``m3 x'' + c x' + k(x) x = F0 sin(2 pi f t) + w(t)``: the shaker's sine (0.85 V
-        at 11.39 Hz in the seed; ``force_amplitude`` = 8.5 N assumes 10 N/V; from record
+        at 11.39 Hz in the paper; ``force_amplitude`` = 8.5 N assumes 10 N/V; from record
         to record its gain drifts, a relative standard deviation ``force_drift``, as an
         amplifier and a shaker warming up do) plus white force noise of
         ``force_noise * F0`` standard deviation, ``c = 2 zeta sqrt(k0 m3)`` fixed by the
-        uncracked stiffness ``k0``, sampled at ``fs`` (the seed's 2 ms) after
-        ``warmup`` seconds (the seed records "after the dynamic response attained the
+        uncracked stiffness ``k0``, sampled at ``fs`` (the paper's 2 ms) after
+        ``warmup`` seconds (the paper records "after the dynamic response attained the
         stationary behavior"), plus LVDT noise of ``sensor_noise`` m.
 
         ``stiffness`` is the stiffness with the crack open. A fatigue crack *breathes*
@@ -329,8 +335,8 @@ class MassBeamRig:
         force_amplitude: float = 8.5,
         frequency_hz: float = 11.39,
         damping: float = 0.01,
-        rng=None,
-        **record_options,
+        rng: np.random.Generator | int | None = None,
+        **record_options: Any,
     ) -> FatigueRun:
         """A fatigue run of system 1 to failure, recorded in files (section 6).
 
@@ -345,7 +351,7 @@ class MassBeamRig:
         just below the resonance of 11.64 Hz) rises as the effective stiffness of the
         bilinear system (``w_eff = 2 w_open w0 / (w_open + w0)``) falls: the crack
         speeds itself up. ``C`` is set so that the specimen breaks
-        (``w = fail_ligament``) at ``life_minutes`` (seed: about 40 min, section 6).
+        (``w = fail_ligament``) at ``life_minutes`` (the paper: about 40 min, section 6).
         Files of ``file_minutes`` are recorded one after another from the start; each
         holds ``record_seconds`` (default the whole file) of :meth:`vibration_record`
         at the stiffness of the file's middle. ``record_options`` go to
@@ -449,7 +455,7 @@ class MassBeamRig:
             {**asdict(self), "w_sys1": w[0], "w_sys2_low": w[1], "w_sys2_high": w[2]}
         )
 
-    def plot(self, ax=None, *, damping: float = 0.01):
+    def plot(self, ax: Axes | None = None, *, damping: float = 0.01) -> Axes:
         """Receptance magnitudes from 1 to 150 rad/s; returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -497,7 +503,13 @@ def _bilinear_rk4(force, k_open, k_closed, m, c, fs, substeps: int = 2) -> np.nd
 
 
 # ---------------------------------------------------------------------- beam FE
-def beam_fe_modes(segments, point_masses=None, *, n_elements: int = 24, n_modes: int = 4):
+def beam_fe_modes(
+    segments: Sequence[tuple[float, float, float]],
+    point_masses: Mapping[int, float] | None = None,
+    *,
+    n_elements: int = 24,
+    n_modes: int = 4,
+) -> np.ndarray:
     """Natural frequencies (rad/s) of a clamped-free Euler-Bernoulli beam (finite elements).
 
     Cubic Hermite elements with consistent mass matrices (Przemieniecki 1968); the beam
@@ -629,7 +641,7 @@ class FatigueRun:
             }
         )
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Stiffness loss (%) and crack length over the run; returns the axes."""
         import matplotlib.pyplot as plt
 

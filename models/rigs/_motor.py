@@ -36,12 +36,12 @@ This model is that transmission-path picture as a cascade of linear elements
 
 So ``C_p = Y prod_{k <= p} S_k`` (current per unit source torque) and
 ``A_p = B prod_{k > p} S_k`` (accelerometer voltage), and the electrical transfer
-function each condition shows the seed's method is ``C_p / A_p``: the conditions
+function each condition shows the paper's method is ``C_p / A_p``: the conditions
 differ by the path, as the paper explains them. The parameters are those of a small
-(about 20 W) DC motor and plastic gears; the seed gives none, so they are assumptions,
-chosen with the stage resonances inside the seed's band of 100-1000 rad/s.
+(about 20 W) DC motor and plastic gears; the paper gives none, so they are assumptions,
+chosen with the stage resonances inside the paper's band of 100-1000 rad/s.
 
-A record adds what a real test varies and what its sensors add: the speed (the seed
+A record adds what a real test varies and what its sensors add: the speed (the paper
 records "at different speeds"), the meshes' stiffness (polymer stiffness drifts with
 temperature; ``stiffness_spread``), and sensor noise (``noise`` times the record's
 in-band RMS level, white, on both channels).
@@ -50,12 +50,18 @@ in-band RMS level, white, on both channels).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from pdmkit.errors import DataError, ModelError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = ["MOTOR_CONDITIONS", "MotorGearboxRig", "MotorRecord"]
 
@@ -102,7 +108,7 @@ class MotorGearboxRig:
         Output-bearing housing resonance (rad/s) and damping ratio.
     accel_gain : float
         Accelerometer path gain ``K_a`` (V per unit source torque per (rad/s)^2; it
-        scales the EETF, here to values of order 1 as the seed's table 1 shows).
+        scales the EETF, here to values of order 1 as the paper's table 1 shows).
     teeth : tuple of 4 int
         Teeth of gears 1..4 (the paper's gear 2 has nine).
     speed_hz : float
@@ -150,7 +156,7 @@ class MotorGearboxRig:
             )
 
     # ------------------------------------------------------------------ paths
-    def stage(self, s, k: int, stiffness_scale: float = 1.0) -> np.ndarray:
+    def stage(self, s: ArrayLike, k: int, stiffness_scale: float = 1.0) -> np.ndarray:
         """Transmissibility ``S_k(s)`` of mesh stage ``k`` (0, 1, 2)."""
         w0 = self.stage_w[k]
         w = w0 * math.sqrt(stiffness_scale)
@@ -159,16 +165,21 @@ class MotorGearboxRig:
         num = 1 + c * s**mu
         return num / (num + s**2 / w**2)
 
-    def motor_admittance(self, s) -> np.ndarray:
+    def motor_admittance(self, s: ArrayLike) -> np.ndarray:
         """Current per unit torque at the rotor, ``-Ke / ((J s + b)(R + L s^gamma))``."""
         return -self.Ke / ((self.J * s + self.b) * (self.R + self.L * s**self.gamma))
 
-    def housing(self, s) -> np.ndarray:
+    def housing(self, s: ArrayLike) -> np.ndarray:
         """Accelerometer voltage per unit force on the output bearing."""
         w, z = self.housing_w, self.housing_zeta
         return self.accel_gain * s**2 / (1 + 2 * z * s / w + s**2 / w**2)
 
-    def paths(self, omega, position: int, stiffness_scale=(1.0, 1.0, 1.0)):
+    def paths(
+        self,
+        omega: ArrayLike,
+        position: int,
+        stiffness_scale: Sequence[float] = (1.0, 1.0, 1.0),
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``(C_p, A_p)``: current and accelerometer voltage per unit source at ``p``.
 
         Parameters
@@ -191,10 +202,15 @@ class MotorGearboxRig:
                 A = A * Sk
         return C, A
 
-    def eetf(self, omega, condition: str, stiffness_scale=(1.0, 1.0, 1.0)) -> np.ndarray:
+    def eetf(
+        self,
+        omega: ArrayLike,
+        condition: str,
+        stiffness_scale: Sequence[float] = (1.0, 1.0, 1.0),
+    ) -> np.ndarray:
         """The transfer function current / accelerometer voltage of ``condition``.
 
-        What the seed's empirical estimate (eq. 7) estimates, without noise.
+        What the paper's empirical estimate (eq. 7) estimates, without noise.
         """
         _, p, _ = _condition(condition)
         C, A = self.paths(omega, p, stiffness_scale)
@@ -207,7 +223,7 @@ class MotorGearboxRig:
         *,
         duration: float = 4.0,
         fs: float = 5000.0,
-        rng=None,
+        rng: np.random.Generator | int | None = None,
         speed_spread: float = 0.2,
         stiffness_spread: float = 0.03,
         noise: float = 0.01,
@@ -279,7 +295,7 @@ class MotorGearboxRig:
             {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()}
         )
 
-    def plot(self, ax=None, *, omega=None):
+    def plot(self, ax: Axes | None = None, *, omega: ArrayLike | None = None) -> Axes:
         """``|C_p / A_p|`` of the four conditions over 100-1000 rad/s; returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -325,15 +341,15 @@ class MotorRecord:
 
     def etfe(
         self,
-        band=(100.0, 1000.0),
+        band: tuple[float, float] = (100.0, 1000.0),
         *,
         segment: float = 1.0,
         method: str = "h1",
         moving_average: int = 3,
-    ):
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The paper's empirical transfer function ``F{I} / F{V}`` (eq. 7) in ``band``.
 
-        The accelerometer voltage is smoothed by a moving average (the seed filters it
+        The accelerometer voltage is smoothed by a moving average (the paper filters it
         "using a moving average (MA) to reduce the effect of noise"), then
         Fourier-transformed with a Hann window of ``segment`` seconds.
         ``method="ratio"``: one window from the middle of the record, the plain ratio
@@ -383,7 +399,7 @@ class MotorRecord:
             {"time": self.time, "current": self.current, "accel": self.accel}
         )
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """The two channels over the first 0.2 s; returns the axes."""
         import matplotlib.pyplot as plt
 

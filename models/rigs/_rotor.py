@@ -1,6 +1,6 @@
 """Simulated rotor rig of the rotor-diagnostics monograph (parametric rotor FDI).
 
-The seed's numerical model (section 4.1.1, Tables 11 and 12, model RM004K): a 10 mm
+The monograph's numerical model (section 4.1.1, Tables 11 and 12, model RM004K): a 10 mm
 steel shaft of three sections (220, 50 and 220 mm) on four nodes; two disks of 0.9 kg
 at nodes 2 and 3 (0.1 kg at nodes 1 and 4), each with an unbalance of 0.2 g at 35 mm
 (phases 0 and 180 degrees); node 1 in a laterally rigid bearing, node 4 in a
@@ -8,20 +8,21 @@ hydrodynamic short bearing (clearance 150 um, viscosity 0.01 Pa s, length 55 mm,
 diameter 40 mm). Four proximity probes measure the lateral vibration, ``ch1``/``ch2``
 (x/y) on the motor side, ``ch3``/``ch4`` (x/y) at the hydrodynamic bearing.
 
-What this module builds from it (the closest model to the seed's RM Blockset one):
+What this module builds from it (the closest model to the monograph's RM Blockset one):
 
 - the shaft: Euler-Bernoulli beam elements, the node rotations condensed out
-  statically (Guyan), node masses lumped (seed eq. 9: disk plus half of each adjacent
-  section), stiffness-proportional structural damping; gyroscopic terms are left out
-  (small disks at 30 Hz);
+  statically (Guyan), node masses lumped (the monograph's eq. 9: disk plus half of each
+  adjacent section), stiffness-proportional structural damping; gyroscopic terms are
+  left out (small disks at 30 Hz);
 - the hydrodynamic bearing: the short-bearing (Ocvirk, pi-film) solution linearised at
   its static equilibrium under the rotor's weight, the eight stiffness and damping
   coefficients in closed form (Friswell et al., *Dynamics of Rotating Machines*, 2010,
   sec. 5.5); its cross-coupled stiffness gives the self-excited "0.5X" oil-whirl mode the
-  seed tracks (sec. 3.3). The journal sits in a housing of 0.5 kg on a flexible pedestal.
-- probes: ``ch1, ch2`` the disk-1 displacement (the seed's node 1 is a rigid bearing, so
-  the motor-side probes look at the nearest moving node), ``ch3, ch4`` the journal
-  relative to the housing ("relative shaft vibration inside bearing", sec. 1.1).
+  monograph tracks (sec. 3.3). The journal sits in a housing of 0.5 kg on a flexible
+  pedestal.
+- probes: ``ch1, ch2`` the disk-1 displacement (the monograph's node 1 is a rigid
+  bearing, so the motor-side probes look at the nearest moving node), ``ch3, ch4`` the
+  journal relative to the housing ("relative shaft vibration inside bearing", sec. 1.1).
 
 The four faults switch on during a run (:meth:`RotorRig.simulate`):
 
@@ -37,22 +38,26 @@ fault             physics (``severity = 1``)
                   stiffness and damping drop to 35 %
 ================  ==========================================================================
 
-Random forces on the disks (flow, foundation) excite the free vibration the seed's AR
-models identify; the record is simulated at ``oversample x fs`` (exact zero-order-hold
+Random forces on the disks (flow, foundation) excite the free vibration the monograph's
+AR models identify; the record is simulated at ``oversample x fs`` (exact zero-order-hold
 discretisation of the linear part, contact forces explicit) and decimated with an
-anti-aliasing filter to the seed's 256 Hz.
+anti-aliasing filter to the monograph's 256 Hz.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 from scipy import linalg, optimize, signal
 
 from pdmkit.errors import DataError, ModelError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 __all__ = ["ROTOR_FAULTS", "RotorRecord", "RotorRig", "short_bearing_coefficients"]
 
@@ -194,7 +199,7 @@ class RotorRecord:
             {"time": self.time, **dict(zip(CHANNELS, self.channels.T, strict=True))}
         )
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """The four probe signals (um) against time, the fault onset marked; the axes."""
         import matplotlib.pyplot as plt
 
@@ -212,7 +217,7 @@ class RotorRecord:
 
 @dataclass(frozen=True)
 class RotorRig:
-    """The seed-000 rotor: two disks on a shaft, a rigid and a hydrodynamic bearing.
+    """The monograph's rotor: two disks on a shaft, a rigid and a hydrodynamic bearing.
 
     Parameters
     ----------
@@ -339,7 +344,9 @@ class RotorRig:
         w = self.gravity * float(np.sum(self.lumped_masses() * x)) / x[-1]
         return w + preload
 
-    def bearing_coefficients(self, preload: float = 0.0):
+    def bearing_coefficients(
+        self, preload: float = 0.0
+    ) -> tuple[float, np.ndarray, np.ndarray]:
         """``(eps, K, C)`` of the hydrodynamic bearing (see short_bearing_coefficients)."""
         return short_bearing_coefficients(
             self.bearing_load(preload),
@@ -351,7 +358,9 @@ class RotorRig:
         )
 
     # ------------------------------------------------------------------ linear model
-    def matrices(self, fault: str | None = None, severity: float = 1.0):
+    def matrices(
+        self, fault: str | None = None, severity: float = 1.0
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Mass, damping and stiffness matrices ``(M, C, K)`` of the lateral model.
 
         Degrees of freedom ``[x2, x3, x4, xh, y2, y3, y4, yh]`` (disks, journal,
@@ -388,7 +397,9 @@ class RotorRig:
         C[hous, hous] += cp
         return M, C, K
 
-    def state_space(self, fault: str | None = None, severity: float = 1.0):
+    def state_space(
+        self, fault: str | None = None, severity: float = 1.0
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(A, B, C)``: states ``[q, dq]``, inputs the nodal forces, outputs ch1..ch4."""
         M, Cm, K = self.matrices(fault, severity)
         n = M.shape[0]
@@ -435,7 +446,7 @@ class RotorRig:
         duration : float
             Seconds.
         fs : float, default 256.0
-            Output sampling rate (Hz), the seed's (sec. 4.2.1).
+            Output sampling rate (Hz), the monograph's (sec. 4.2.1).
         fault : str, optional
             A key of :data:`ROTOR_FAULTS`; None: a healthy run.
         onset : float, optional
@@ -515,12 +526,12 @@ class RotorRig:
     def _rub(self, forces, x, severity, dt) -> np.ndarray:
         """Step with the seal contact, exact in and out of contact.
 
-        The seal sits half-way between disk 2 and the hydrodynamic bearing (seed Table 9,
-        C001/C002); its point moves as the mean of nodes 3 and 4 and its force is shared
-        by them. Contact (the point above ``gap``) adds the contact stiffness to the
-        linear model (normal force ``-k_c (y - gap)``, friction ``mu k_c (y - gap)``
-        along x against the surface speed), so each step is the exact zero-order-hold
-        step of the piecewise-linear system it starts in.
+        The seal sits half-way between disk 2 and the hydrodynamic bearing (the
+        monograph's Table 9, C001/C002); its point moves as the mean of nodes 3 and 4 and
+        its force is shared by them. Contact (the point above ``gap``) adds the contact
+        stiffness to the linear model (normal force ``-k_c (y - gap)``, friction
+        ``mu k_c (y - gap)`` along x against the surface speed), so each step is the exact
+        zero-order-hold step of the piecewise-linear system it starts in.
         """
         M, C, K = self.matrices()
         ndof = M.shape[0]

@@ -20,9 +20,9 @@ rotation) and ``theta`` (body tilt), the drive torque ``tau`` between ball and b
         -\tau + F(\dot\psi - \dot\theta) + m_B g l \sin\theta \end{bmatrix}
 
 with ``M11 = (m_b + m_B) r^2 + I_b``, ``c = m_B r l``, ``Theta_x`` the body's moment of
-inertia about the ball centre (the parameter the seed identifies, 20.31), the drive
+inertia about the ball centre (the parameter the paper identifies, 20.31), the drive
 friction ``F(v) = b v + tau_c tanh(v / v_eps)`` (viscous and Coulomb: the source of the
-amplitude dependence the seed sees at small excitations), a rolling resistance
+amplitude dependence the paper sees at small excitations), a rolling resistance
 ``b_psi`` and a random floor torque ``d``. The drive is a first-order lag ``T_m`` with a
 torque limit; the controller runs at 100 Hz and gets its measurements one CAN cycle
 (10 ms) late. Upright, the plant has one unstable pole,
@@ -33,7 +33,9 @@ on a ball that does not move.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -41,6 +43,10 @@ from scipy import linalg, signal
 
 from pdmkit.errors import DataError, ModelError
 from pdmkit.models.ode import LinearModel
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 __all__ = ["BallbotController", "BallbotRecord", "BallbotRig", "chirp_reference"]
 
@@ -143,7 +149,7 @@ class BallbotRecord:
             frames.append(pd.DataFrame(data))
         return pd.concat(frames, ignore_index=True)
 
-    def plot(self, ax=None, run: int = 0):
+    def plot(self, ax: Axes | None = None, run: int = 0) -> Axes:
         """Reference and measured tilt (degrees) of one run; returns the axes."""
         import matplotlib.pyplot as plt
 
@@ -158,7 +164,7 @@ class BallbotRecord:
 
 
 def chirp_reference(
-    amplitudes_deg,
+    amplitudes_deg: ArrayLike,
     *,
     duration: float = 81.92,
     period: float = 20.48,
@@ -168,7 +174,7 @@ def chirp_reference(
 ) -> np.ndarray:
     """Periodic logarithmic chirps of the tilt set-point, one row per amplitude (rad).
 
-    The seed feeds chirps of 1.5 to 5 degrees as the reference (sec. 5); a periodic
+    The paper feeds chirps of 1.5 to 5 degrees as the reference (sec. 5); a periodic
     chirp of ``period`` seconds, repeated, gives one Welch segment per period.
 
     Examples
@@ -195,7 +201,7 @@ class BallbotRig:
         centre.
     body_inertia : float
         ``Theta_x``: the body's moment of inertia about the ball centre (kg m^2), the
-        seed's identified parameter (20.31).
+        paper's identified parameter (20.31).
     ball_mass, ball_radius, ball_inertia : float
         The sphere (kg, m, kg m^2).
     drive_damping, drive_coulomb, coulomb_velocity : float
@@ -206,7 +212,7 @@ class BallbotRig:
     actuator_time_constant, torque_limit : float
         Drive lag ``T_m`` (s) and torque limit (N m).
     fs : float
-        Controller and sensor rate (Hz), the seed's 10 ms CAN cycle.
+        Controller and sensor rate (Hz), the paper's 10 ms CAN cycle.
     angle_noise, rate_noise : float
         Sensor noise (rad, rad/s RMS).
     disturbance : float
@@ -261,7 +267,14 @@ class BallbotRig:
     def _c(self) -> float:
         return self.body_mass * self.ball_radius * self.com_height
 
-    def rhs(self, x, u, disturbance=0.0, *, coulomb: bool = True):
+    def rhs(
+        self,
+        x: np.ndarray,
+        u: np.ndarray | float,
+        disturbance: np.ndarray | float = 0.0,
+        *,
+        coulomb: bool = True,
+    ) -> np.ndarray:
         """``dx/dt`` for states ``(psi, theta, psi_rate, theta_rate, tau)`` (last axis).
 
         ``u`` is the torque command (saturated at ``torque_limit``); works on real and
@@ -296,7 +309,7 @@ class BallbotRig:
         Parameters
         ----------
         theta_rate : float, default 0.0
-            Tilt rate (rad/s) at the operating point: the seed linearises at the
+            Tilt rate (rad/s) at the operating point: the paper linearises at the
             angular velocity the body has when it swings through upright (its eq. 11),
             not at rest.
         actuator : bool, default False
@@ -348,7 +361,7 @@ class BallbotRig:
             f0[:4],
         )
 
-    def jacobians(self, theta_rates, *, coulomb: bool = False) -> np.ndarray:
+    def jacobians(self, theta_rates: ArrayLike, *, coulomb: bool = False) -> np.ndarray:
         """``[df/dx, df/du]`` (n, 5, 6) at upright tilt for each tilt rate (complex step).
 
         Complex-step differentiation (``f(x + i h e_j).imag / h`` with ``h = 1e-30``)
@@ -369,13 +382,18 @@ class BallbotRig:
             J[:, :, j] = self.rhs(xc, uc, coulomb=coulomb).imag / h
         return J
 
-    def tilt_response(self, freq, controller=None, theta_rate=0.0) -> np.ndarray:
+    def tilt_response(
+        self,
+        freq: ArrayLike,
+        controller: BallbotController | None = None,
+        theta_rate: ArrayLike = 0.0,
+    ) -> np.ndarray:
         """The closed loop's ``theta / theta_set`` at ``freq`` (Hz), the linear model.
 
-        The seed's reference transfer function ``G_w`` (sec. 5): plant, drive lag and
+        The paper's reference transfer function ``G_w`` (sec. 5): plant, drive lag and
         the known controller, exactly sampled at ``fs`` (the controller's delay in place
-        of the seed's dead time ``exp(-T_t s)``). ``theta_rate`` (rad/s, scalar or one
-        per frequency) is the operating point of the linearisation (seed eq. 11).
+        of the paper's dead time ``exp(-T_t s)``). ``theta_rate`` (rad/s, scalar or one
+        per frequency) is the operating point of the linearisation (the paper's eq. 11).
 
         Examples
         --------
@@ -406,10 +424,12 @@ class BallbotRig:
         return x[:, 1, 0]
 
     # ------------------------------------------------------------------ control
-    def controller(self, q=(1.0, 400.0, 1.0, 10.0), r: float = 0.02) -> BallbotController:
+    def controller(
+        self, q: Sequence[float] = (1.0, 400.0, 1.0, 10.0), r: float = 0.02
+    ) -> BallbotController:
         """LQR state feedback on the linearised plant (no actuator), ``N = K[1]``.
 
-        The seed's controller "does not have to be optimally designed but must be
+        The paper's controller "does not have to be optimally designed but must be
         known and constant" (sec. 3.3); LQR with weights ``q`` (states) and ``r``
         (torque) is one such design.
         """
@@ -418,7 +438,9 @@ class BallbotRig:
         K = (lin.B.T @ P / r).ravel()
         return BallbotController(K, float(K[1]), self.fs, 1)
 
-    def closed_loop(self, controller: BallbotController | None = None, theta_rate=0.0):
+    def closed_loop(
+        self, controller: BallbotController | None = None, theta_rate: float = 0.0
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Discrete closed loop ``w -> (x_meas, u)`` of the linear plant, exactly sampled.
 
         The plant with its drive lag, discretised with a zero-order hold at ``fs``, the
@@ -435,7 +457,7 @@ class BallbotRig:
         D = np.r_[np.zeros(4), ctl.N][:, None]
         return A, B, C, D
 
-    def discrete_plant(self, theta_rate=0.0):
+    def discrete_plant(self, theta_rate: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """``(Ad, Bd)``: plant and drive lag under a zero-order hold at ``fs``."""
         lin = self.linearize(theta_rate, actuator=True)
         n = lin.A.shape[0]
@@ -445,7 +467,7 @@ class BallbotRig:
     # ------------------------------------------------------------------ simulation
     def simulate(
         self,
-        reference,
+        reference: ArrayLike,
         *,
         controller: BallbotController | None = None,
         seed: int = 0,

@@ -1,4 +1,8 @@
-"""PCA, RBF-network and MLP anomaly measures (seed 002, figure 7; Chin et al. 2005)."""
+"""PCA, RBF-network and MLP anomaly measures.
+
+The methods Khatkhate, Ray & Keller (2007, figure 7) set beside symbolic dynamics, after
+Chin, Ray & Rajagopalan (2005).
+"""
 
 import numpy as np
 import pytest

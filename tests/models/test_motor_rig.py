@@ -1,4 +1,4 @@
-"""Motor + gearbox rig of seed 004: transmission paths, records and their ETFE."""
+"""Motor + gearbox rig of the fractional-calculus paper: paths, records and their ETFE."""
 
 import numpy as np
 import pytest
@@ -44,7 +44,7 @@ def test_fractional_stage_matches_grunwald_letnikov_simulation():
         assert np.angle(complex(a, b)) == pytest.approx(np.angle(G), abs=0.03)
 
 
-def test_paths_follow_the_seed_transmission_description():
+def test_paths_follow_the_paper_transmission_description():
     """Gear 4 reaches the accelerometer directly and the current through all stages;
     the normal source the other way round: their EETFs differ by prod S_k^2."""
     rig = MotorGearboxRig()

@@ -1,4 +1,6 @@
-"""The rotor rig (seed 000) and the residual generators, against independent references.
+"""The rotor rig and the residual generators, against independent references.
+
+The rig and the generators follow the rotor-diagnostics monograph.
 
 References: the Ocvirk short-bearing solution (load-eccentricity relation, attitude
 angle) and a direct numerical integration of the short-bearing Reynolds pressure;
@@ -139,7 +141,7 @@ def test_unbalance_response_matches_the_jeffcott_formula():
     assert amp == pytest.approx(expected, rel=0.02)
 
 
-def test_faults_change_the_physics_the_seed_names():
+def test_faults_change_the_physics_the_monograph_names():
     rig = RotorRig()
     healthy = rig.modes()
     loose = rig.modes("looseness")
@@ -156,7 +158,7 @@ def test_faults_change_the_physics_the_seed_names():
     assert set(ROTOR_FAULTS) == {"unbalance", "misalignment", "rub", "looseness"}
 
 
-def test_rub_raises_the_bending_frequency_and_the_record_has_the_seed_rate():
+def test_rub_raises_the_bending_frequency_and_the_record_has_the_monograph_rate():
     rig = RotorRig()
     before = rig.simulate(20.0, seed=3)
     rub = rig.simulate(20.0, fault="rub", onset=0.0, seed=3)
@@ -221,8 +223,8 @@ def test_parity_equations_flag_a_changed_path_only():
         ParityEquations([(0, 5)]).fit(healthy, fs=100.0)
 
 
-def test_input_reconstruction_of_the_seed_two_mass_rotor():
-    # seed sec. 2.5: m1 = m2 = 1 kg, k1 = k2 = k3 = (20 pi)^2 N/m, d = 0.001 k;
+def test_input_reconstruction_of_the_monograph_two_mass_rotor():
+    # the monograph's sec. 2.5: m1 = m2 = 1 kg, k1 = k2 = k3 = (20 pi)^2 N/m, d = 0.001 k;
     # force on mass 1, its displacement measured; square and sinusoidal inputs
     k = (20 * np.pi) ** 2
     d = 0.001 * k

@@ -1,4 +1,4 @@
-"""Symbolic-dynamics anomaly measure (seed 002 section 6; Ray 2004)."""
+"""Symbolic-dynamics anomaly measure (Khatkhate, Ray & Keller 2007, section 6; Ray 2004)."""
 
 import numpy as np
 import pytest
@@ -14,7 +14,7 @@ from pdmkit.models.diagnosis._symbolic import (
 
 
 def _oscillator(zeta, seed, n=40000, fs=200.0, wn=2 * np.pi * 11.0):
-    """Beam-like mode driven near resonance (seed 002: 11.39 Hz sine) plus noise."""
+    """Beam-like mode driven near resonance (Khatkhate et al.: 11.39 Hz sine) plus noise."""
     rng = np.random.default_rng(seed)
     t = np.arange(n) / fs
     force = np.sin(2 * np.pi * 11.39 * t) + 0.5 * rng.normal(size=n)
