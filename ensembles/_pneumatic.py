@@ -19,16 +19,31 @@ recordings of the fifteen sensors of seed table 3.1:
 
 from __future__ import annotations
 
-import dataclasses
-import itertools
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
 from pdmkit._progress import progress as _progress
 from pdmkit.ensembles._ensemble import Ensemble
+from pdmkit.ensembles._pneumatic_faults import (
+    _LOADS_KG,
+    _P_AMBIENT,
+    PNEUMATIC_FAULTS,
+    PNEUMATIC_SENSORS,
+    _fault_settings,
+    _operating_conditions,
+    _signal_list,
+    _simulate_batches,
+    fault_labels,
+    simulate_fault_ensemble,
+    simulate_sensor_fault_ensemble,
+)
+from pdmkit.ensembles._pneumatic_leak import (
+    _leak_path,  # noqa: F401  (benchmarks/leak_rul.py imports it from here)
+    simulate_leak_runs,
+)
+from pdmkit.ensembles._pneumatic_rig import _seed_rig_columns
 from pdmkit.errors import DataError, ModelError
 
 __all__ = [
@@ -47,334 +62,6 @@ __all__ = [
     "simulate_seed_single_fault_ensemble",
     "simulate_sensor_fault_ensemble",
 ]
-
-#: The eight sensor types of the seed's table 3.1 / 9.1 and the signals each owns.
-PNEUMATIC_SENSORS: dict[str, tuple[str, ...]] = {
-    "Acc": ("AccelerometerMoving_axisZ", "AccelerometerStatic_axisZ"),
-    "Encoder": ("LeverPosition", "LeverVelocity"),
-    "Flow": ("FlowExtrusion", "FlowContraction"),
-    "Mics": ("MIC_uBumper", "MIC_bBumper", "MIC_Ambient"),
-    "Pressure": ("AirPressure",),
-    "Proximity": ("ProximitySensor_upper", "ProximitySensor_bottom"),
-    "Strain": ("StrainGauge",),
-    "Temperature": ("TempCylinder", "TempAmbient"),
-}
-
-
-@dataclass(frozen=True)
-class _Setting:
-    """A rig setting: its healthy range and the range a fault puts it in."""
-
-    parameter: str
-    healthy: tuple[float, float]
-    faulty: tuple[tuple[float, float], ...]
-    sentence: str
-
-
-#: Fault code -> the setting it changes (seed section 3.3 and table 3.2). Settings are
-#: drawn uniformly from the healthy range, or from one of the faulty ranges.
-#:
-#: Healthy is the rig as the technician sets it for the job (seed 3.3: "optimally set"):
-#: the hand-set knobs at their nominal mark 5 of the 1..10 scale, within the half
-#: division a person repeats such a setting to, and the static large dampers within
-#: +-15 % of their nominal damping (part-to-part and temperature spread of an
-#: elastomer). A fault is a knob left at least two divisions off its mark: a throttle
-#: closed to 1.5..3 (33..64 % of the nominal exhaust flow area: the throttles are
-#: meter-out one-way valves, see PneumaticParams), a small damper turned to 1..2.5
-#: (40 % of the nominal damping and less) or 8.5..10 (3.7 times and more); worn large
-#: dampers have lost 70..95 % of their damping.
-PNEUMATIC_FAULTS: dict[str, _Setting] = {
-    "throttle_1": _Setting(
-        "throttle_a",
-        (4.5, 5.5),
-        ((1.5, 3.0),),
-        "throttle valve 1 (line A) closed two to three divisions too far",
-    ),
-    "throttle_2": _Setting(
-        "throttle_b",
-        (4.5, 5.5),
-        ((1.5, 3.0),),
-        "throttle valve 2 (line B) closed two to three divisions too far",
-    ),
-    "damper_bottom": _Setting(
-        "damper_bottom",
-        (4.5, 5.5),
-        ((1.0, 2.5), (8.5, 10.0)),
-        "small bottom damper set far too soft or too hard",
-    ),
-    "damper_upper": _Setting(
-        "damper_upper",
-        (4.5, 5.5),
-        ((1.0, 2.5), (8.5, 10.0)),
-        "small upper damper set far too soft or too hard",
-    ),
-    "large_dampers": _Setting(
-        "damper_large_damping",
-        (340.0, 460.0),
-        ((20.0, 120.0),),
-        "static large dampers worn (70-95 % of their damping lost)",
-    ),
-}
-
-_LOADS_KG = (0.0, 1.25, 5.0, 6.25)  # table 3.2
-_SUPPLIES_BAR = (5.0, 6.0)  # table 3.2, gauge
-_P_AMBIENT = 101325.0
-
-
-def fault_labels(max_faults: int = 1) -> list[str]:
-    """The combined fault codes: ``healthy``, single faults, and combinations.
-
-    Parameters
-    ----------
-    max_faults : int, default 1
-        Largest number of simultaneous faults in a code (the seed combines them).
-
-    Returns
-    -------
-    list of str
-        Codes such as ``"throttle_1"`` or ``"damper_upper+throttle_1"`` (parts sorted).
-
-    Examples
-    --------
-    >>> fault_labels(1)  # doctest: +NORMALIZE_WHITESPACE
-    ['healthy', 'damper_bottom', 'damper_upper', 'large_dampers',
-     'throttle_1', 'throttle_2']
-    >>> len(fault_labels(2))
-    16
-    """
-    if not isinstance(max_faults, int) or not 1 <= max_faults <= len(PNEUMATIC_FAULTS):
-        raise ValueError(
-            f"max_faults must be 1..{len(PNEUMATIC_FAULTS)}; got {max_faults!r}"
-        )
-    names = sorted(PNEUMATIC_FAULTS)
-    codes = ["healthy"]
-    for r in range(1, max_faults + 1):
-        codes += ["+".join(c) for c in itertools.combinations(names, r)]
-    return codes
-
-
-def _check_labels(labels: Sequence[str]) -> list[str]:
-    out = []
-    for code in labels:
-        parts = [] if code == "healthy" else code.split("+")
-        unknown = [p for p in parts if p not in PNEUMATIC_FAULTS]
-        if unknown or not code:
-            raise DataError(
-                f"unknown fault code {code!r}: parts {unknown} are not among "
-                f"{['healthy', *sorted(PNEUMATIC_FAULTS)]}; combine faults with '+'"
-            )
-        out.append(code)
-    return out
-
-
-def _operating_conditions(n: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """Operating point and unlabelled parameter variation, one value per member."""
-    loads = rng.choice(_LOADS_KG, size=n)
-    supplies = rng.choice(_SUPPLIES_BAR, size=n)
-    return {
-        "mass_load": loads,
-        "p_supply": _P_AMBIENT + supplies * 1e5,
-        # nobody labels these: they make members of one class differ
-        "friction_coulomb": 10.0 * rng.uniform(0.8, 1.2, n),
-        "friction_viscous": 20.0 * rng.uniform(0.8, 1.2, n),
-        "c_a_in": 5e-6 * rng.uniform(0.92, 1.08, n),
-        "c_a_out": 5e-6 * rng.uniform(0.92, 1.08, n),
-        "c_b_in": 5e-6 * rng.uniform(0.92, 1.08, n),
-        "c_b_out": 5e-6 * rng.uniform(0.92, 1.08, n),
-        "valve_delay": 0.010 * rng.uniform(0.8, 1.2, n),
-    }
-
-
-def _operating_points(points, n: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """Load mass and supply pressure of ``n`` members spread evenly over ``points``."""
-    frame = pd.DataFrame(points)
-    missing = [c for c in ("load_kg", "supply_bar") if c not in frame.columns]
-    if missing or frame.empty:
-        raise DataError(
-            f"operating_points needs columns 'load_kg' and 'supply_bar' and at least one "
-            f"row; got columns {list(frame.columns)} with {len(frame)} rows"
-        )
-    load = frame["load_kg"].to_numpy(dtype=float)
-    supply = frame["supply_bar"].to_numpy(dtype=float)
-    if np.any(~np.isfinite(load) | (load < 0)) or np.any(~np.isfinite(supply)):
-        raise DataError(
-            "operating_points: load_kg must be finite and >= 0 kg and supply_bar finite "
-            f"(bar gauge); got loads {load.tolist()} and supplies {supply.tolist()}"
-        )
-    which = np.arange(n) % len(frame)
-    rng.shuffle(which)
-    return {"mass_load": load[which], "p_supply": _P_AMBIENT + supply[which] * 1e5}
-
-
-def _fault_settings(
-    labels: np.ndarray, rng: np.random.Generator, at_mark: bool = False
-) -> dict[str, np.ndarray]:
-    """Settings per label, drawn from the faulty or the healthy ranges.
-
-    ``at_mark``: the settings that are not faulty at the middle of their healthy range
-    (the mark a knob is set to) instead of drawn from it.
-    """
-    n = len(labels)
-    values = {}
-    for code, setting in PNEUMATIC_FAULTS.items():
-        v = rng.uniform(*setting.healthy, size=n)
-        if at_mark:
-            v = np.full(n, 0.5 * (setting.healthy[0] + setting.healthy[1]))
-        faulty = np.array([code in str(lab).split("+") for lab in labels])
-        if faulty.any():
-            ranges = np.array(setting.faulty)
-            pick = rng.integers(0, len(ranges), size=n)
-            lo, hi = ranges[pick, 0], ranges[pick, 1]
-            v = np.where(faulty, rng.uniform(0.0, 1.0, n) * (hi - lo) + lo, v)
-        values[setting.parameter] = v
-    return values
-
-
-def _slice_spec(spec, sl: slice):
-    """The members ``sl`` of a SensorSpec whose fields are per-member arrays."""
-    fields = {k: (v[sl] if np.ndim(v) else v) for k, v in dataclasses.asdict(spec).items()}
-    return type(spec)(**fields)
-
-
-def _simulate_batches(
-    params_cols, n, *, t_end, fs, signals, seed, batch_size, desc, specs=None
-):
-    """Simulate ``n`` members in batches; return {signal: (n, n_samples)}."""
-    from pdmkit.models import PneumaticParams, simulate_piston
-
-    seeds = np.random.SeedSequence(seed).spawn((n + batch_size - 1) // batch_size)
-    out: dict[str, list[np.ndarray]] = {}
-    starts = range(0, n, batch_size)
-    for start, child in _progress(
-        zip(starts, seeds, strict=True), desc=desc, total=len(seeds)
-    ):
-        sl = slice(start, min(start + batch_size, n))
-        params = PneumaticParams(**{k: v[sl] for k, v in params_cols.items()})
-        batch_specs = None
-        if specs is not None:
-            batch_specs = {name: _slice_spec(spec, sl) for name, spec in specs.items()}
-        response = simulate_piston(
-            params,
-            t_end=t_end,
-            fs=fs,
-            sensors=list(signals),
-            seed=child,
-            sensor_specs=batch_specs,
-        )
-        for name in signals:
-            out.setdefault(name, []).append(np.asarray(response.outputs[name]))
-    return {name: np.concatenate(parts, axis=0) for name, parts in out.items()}
-
-
-def _signal_list(signals: Sequence[str] | None) -> list[str]:
-    from pdmkit.models import SENSOR_NAMES
-
-    if signals is None:
-        return list(SENSOR_NAMES)
-    unknown = [s for s in signals if s not in SENSOR_NAMES]
-    if unknown:
-        raise DataError(
-            f"unknown sensor signal(s) {unknown}; the twin has {list(SENSOR_NAMES)}"
-        )
-    return list(signals)
-
-
-def simulate_fault_ensemble(
-    n_members: int = 600,
-    *,
-    labels: Sequence[str] | None = None,
-    max_faults: int = 1,
-    t_end: float = 10.0,
-    fs: float = 1000.0,
-    signals: Sequence[str] | None = None,
-    seed: int = 0,
-    batch_size: int = 500,
-    operating_points=None,
-) -> Ensemble:
-    """Simulate labelled fault recordings of the pneumatic piston.
-
-    Members are spread evenly over the fault codes. Each member draws its settings
-    from the healthy or faulty range of :data:`PNEUMATIC_FAULTS`, a load mass from
-    {0, 1.25, 5, 6.25} kg and a supply pressure from {5, 6} bar (table 3.2), and
-    random friction (±20 %), valve coefficients (±8 %) and valve delay (±20 %): the
-    unlabelled variation that makes members of one class differ.
-
-    Parameters
-    ----------
-    n_members : int, default 600
-        Number of recordings.
-    labels : sequence of str, optional
-        Fault codes to simulate (default :func:`fault_labels` ``(max_faults)``).
-    max_faults : int, default 1
-        Largest number of combined faults when ``labels`` is not given.
-    t_end, fs : float
-        Recording length (s) and sampling rate (Hz); the seed's recordings are 10 s at
-        1 kHz.
-    signals : sequence of str, optional
-        Sensor signals to record (default all fifteen of seed table 3.1).
-    seed : int
-        Seed of every random choice and of the sensor noise.
-    batch_size : int
-        Members simulated at once.
-    operating_points : DataFrame or dict, optional
-        Columns ``load_kg`` and ``supply_bar`` (bar gauge): spread the members evenly
-        over these operating points instead of drawing them at random, e.g. to simulate
-        a healthy reference at the operating points of a measured ensemble.
-
-    Returns
-    -------
-    Ensemble
-        Condition columns ``fault`` (the code), ``load_kg``, ``supply_bar`` and the
-        true settings ``throttle_1``, ``throttle_2``, ``damper_upper``,
-        ``damper_bottom``, ``large_damper_damping``.
-
-    Examples
-    --------
-    >>> from pdmkit.ensembles import simulate_fault_ensemble
-    >>> ens = simulate_fault_ensemble(12, t_end=0.5, signals=["LeverPosition"], seed=1)
-    >>> len(ens), ens.fs["LeverPosition"], ens.conditions["fault"].nunique()
-    (12, 1000.0, 6)
-    >>> ref = simulate_fault_ensemble(
-    ...     4, labels=["healthy"], t_end=0.5, signals=["LeverPosition"],
-    ...     operating_points={"load_kg": [0.0, 5.0], "supply_bar": [6.0, 6.0]})
-    >>> sorted(ref.conditions["load_kg"].tolist()), set(ref.conditions["supply_bar"])
-    ([0.0, 0.0, 5.0, 5.0], {6.0})
-    """
-    if not isinstance(n_members, int | np.integer) or n_members < 1:
-        raise ValueError(f"n_members must be a positive integer; got {n_members!r}")
-    codes = _check_labels(labels) if labels is not None else fault_labels(max_faults)
-    signals = _signal_list(signals)
-    rng = np.random.default_rng(seed)
-    member_labels = np.array([codes[i % len(codes)] for i in range(int(n_members))])
-    rng.shuffle(member_labels)
-    cols = _operating_conditions(int(n_members), rng)
-    if operating_points is not None:
-        cols.update(_operating_points(operating_points, int(n_members), rng))
-    cols.update(_fault_settings(member_labels, rng))
-    data = _simulate_batches(
-        cols,
-        int(n_members),
-        t_end=t_end,
-        fs=fs,
-        signals=signals,
-        seed=seed,
-        batch_size=batch_size,
-        desc="simulating fault ensemble",
-    )
-    conditions = pd.DataFrame(
-        {
-            "fault": member_labels,
-            "load_kg": cols["mass_load"],
-            "supply_bar": (cols["p_supply"] - _P_AMBIENT) / 1e5,
-            "throttle_1": cols["throttle_a"],
-            "throttle_2": cols["throttle_b"],
-            "damper_upper": cols["damper_upper"],
-            "damper_bottom": cols["damper_bottom"],
-            "large_damper_damping": cols["damper_large_damping"],
-        }
-    )
-    ids = [f"sim{i:05d}" for i in range(int(n_members))]
-    return Ensemble(data, fs=fs, conditions=conditions, member_ids=ids)
 
 
 #: The seed's 20 labels (section 3.3 and 7.2.1), as pdmkit fault codes -> the seed's
@@ -610,6 +297,7 @@ def simulate_seed_ensemble(
     members=None,
     acquisition: str = "seed_rig",
     test_cycle: str = "twin",
+    rig: str = "seed",
 ) -> Ensemble:
     """Simulate the seed's data set: fault codes grouped into the seed's 20 labels.
 
@@ -639,6 +327,12 @@ def simulate_seed_ensemble(
       from the ranges of :func:`simulate_fault_ensemble` when ``variation="code"``,
       or per recording when ``variation="member"`` (every recording on a slightly
       different rig: harder);
+    * the machine is the seed rig (``rig="seed"``): the seed author's identified
+      mass, cylinder, valve coefficients and end dampers (``models/params.m``), the
+      supply feed its recordings show, and the regulator's output wandering by
+      0.21 % from code to code (``SEED_RIG_PARAMS``, ``SEED_SUPPLY_CODE_SPREAD`` of
+      ``pdmkit.ensembles._pneumatic_rig``); the valve coefficients drawn for the
+      other variations scale to the rig's;
     * every recording gets a run-to-run spread of relative size ``jitter`` of the
       Coulomb and viscous friction and the valve delay (:data:`SEED_JITTER`), and the
       rig's measured 0.03 % of the supply pressure above ambient
@@ -680,6 +374,11 @@ def simulate_seed_ensemble(
     test_cycle : {"twin", "seed_rig"}, default "twin"
         The valve program: the twin's five 2 s cycles, or the seed rig's single cycle
         (:data:`SEED_TEST_CYCLE`: up from 1 s to 6 s).
+    rig : {"seed", "twin"}, default "seed"
+        The machine recorded: the seed rig's identified mechanics, valves and supply
+        (``SEED_RIG_PARAMS``: the author's ``models/params.m``, with the supply
+        regulator's wander from code to code, ``SEED_SUPPLY_CODE_SPREAD``), or the
+        twin's own defaults (:class:`pdmkit.models.PneumaticParams`; pdmkit before).
 
     Returns
     -------
@@ -735,6 +434,11 @@ def simulate_seed_ensemble(
     labels = ("fault", "seed_label", "fault_code", "supply_bar")
     params = [c for c in design.columns if c not in labels]
     cols = {c: design[c].to_numpy(float) for c in params}
+    if rig == "seed":
+        codes = design["fault_code"].str[2:].astype(int).to_numpy()
+        cols = _seed_rig_columns(cols, codes, seed, int(n_members))
+    elif rig != "twin":
+        raise DataError(f"rig must be 'seed' or 'twin'; got {rig!r}")
     cols.update(_test_cycle(test_cycle, len(design)))
     specs = _acquisition_specs(acquisition)
     data = _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size, specs)
@@ -779,7 +483,7 @@ def _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size, specs=Non
         rows = np.flatnonzero(block == b)
         order.append(rows)
         part = _simulate_batches(
-            {k: v[rows] for k, v in cols.items()},
+            {k: (v[rows] if np.ndim(v) else v) for k, v in cols.items()},
             len(rows),
             t_end=t_end,
             fs=fs,
@@ -793,326 +497,6 @@ def _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size, specs=Non
             out.setdefault(name, []).append(part[name])
     inverse = np.argsort(np.concatenate(order))
     return {name: np.concatenate(parts, axis=0)[inverse] for name, parts in out.items()}
-
-
-#: Sensor faults of seed 8.1.1, as SensorSpec fields relative to the signal's spread.
-_SENSOR_FAULTS = ("healthy", "noise", "offset", "drift", "loss")
-
-
-def simulate_sensor_fault_ensemble(
-    n_members: int = 200,
-    *,
-    sensor: str = "FlowExtrusion",
-    t_end: float = 10.0,
-    fs: float = 1000.0,
-    seed: int = 0,
-    batch_size: int = 500,
-    faults: Sequence[str] | None = None,
-) -> Ensemble:
-    """Simulate one sensor healthy and with the sensor faults of seed section 8.1.1.
-
-    Classes (condition ``sensor_fault``): ``healthy``, ``noise`` (white noise of 5-15 %
-    of the signal's typical range), ``offset`` (a bias of 5-15 % of the range),
-    ``drift`` (a bias growing to 10-30 % of the range over the recording) and ``loss``
-    (60-100 % of the samples lost, read as 0 like a dead analogue channel). The machine
-    itself is healthy, at random operating points.
-
-    Parameters
-    ----------
-    n_members : int, default 200
-    sensor : str, default "FlowExtrusion"
-        The sensor signal to corrupt (seed figure 8.1 uses the flow sensor).
-    t_end, fs, seed, batch_size
-        As :func:`simulate_fault_ensemble`.
-    faults : sequence of str, optional
-        The classes to simulate, among ``healthy, noise, offset, drift, loss`` (default
-        all five; the seed's section 8.1.1 has ``healthy, noise, offset``).
-
-    Returns
-    -------
-    Ensemble
-        One signal, ``sensor``; conditions ``sensor_fault``, ``load_kg``, ``supply_bar``.
-
-    Examples
-    --------
-    >>> from pdmkit.ensembles import simulate_sensor_fault_ensemble
-    >>> ens = simulate_sensor_fault_ensemble(10, t_end=0.5, seed=2)
-    >>> sorted(ens.conditions["sensor_fault"].unique())
-    ['drift', 'healthy', 'loss', 'noise', 'offset']
-    """
-    from pdmkit.models import SensorSpec
-
-    signals = _signal_list([sensor])
-    classes = _SENSOR_FAULTS if faults is None else tuple(faults)
-    unknown = [f for f in classes if f not in _SENSOR_FAULTS]
-    if unknown or not classes:
-        raise DataError(
-            f"faults must be a non-empty subset of {list(_SENSOR_FAULTS)}; got "
-            f"{list(classes)}"
-        )
-    rng = np.random.default_rng(seed)
-    n = int(n_members)
-    faults = np.array([classes[i % len(classes)] for i in range(n)])
-    rng.shuffle(faults)
-    cols = _operating_conditions(n, rng)
-    cols.update(_fault_settings(np.array(["healthy"] * n), rng))
-    # the typical range of the clean signal sets the size of the faults
-    clean = _simulate_batches(
-        {k: v[:1] for k, v in cols.items()},
-        1,
-        t_end=t_end,
-        fs=fs,
-        signals=signals,
-        seed=seed,
-        batch_size=1,
-        desc="",
-    )[sensor]
-    span = float(np.percentile(clean, 99) - np.percentile(clean, 1)) or 1.0
-    size = rng.uniform(0.05, 0.15, n) * span
-    spec = SensorSpec(
-        noise_std=np.where(faults == "noise", size, 0.0),
-        offset=np.where(faults == "offset", size, 0.0),
-        drift=np.where(faults == "drift", 2.0 * size / t_end, 0.0),
-        dropout=np.where(faults == "loss", rng.uniform(0.6, 1.0, n), 0.0),
-    )
-    data = _simulate_batches(
-        cols,
-        n,
-        t_end=t_end,
-        fs=fs,
-        signals=signals,
-        seed=seed + 1,
-        batch_size=batch_size,
-        desc="simulating sensor faults",
-        specs={sensor: spec},
-    )
-    conditions = pd.DataFrame(
-        {
-            "sensor_fault": faults,
-            "load_kg": cols["mass_load"],
-            "supply_bar": (cols["p_supply"] - _P_AMBIENT) / 1e5,
-        }
-    )
-    return Ensemble(
-        data, fs=fs, conditions=conditions, member_ids=[f"sf{i:05d}" for i in range(n)]
-    )
-
-
-def _leak_path(rng, max_cycles, leak_start, leak_failure, shape) -> np.ndarray:
-    """One unit's ``C_al`` per cycle, from ``leak_start`` to the failing cycle.
-
-    The failing cycle is the first whose value is at or above ``leak_failure``.
-
-    ``log C_al`` drifts to the threshold in about ``target`` cycles (drawn uniformly in
-    ``[0.4 max_cycles, max_cycles]``) with gamma-distributed steps of shape ``shape``:
-    a monotone random walk.
-    """
-    log_start, log_fail = np.log(leak_start), np.log(leak_failure)
-    target = int(rng.integers(int(0.4 * max_cycles), max_cycles + 1))
-    steps = rng.gamma(shape, 1.0 / shape, size=4 * target) * (log_fail - log_start) / target
-    path = log_start + np.concatenate([[0.0], np.cumsum(steps)])
-    end = int(np.flatnonzero(path >= log_fail)[0])
-    return np.exp(path[: end + 1])
-
-
-def _seed_leak_path(rng, max_cycles: int) -> np.ndarray:
-    """One unit's ``C_al`` per cycle on the seed author's schedule (``mb/rul.mlx``)."""
-    n = int(max_cycles / 2 + rng.uniform() * max_cycles / 2)
-    base = np.linspace(1e-5, (1.0 + rng.uniform()) * 1e-3, max(n, 3))
-    c_leak = base**2 + rng.uniform() * base**3
-    return c_leak * (1.0 + (1.0 + 7.0 * rng.uniform(size=len(c_leak))) * 0.01)
-
-
-def simulate_leak_runs(
-    n_units: int = 10,
-    *,
-    max_cycles: int = 60,
-    leak_start: float = 1e-10,
-    leak_failure: float = 1e-6,
-    chamber: str = "b",
-    t_end: float = 10.0,
-    fs: float = 1000.0,
-    signals: Sequence[str] | None = ("LeverPosition", "FlowExtrusion", "AirPressure"),
-    seed: int = 0,
-    batch_size: int = 500,
-    walk_shape: float = 16.0,
-    schedule: str = "walk",
-    operating_point: tuple[float, float] | None = None,
-    unit_variation: bool = True,
-    leak_scale: float = 1.0,
-) -> Ensemble:
-    """Simulate air-leak run-to-failure units (seed sections 8.1-8.2 and 8.4).
-
-    Each unit is a sequence of recordings ("cycles"). Its leak coefficient ``C_al``
-    grows log-linearly from ``leak_start`` with a unit-specific rate and a random walk
-    around it, and the unit fails at the first cycle whose ``C_al`` reaches
-    ``leak_failure``. Units get random operating points and parameter variation like
-    :func:`simulate_fault_ensemble`, held fixed over their life.
-
-    The walk: each cycle adds a gamma-distributed step to ``log C_al`` (shape
-    ``walk_shape``, mean ``(log leak_failure - log leak_start) / target`` for a
-    unit-specific ``target`` life), so the path is monotone and a step's coefficient of
-    variation is ``1 / sqrt(walk_shape)`` (0.25 by default). The walk alone makes the
-    remaining life uncertain: with ``n`` cycles left its standard deviation is about
-    ``sqrt(n / walk_shape)`` cycles, even for a predictor that knows the unit's rate.
-
-    Why 16: the seed (section 8.4.1) gives each of its 25 runs its own "dynamics of
-    coefficient C development" over (1e-10, 1e-6) and no cycle-to-cycle randomness,
-    and its linear degradation model lands "about 10 %" from the true RUL. The default
-    keeps a random walk (units with the same rate still fail at different cycles) but
-    one smooth enough that a unit's own history can tell its rate, as in the seed's
-    runs: with 20 cycles left the walk spreads the life by about 1.1 cycles. Shape 4
-    (step CV 0.5) is the rough stress case: there even a predictor told each unit's
-    rate keeps every last-half prediction within 10 % of the life for only 89 % of
-    units, and one that must learn the rate for about 74 % (docs/rul.md).
-
-    Parameters
-    ----------
-    n_units : int, default 10
-    max_cycles : int, default 60
-        Typical longest life: each unit's leak rate is drawn so that its expected
-        life falls between 40 % and 100 % of this (the random walk spreads it).
-    leak_start, leak_failure : float, m^2
-        ``C_al`` of a new unit and the failure threshold.
-    chamber : {"a", "b"}
-        The leaking chamber (seed figure 8.8 shows chamber B).
-    t_end, fs, signals, seed, batch_size
-        As :func:`simulate_fault_ensemble`.
-    walk_shape : float, default 16.0
-        Shape of the gamma-distributed steps of ``log C_al``; larger is smoother
-        (``inf`` is not allowed; 1e6 is practically a straight line; 4 is rough).
-    schedule : {"walk", "seed"}, default "walk"
-        ``"walk"``: the random walk above. ``"seed"``: the seed author's own schedule
-        (``mb/rul.mlx`` of github.com/xvoron/thesis): ``L = linspace(1e-5, b 1e-3, n)``
-        with ``b ~ U(1, 2)`` and ``n ~ U(max_cycles / 2, max_cycles)`` cycles (100..200
-        in the seed: pass ``max_cycles=200``), ``C_al = L**2 + r L**3`` with
-        ``r ~ U(0, 1)``, and each cycle's ``C_al`` raised by a random 1..8 %; it runs
-        from 1e-10 to 1..4e-6 m^2 and the unit's last cycle is its last simulated one
-        (the seed defines failure by an indicator threshold, not by ``C_al``);
-        ``leak_start``, ``leak_failure`` and ``walk_shape`` are not used.
-    operating_point : (load_kg, supply_bar), optional
-        Every unit at this load and supply (bar gauge) instead of random ones (the
-        seed simulated its runs at one operating point).
-    unit_variation : bool, default True
-        Draw each unit's unlabelled parameters (friction, valve coefficients, valve
-        delay) and healthy knob settings at random, as :func:`simulate_fault_ensemble`
-        does. False: every unit is the nominal healthy twin (the
-        :class:`~pdmkit.models.PneumaticParams` defaults, knobs at the middle of their
-        healthy range) and only its leak differs, as in the seed author's 26 runs, all
-        simulated from one parameter file (``mb/rul.mlx``; its figure 8.9 shows every
-        run starting at the same indicator value).
-    leak_scale : float, default 1.0
-        Factor applied to the leak coefficient path before simulating: a schedule
-        written for another model's valve sizes (the seed's ``C_al`` is relative to its
-        identified valve coefficients) is carried over to the twin's.
-
-    Returns
-    -------
-    Ensemble
-        Members ``"u03/c0012"``; conditions ``unit``, ``cycle`` (0, 1, ...), ``c_leak``
-        (m^2, the coefficient simulated), ``c_leak_schedule`` (the schedule's value,
-        ``c_leak / leak_scale``), ``rul`` (cycles left until failure; 0 at the failing
-        cycle) and ``failed`` (True at the last cycle of each unit).
-
-    Examples
-    --------
-    >>> from pdmkit.ensembles import simulate_leak_runs
-    >>> runs = simulate_leak_runs(2, max_cycles=6, t_end=0.5, signals=["AirPressure"])
-    >>> runs.conditions.groupby("unit")["rul"].min().tolist()
-    [0, 0]
-    """
-    if chamber not in ("a", "b"):
-        raise ValueError(f"chamber must be 'a' or 'b'; got {chamber!r}")
-    if not 0 < leak_start < leak_failure:
-        raise ValueError(
-            f"need 0 < leak_start < leak_failure; got {leak_start!r}, {leak_failure!r}"
-        )
-    if max_cycles < 3:
-        raise ValueError(f"max_cycles must be >= 3; got {max_cycles!r}")
-    if not (
-        isinstance(walk_shape, int | float | np.integer | np.floating)
-        and not isinstance(walk_shape, bool)
-        and 0 < walk_shape < np.inf
-    ):
-        raise ValueError(
-            f"walk_shape must be a positive finite number (16 by default); got "
-            f"{walk_shape!r}"
-        )
-    if schedule not in ("walk", "seed"):
-        raise DataError(f"schedule must be 'walk' or 'seed'; got {schedule!r}")
-    if (
-        isinstance(leak_scale, bool)
-        or not isinstance(leak_scale, int | float | np.integer | np.floating)
-        or not 0 < leak_scale < np.inf
-    ):
-        raise DataError(f"leak_scale must be a positive finite number; got {leak_scale!r}")
-    signals = _signal_list(signals)
-    rng = np.random.default_rng(seed)
-    units, cycles, leaks = [], [], []
-    for u in range(int(n_units)):
-        if schedule == "seed":
-            path = _seed_leak_path(rng, int(max_cycles))
-        else:
-            path = _leak_path(rng, max_cycles, leak_start, leak_failure, float(walk_shape))
-        units += [u] * len(path)
-        cycles += list(range(len(path)))
-        leaks += list(path)
-    n = len(units)
-    units_arr = np.asarray(units)
-    per_unit = _operating_conditions(int(n_units), rng)
-    if operating_point is not None:
-        load_kg, supply_bar = (float(v) for v in operating_point)
-        per_unit["mass_load"] = np.full(int(n_units), load_kg)
-        per_unit["p_supply"] = np.full(int(n_units), _P_AMBIENT + supply_bar * 1e5)
-    knobs = _fault_settings(np.array(["healthy"] * int(n_units)), rng)
-    if not unit_variation:  # the nominal healthy twin, only the leak differs
-        from pdmkit.models import PneumaticParams
-
-        nominal = PneumaticParams()
-        for k in per_unit:
-            if k not in ("mass_load", "p_supply"):
-                per_unit[k] = np.full(int(n_units), float(getattr(nominal, k)))
-        healthy = {
-            s.parameter: float(np.mean(s.healthy)) for s in PNEUMATIC_FAULTS.values()
-        }
-        knobs = {k: np.full(int(n_units), healthy[k]) for k in knobs}
-    cols = {k: v[units_arr] for k, v in per_unit.items()}
-    cols.update(knobs)
-    for k in (
-        "throttle_a",
-        "throttle_b",
-        "damper_upper",
-        "damper_bottom",
-        "damper_large_damping",
-    ):
-        cols[k] = cols[k][units_arr]
-    cols[f"c_leak_{chamber}"] = np.asarray(leaks) * float(leak_scale)
-    data = _simulate_batches(
-        cols,
-        n,
-        t_end=t_end,
-        fs=fs,
-        signals=signals,
-        seed=seed,
-        batch_size=batch_size,
-        desc="simulating leak runs",
-    )
-    cycles_arr = np.asarray(cycles)
-    last = pd.Series(cycles_arr).groupby(units_arr).transform("max").to_numpy()
-    conditions = pd.DataFrame(
-        {
-            "unit": units_arr,
-            "cycle": cycles_arr,
-            "c_leak": cols[f"c_leak_{chamber}"],
-            "c_leak_schedule": np.asarray(leaks),
-            "rul": last - cycles_arr,
-            "failed": cycles_arr == last,
-            "load_kg": cols["mass_load"],
-            "supply_bar": (cols["p_supply"] - _P_AMBIENT) / 1e5,
-        }
-    )
-    ids = [f"u{u:02d}/c{c:04d}" for u, c in zip(units_arr, cycles_arr, strict=True)]
-    return Ensemble(data, fs=fs, conditions=conditions, member_ids=ids)
 
 
 def pneumatic_residuals(

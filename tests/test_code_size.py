@@ -19,20 +19,10 @@ _SKIP = {"tests", "benchmarks", "examples", "build", "docs"}
 
 #: module -> why it is still longer than MAX_MODULE_LINES
 LONG_MODULES: dict[str, str] = {
-    "ensembles/_pneumatic.py": (
-        "the twin's five data-set generators; to split (fault ensembles, the seed's "
-        "sets, leak runs)"
-    ),
-    "models/pneumatic/_twin.py": (
-        "the piston's parameters and physics in one place; parameters to their own module"
-    ),
 }
 
 #: "module:function" -> why it is still longer than MAX_FUNCTION_LINES
 LONG_FUNCTIONS: dict[str, str] = {
-    "ensembles/_pneumatic.py:simulate_leak_runs": (
-        "leak schedule, units and simulation; to split"
-    ),
 }
 
 

@@ -1,0 +1,102 @@
+"""The seed rig's machine in the seed's data set (``ensembles/_pneumatic_rig.py``).
+
+Every value is checked against its source: the seed author's identified model
+(``models/params.m`` of github.com/xvoron/thesis) or the rig's recordings.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pdmkit.ensembles import simulate_seed_ensemble
+from pdmkit.ensembles._pneumatic_rig import (
+    SEED_RIG_LARGE_DAMPING_SCALE,
+    SEED_RIG_PARAMS,
+    SEED_SUPPLY_CODE_SPREAD,
+)
+from pdmkit.errors import DataError
+
+
+def _series(c1: float, c2: float) -> float:
+    return c1 * c2 / math.sqrt(c1 * c1 + c2 * c2)
+
+
+def test_seed_rig_parameters_are_the_authors_params_m():
+    p = SEED_RIG_PARAMS
+    assert p["mass_piston"] == 6.7798462575453  # M [e]
+    assert (p["bore"], p["rod_diameter"]) == (0.02, 0.008)  # d_A, d_S [c]
+    assert p["stroke"] == 0.19382  # gp
+    s_a = math.pi * 0.02**2 / 4
+    s_b = s_a - math.pi * 0.008**2 / 4
+    assert p["v_dead_a"] == pytest.approx(s_a * 0.015)  # V_0A
+    assert p["v_dead_b"] == pytest.approx(s_b * 0.015)  # V_0B
+    assert (p["damper_small_min"], p["damper_small_max"]) == (1082.6, 6760.2)
+    assert p["damper_small_stiffness"] == 0.0  # k_small_* = 0
+    # bot_damp_start 0.01054 and gp - up_damp_start (0.18123): their mean reach
+    assert p["damper_small_travel"] == pytest.approx(
+        (0.01054 + 0.19382 - 0.18123) / 2, abs=1e-4
+    )
+    assert p["proximity_distance"] == pytest.approx(0.19382 - 0.1925)  # prox_up_band
+    assert SEED_RIG_LARGE_DAMPING_SCALE * 400.0 == pytest.approx(1400.0)  # b_large
+
+
+def test_valve_and_throttle_in_series_give_the_identified_coefficients():
+    p = SEED_RIG_PARAMS
+    throttle = p["c_throttle_max"] * 5.0 / 10.0  # the knob at its mark
+    check = 5e-6  # the twin's check valve, open while a chamber fills
+    identified = {  # params.m, healthy fault code 1100001
+        "c_a_out": (5.155e-07, throttle),
+        "c_b_out": (9.1476e-07, throttle),
+        "c_a_in": (6.0242e-07, throttle + check),
+        "c_b_in": (1.7518e-07, throttle + check),
+    }
+    for name, (target, in_series) in identified.items():
+        assert _series(p[name], in_series) == pytest.approx(target, rel=0.01), name
+
+
+def test_seed_rig_ensemble_reaches_the_rigs_stop_and_its_supply_wanders_per_code():
+    ens = simulate_seed_ensemble(
+        40, repeats=2, t_end=3.0, signals=["LeverPosition"], batch_size=20
+    )
+    x, _ = ens.stack("LeverPosition")
+    assert x.max() == pytest.approx(SEED_RIG_PARAMS["stroke"], abs=5e-4)
+    twin = simulate_seed_ensemble(
+        40, repeats=2, t_end=3.0, signals=["LeverPosition"], batch_size=20, rig="twin"
+    )
+    assert twin.stack("LeverPosition")[0].max() == pytest.approx(0.16, abs=2e-3)
+    # the set point in the conditions stays the operator's; a part of the design
+    # records what the whole records
+    assert set(ens.conditions["supply_bar"]) == {5.5, 6.0}
+    part = simulate_seed_ensemble(
+        40,
+        repeats=2,
+        t_end=3.0,
+        signals=["LeverPosition"],
+        batch_size=20,
+        members=slice(20, 40),
+    )
+    np.testing.assert_array_equal(part.stack("LeverPosition")[0], x[20:])
+    with pytest.raises(DataError, match="rig"):
+        simulate_seed_ensemble(20, t_end=0.1, signals=["LeverPosition"], rig="bench")
+
+
+def test_supply_wander_is_one_draw_per_code():
+    from pdmkit.ensembles._pneumatic import _seed_design
+    from pdmkit.ensembles._pneumatic_rig import _seed_rig_columns
+
+    design = _seed_design(4840, 20, "rig", 0, jitter=0.0)
+    params = [c for c in design.columns if c not in ("fault", "seed_label", "fault_code")]
+    cols = {c: design[c].to_numpy(float) for c in params if c != "supply_bar"}
+    codes = design["fault_code"].str[2:].astype(int).to_numpy()
+    out = _seed_rig_columns(cols, codes, 0, 4840)
+    ratio = (out["p_supply"] - 101325.0) / (cols["p_supply"] - 101325.0) - 1.0
+    per_code = design.assign(r=ratio).groupby("fault_code")["r"].agg(["std", "mean"])
+    assert per_code["std"].max() < 1e-12  # the repeats of a code share it
+    assert per_code["mean"].std() == pytest.approx(SEED_SUPPLY_CODE_SPREAD, rel=0.4)
+    # it drifts along the codes (recorded label by label), as the rig's reading does
+    order = per_code["mean"].to_numpy()
+    assert np.corrcoef(order[:-1], order[1:])[0, 1] > 0.3
+    assert np.all(out["mass_piston"] == SEED_RIG_PARAMS["mass_piston"])
