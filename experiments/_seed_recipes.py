@@ -51,8 +51,8 @@ __all__ = [
 
 
 _WHY_FLOW = (
-    "same 24 indicators, ranking and classifier; the recordings are the twin's "
-    "(its chamber-A outflow model, sensor noise and unlabelled variation), not the rig's"
+    "same 24 indicators, ranking and classifier; the recordings are the twin's on the "
+    "seed rig's identified machine (params.m) with the rig's acquisition, not the rig's"
 )
 
 
