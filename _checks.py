@@ -9,24 +9,95 @@ Examples
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 import os
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
-from pdmkit.errors import DataError
+from pdmkit.errors import DataError, ModelError, did_you_mean
 
 __all__ = [
     "LARGEST_VALUE",
+    "check_columns_present",
     "check_fs",
     "check_int",
     "check_magnitude",
     "file_sha256",
+    "names_list",
     "npy_declared",
     "parse_timestamps",
+    "replace_fields",
     "uniform_step",
 ]
+
+#: how many names an error message shows before "and N more"
+NAMES_SHOWN = 20
+
+
+def names_list(items: Sequence[Any], limit: int = NAMES_SHOWN) -> str:
+    """``'a', 'b' and 3 more``: names for an error message, the first ``limit`` shown.
+
+    Examples
+    --------
+    >>> from pdmkit._checks import names_list
+    >>> names_list(["a", "b", "c"], limit=2)
+    "'a', 'b' and 1 more"
+    """
+    shown = ", ".join(repr(x) for x in list(items)[:limit])
+    more = len(items) - limit
+    return shown + (f" and {more} more" if more > 0 else "")
+
+
+def check_columns_present(table: Any, names: Sequence[Any], what: str) -> None:
+    """Raise :class:`~pdmkit.errors.DataError` naming the ``names`` not in ``table``.
+
+    ``what`` says what they are ("signal column(s)", "unit="...); the message lists
+    the table's columns (the first 30).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from pdmkit._checks import check_columns_present
+    >>> check_columns_present(pd.DataFrame({"a": [1]}), ["a", "b"], "feature column(s)")
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.DataError: feature column(s) 'b' not in the table; its columns are 'a'
+    """
+    missing = [c for c in names if c not in table.columns]
+    if missing:
+        raise DataError(
+            f"{what} {names_list(missing)} not in the table; its columns are "
+            f"{names_list(list(table.columns), 30)}"
+        )
+
+
+def replace_fields(obj: Any, changes: Mapping[str, Any], noun: str = "field") -> Any:
+    """A copy of the dataclass ``obj`` with ``changes``; unknown names raise ModelError.
+
+    The error names the unknown field, the closest known one and all known ones.
+
+    Examples
+    --------
+    >>> import dataclasses
+    >>> from pdmkit._checks import replace_fields
+    >>> @dataclasses.dataclass(frozen=True)
+    ... class Valve:
+    ...     area: float = 1e-6
+    >>> replace_fields(Valve(), {"area": 2e-6}).area
+    2e-06
+    """
+    names = [f.name for f in dataclasses.fields(obj)]
+    for key in changes:
+        if key not in names:
+            raise ModelError(
+                f"{type(obj).__name__} has no {noun} {key!r}{did_you_mean(key, names)} "
+                f"Known {noun}s: {', '.join(names)}."
+            )
+    return dataclasses.replace(obj, **changes)
 
 
 def check_fs(fs: object, name: str = "fs") -> float:

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from pdmkit._checks import names_list
 from pdmkit.errors import DataError
 
 __all__ = ["MEMBER", "SignalList", "resample_poly_1d", "resample_ratio"]
@@ -28,9 +29,7 @@ SignalList = list  # list[np.ndarray | None], one entry per member
 
 
 def _names_list(items: Sequence[Any], limit: int = _SHOW) -> str:
-    shown = ", ".join(repr(x) for x in list(items)[:limit])
-    more = len(items) - limit
-    return shown + (f" and {more} more" if more > 0 else "")
+    return names_list(items, limit)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pdmkit._checks import check_int
+from pdmkit._checks import check_columns_present, check_int
 from pdmkit.ensembles._ensemble import Ensemble
 from pdmkit.ensembles._signals import _names_list
 from pdmkit.errors import DataError
@@ -25,12 +25,7 @@ def _as_columns(value: Any, what: str) -> list[Any]:
 
 
 def _check_present(table: pd.DataFrame, names: Sequence[Any], what: str) -> None:
-    missing = [c for c in names if c not in table.columns]
-    if missing:
-        raise DataError(
-            f"{what} {_names_list(missing)} not in the table; its columns are "
-            f"{_names_list(list(table.columns), 30)}"
-        )
+    check_columns_present(table, names, what)
 
 
 def _constant_within(

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 import pandas as pd
 
-from pdmkit._checks import check_int, parse_timestamps
+from pdmkit._checks import check_columns_present, check_int, parse_timestamps
 from pdmkit.errors import DataError, NotFittedError
 from pdmkit.rul._result import RULPrediction
 
@@ -187,12 +187,7 @@ def as_columns(columns: str | Sequence[str]) -> list[str]:
 
 
 def check_columns(table: pd.DataFrame, columns: Sequence[str], param: str) -> None:
-    missing = [c for c in columns if c not in table.columns]
-    if missing:
-        raise DataError(
-            f"{param}={missing if len(missing) > 1 else missing[0]!r} is not a column of "
-            f"the table; columns: {list(table.columns)[:15]}"
-        )
+    check_columns_present(table, columns, f"{param} column(s)")
     bad = [c for c in columns if not pd.api.types.is_numeric_dtype(table[c])]
     if bad:
         raise DataError(f"{param} columns {bad} are not numeric")

@@ -13,7 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from pdmkit.errors import ModelError, did_you_mean
+from pdmkit._checks import replace_fields
+from pdmkit.errors import ModelError
 from pdmkit.models._xp import is_torch
 
 __all__ = ["PneumaticParams", "stack_params"]
@@ -419,14 +420,7 @@ class PneumaticParams:
         >>> PneumaticParams().replace(mass_load=1.25).mass_load
         1.25
         """
-        names = [f.name for f in dataclasses.fields(self)]
-        for key in changes:
-            if key not in names:
-                raise ModelError(
-                    f"PneumaticParams has no parameter {key!r}{did_you_mean(key, names)} "
-                    f"Known parameters: {', '.join(names)}."
-                )
-        return dataclasses.replace(self, **changes)
+        return replace_fields(self, changes, "parameter")
 
     def member(self, i: int) -> PneumaticParams:
         """The scalar parameters of member ``i`` of a batch.

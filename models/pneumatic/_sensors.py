@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from scipy import signal as sps
 
+from pdmkit._checks import replace_fields
 from pdmkit.errors import ModelError, did_you_mean
 
 __all__ = ["SENSOR_NAMES", "SENSOR_UNITS", "SensorSpec", "default_sensor_specs"]
@@ -191,14 +192,7 @@ class SensorSpec:
         >>> SensorSpec().replace(offset=2.0).offset
         2.0
         """
-        names = [f.name for f in dataclasses.fields(self)]
-        for key in changes:
-            if key not in names:
-                raise ModelError(
-                    f"SensorSpec has no field {key!r}{did_you_mean(key, names)} "
-                    f"Fields: {', '.join(names)}."
-                )
-        return dataclasses.replace(self, **changes)
+        return replace_fields(self, changes, "field")
 
     def apply(self, x, fs: float, rng: np.random.Generator | int | None = None, t0=0.0):
         """Apply the imperfections to ideal readings ``x`` of shape (n_members, n_samples).
