@@ -148,6 +148,8 @@ class Candidate(abc.ABC):
     #: the simpler effect this one contains (a parameter at zero, or a limit): the
     #: simpler one is preferred unless this one does clearly better
     nests: str | None = None
+    #: the state kinds a ``level`` candidate attaches to (a vessel's shape: levels only)
+    kinds: tuple[str, ...] = ("level", "pressure")
 
     # hooks -------------------------------------------------------------------
     @abc.abstractmethod

@@ -35,7 +35,12 @@ from pdmkit.models.mismatch._effects_input import (
     InputLag,
     InputSaturation,
 )
-from pdmkit.models.mismatch._effects_level import Leak, Overflow, StateSaturation
+from pdmkit.models.mismatch._effects_level import (
+    CrossSection,
+    Leak,
+    Overflow,
+    StateSaturation,
+)
 from pdmkit.models.mismatch._effects_motion import (
     AsymmetricFriction,
     BiasForce,
@@ -69,7 +74,6 @@ __all__ = [
 
 _VEL = ("velocity", "angular_velocity")
 _POS_OF = {"velocity": "position", "angular_velocity": "angle"}
-_LEVEL = ("level", "pressure")
 
 
 _ALL: tuple[Candidate, ...] = (
@@ -90,6 +94,7 @@ _ALL: tuple[Candidate, ...] = (
     Overflow(),
     Leak(),
     StateSaturation(),
+    CrossSection(),
     SensorOffset(),
     SensorSaturation(),
     SensorDrift(),
@@ -134,7 +139,7 @@ def candidate_library():
     >>> from pdmkit.models.mismatch._candidates import candidate_library
     >>> lib = candidate_library()
     >>> len(lib), sorted(lib.loc[lib["id"] == "saturation", "attach"])
-    (23, ['input', 'level'])
+    (24, ['input', 'level'])
     >>> lib["id"].iloc[-1]
     'sparse'
     """
@@ -205,6 +210,8 @@ def attach_candidates(  # noqa: C901
     scales: Scales,
     ids: Sequence[str] | None = None,
     extra: Sequence[Candidate] = (),
+    *,
+    clipped: Sequence[str] = (),
 ) -> list[Effect]:
     """Every effect of the library that ``model`` admits, attached to its targets.
 
@@ -225,6 +232,13 @@ def attach_candidates(  # noqa: C901
         The user's own candidates (instances of :class:`Candidate` subclasses with an
         ``id`` of their own and one of the ``attach`` kinds above), attached the same
         way and always tried.
+    clipped : sequence of str, optional
+        Outputs whose recording is clipped by the sensor (it repeats its extreme value
+        exactly, :func:`pdmkit.models.mismatch._locate.clipped_outputs`): no overflow
+        is attached to the measured state of such an output, since a level limit at the
+        reading's ceiling and the sensor's clip give the same recording there, and the
+        exact repetition (no sensor noise at the limit) says it is the sensor
+        (``sensor_saturation`` stays).
 
     Returns
     -------
@@ -282,13 +296,18 @@ def attach_candidates(  # noqa: C901
                 )
         elif c.attach == "level":
             for s, k in model.states.items():
-                if k not in _LEVEL:
+                if k not in c.kinds:
+                    continue
+                if c.id == "overflow" and s in clipped:
                     continue
                 span = max(scales.x_max[s] - scales.x_min[s], scales.x_scale(s))
                 opts = {
                     "w": 0.005 * span,
                     "wf": 0.01 * scales.f_scale(s),
                     "ref": 0.0 if k == "level" else scales.x_min[s],
+                    "mid": scales.q(s, 0.5),
+                    "lo": scales.x_min[s],
+                    "hi": scales.x_max[s],
                 }
                 out.append(Effect(c, s, None, opts))
                 if c.id == "overflow":

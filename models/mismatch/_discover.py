@@ -64,8 +64,10 @@ from pdmkit.models.mismatch._fit import (
     make_recording,
     part,
 )
+from pdmkit.models.mismatch._locate import clipped_outputs
 from pdmkit.models.mismatch._select import (
     Significance,
+    _adds_companion,
     _by_weight,
     _choose,
     _companion_pairs,
@@ -74,6 +76,7 @@ from pdmkit.models.mismatch._select import (
     _score,
     _Scored,
     _simpler_rival,
+    _structured,
     _white,
     _within_reach,
     p_value,
@@ -130,7 +133,7 @@ def discover_mismatch(
     max_iter: int = 30,
     pairs: bool = True,
     pair_candidates: int = 3,
-    max_effects: int = 3,
+    max_effects: int = 4,
     data_name: str = "data",
     validation_name: str = "validation",
     input_hold: str = "auto",
@@ -480,6 +483,49 @@ def _refit(model, problem, sc, x_scale, ranked, kept, max_iter: int, ts: float):
     return problems, n_sub_of
 
 
+def _grown_jobs(f: _Fits, grown) -> list[_Job]:
+    """One job per ``(structure, single)``: the structure with the single's effect added.
+
+    Started from both fits' values and the structure's initial state.
+    """
+    jobs: list[_Job] = []
+    for first, other in grown:
+        eff = (*first.effects, *other.effects)
+        jobs += _make_jobs(
+            f.model,
+            eff,
+            f.sc,
+            [{}],
+            {**other.job.values(), **first.job.values()},
+            f.x_scale,
+            tag="+".join(e.key for e in eff),
+            x0=first.job.x0,
+        )
+    return jobs
+
+
+def _screened_wide(f: _Fits, current, singles, grown: dict, o: _Options) -> list[_Job]:
+    """Further grown structures when ``current`` leaves a clearly structured residual.
+
+    The ``keep`` singles not tried already that fitted best alone (lowest training
+    cost), each added to ``current`` and screened (``screen_iter`` iterations); the
+    ``pair_candidates`` best are returned for the refit. Effects that hide each other
+    (a pump's threshold beside an overflow) help little alone, so the runner-ups alone
+    need not hold the one that helps once another is in.
+    """
+    if current is None or not _structured(current):
+        return []
+    wide = _grow(current, singles, o.pair_candidates, wide=True)
+    extra = sorted(
+        (v for k, v in wide.items() if k not in grown), key=lambda v: v[1].job.cost
+    )
+    jobs = _grown_jobs(f, extra[: o.keep])
+    if not jobs:
+        return []
+    _lm(f.problem, jobs, o.screen_iter)
+    return sorted(jobs, key=lambda j: j.cost)[: o.pair_candidates]
+
+
 def _forward_selection(
     f: _Fits,
     singles: list[_Scored],
@@ -492,8 +538,11 @@ def _forward_selection(
     """Step 4: add the effect that helps most, while it helps significantly.
 
     The effect is the runner-up or a companion, up to ``max_effects`` effects; companions
-    are paired even when neither helps alone (each hides the other). Returns ``(accepted
-    single, the accepted structure of several effects or None, its effects by weight)``.
+    are paired even when neither helps alone (each hides the other), and one added beside
+    the effect that names it needs half the gain. While the structure leaves a clearly
+    structured residual, every other effect is screened with it too
+    (:func:`_screened_wide`). Returns ``(accepted single, the accepted structure of
+    several effects or None, its effects by weight)``.
     """
     current = accepted
     considered = [s for s in singles if s.refit and s.e_val is not None]
@@ -505,19 +554,8 @@ def _forward_selection(
         if size == 2:
             for first, other in _companion_pairs(singles, o.pair_candidates):
                 grown.setdefault(frozenset((first.key, other.key)), (first, other))
-        pjobs = []
-        for first, other in grown.values():
-            eff = (*first.effects, *other.effects)
-            pjobs += _make_jobs(
-                f.model,
-                eff,
-                f.sc,
-                [{}],
-                {**other.job.values(), **first.job.values()},
-                f.x_scale,
-                tag="+".join(e.key for e in eff),
-                x0=first.job.x0,
-            )
+        pjobs = _grown_jobs(f, grown.values())
+        pjobs += _screened_wide(f, current, singles, grown, o)
         if not pjobs:
             break
         _lm(f.problem, pjobs, o.max_iter, ftol=1e-7)  # the base step: the costliest fits
@@ -525,7 +563,9 @@ def _forward_selection(
         f.score(pscored)
         considered += pscored
         best = min(pscored, key=lambda s: s.rmse_val)
-        if not significant(best, current or base):
+        ref = current or base
+        companion = current is not None and _adds_companion(best, current)
+        if not significant(best, ref, companion=companion):
             break
         current = best
     # a structure with the simpler effect that a chosen one nests (Coulomb friction
@@ -615,7 +655,8 @@ def _discover(model, data, validation, stages: _Stages, o: _Options) -> Mismatch
     )
     x_scale = {name: sc.x_scale(name) for name in model.states}
     stages.enter("screening")
-    cands = attach_candidates(model, sc, o.effects, extra=o.candidates)
+    clipped = clipped_outputs(s.rec.outputs)
+    cands = attach_candidates(model, sc, o.effects, extra=o.candidates, clipped=clipped)
     jobs, ranked, kept = _screen(
         model, problem, sc, x_scale, nominal, cands, o.screen_iter, o.keep
     )

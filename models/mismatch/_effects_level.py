@@ -1,7 +1,9 @@
-"""Candidate effects on a level or pressure state: overflow, leak, rate saturation.
+"""Candidate effects on a level or pressure state: overflow, leak, rate saturation, shape.
 
 Terms on the derivative of a ``level`` / ``pressure`` state; an overflow may route
-what spills into another state of the same kind.
+what spills into another state of the same kind; a level-dependent cross-section
+scales the whole derivative (the same flow moves the level by more where the vessel
+is narrower).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from pdmkit.models.mismatch._candidate_base import (
     _sp,
 )
 
-__all__ = ["Leak", "Overflow", "StateSaturation"]
+__all__ = ["CrossSection", "Leak", "Overflow", "StateSaturation"]
 
 
 class Overflow(Candidate):
@@ -121,3 +123,52 @@ class StateSaturation(Candidate):
         r = th["r"]
         dx[s] = r * xp.tanh(dx[s] / r)
         return dx
+
+
+class CrossSection(Candidate):
+    """Level-dependent cross-section: ``d level/dt`` = net flow / A(level).
+
+    A(h) = A(h_mid) · exp(c · (h − h_mid)), ``h_mid`` the median level of the nominal
+    simulation (option ``mid``): the exponential keeps the area positive over any range
+    the fit visits, and its first-order term is the linear taper ``1 + c (h − h_mid)``.
+    """
+
+    id = "cross_section"
+    attach = "level"
+    kinds = ("level",)  # a vessel's shape (a pressure's capacity is another story)
+    param_names = ("c",)
+    neutral = _frozen({"c": 0.0})
+    physics = (
+        "Level-dependent cross-section: the area of the vessel holding {target} changes "
+        "with its level, by a factor exp(c·({target} − {mid})) with c = {c} per unit of "
+        "{target} (area ×{top} at {hi}, ×{bottom} at {lo}, relative to {mid}): the same "
+        "net flow moves the level faster where the vessel is narrower (tapered or "
+        "conical walls, fittings inside the tank). A level sensor that is not linear in "
+        "the stored volume reads the same."
+    )
+
+    def specs(self, eff, sc):
+        span = max(sc.x_max[eff.target] - sc.x_min[eff.target], sc.x_scale(eff.target))
+        return {"c": _lin("c", -3.0 / span, 3.0 / span, 0.1 / span)}
+
+    def guesses(self, eff, sc):
+        span = max(sc.x_max[eff.target] - sc.x_min[eff.target], sc.x_scale(eff.target))
+        return [{"c": -0.5 / span}, {"c": 0.5 / span}]
+
+    def derivs(self, xp, eff, th, t, x, u, dx):
+        s = eff.target
+        dx[s] = dx[s] * xp.exp(-th["c"] * (x[s] - eff.opt("mid")))
+        return dx
+
+    def explain(self, eff, values):
+        c = float(values["c"])
+        mid, lo, hi = eff.opt("mid"), eff.opt("lo"), eff.opt("hi")
+        return self.physics.format(
+            target=eff.target,
+            c=_g(c),
+            mid=_g(mid),
+            lo=_g(lo),
+            hi=_g(hi),
+            top=_g(math.exp(c * (hi - mid))),
+            bottom=_g(math.exp(c * (lo - mid))),
+        )

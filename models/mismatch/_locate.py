@@ -5,7 +5,9 @@ in the state / input space (:func:`region_statistics`: residual energy over regi
 as near-zero velocity, direction reversals, high level, large input), in frequency
 (:func:`residual_spectrum`: residual spectrum and coherence with each input), and
 whether anything systematic is left (:func:`whiteness_test`: Ljung-Box and the
-auto- and input cross-correlation against the +-2.58/sqrt(N) band, Ljung 1999).
+auto- and input cross-correlation against the +-2.58/sqrt(N) band, Ljung 1999), and
+which recordings are clipped by their sensor (:func:`clipped_outputs`: a reading that
+sits exactly at its extreme for a run of samples).
 """
 
 from __future__ import annotations
@@ -18,7 +20,70 @@ import numpy as np
 from pdmkit.errors import DataError
 from pdmkit.models._residuals import whiteness_test
 
-__all__ = ["region_statistics", "residual_spectrum", "residual_windows", "whiteness_test"]
+__all__ = [
+    "clipped_outputs",
+    "region_statistics",
+    "residual_spectrum",
+    "residual_windows",
+    "whiteness_test",
+]
+
+#: a run at the extreme this many times longer than the longest run of one repeated
+#: value elsewhere (and at least CLIP_MIN_RUN samples) is a clip
+CLIP_RUN_RATIO = 5
+CLIP_MIN_RUN = 5
+
+
+def _longest_runs(y: np.ndarray, edge: float) -> tuple[int, int]:
+    """Longest run of samples exactly at ``edge``, longest run of one value elsewhere."""
+    change = np.flatnonzero(np.diff(y) != 0)
+    starts = np.r_[0, change + 1]
+    lengths = np.diff(np.r_[starts, y.size])
+    at = y[starts] == edge
+    return int(lengths[at].max(initial=0)), int(lengths[~at].max(initial=1))
+
+
+def clipped_outputs(outputs: Mapping[str, np.ndarray]) -> list[str]:
+    """Outputs whose recording sits *exactly* at its maximum or minimum for a while.
+
+    A measured quantity that reaches a physical limit (a tank's rim) still shows the
+    sensor's noise there; a reading that repeats one value exactly, many times longer
+    than any value repeats elsewhere in the record, is clipped by the sensor or the
+    acquisition (its range, an amplifier's rail). The run must be at least
+    ``CLIP_MIN_RUN`` samples and ``CLIP_RUN_RATIO`` times the longest run of one
+    repeated value elsewhere (a coarse quantiser repeats values everywhere).
+
+    Parameters
+    ----------
+    outputs : mapping of str to array
+        The recorded outputs.
+
+    Returns
+    -------
+    list of str
+        The names of the clipped outputs.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models.mismatch._locate import clipped_outputs
+    >>> noise = 0.01 * np.random.default_rng(0).normal(size=400)
+    >>> y = np.sin(np.linspace(0, 20, 400)) + noise
+    >>> clipped_outputs({"free": y, "clipped": np.minimum(y, 0.8)})
+    ['clipped']
+    """
+    out = []
+    for name, values in outputs.items():
+        y = np.asarray(values, dtype=float)
+        y = y[np.isfinite(y)]
+        if y.size < 2 * CLIP_MIN_RUN or np.ptp(y) == 0:
+            continue
+        for edge in (y.max(), y.min()):
+            run, elsewhere = _longest_runs(y, edge)
+            if run >= max(CLIP_MIN_RUN, CLIP_RUN_RATIO * elsewhere):
+                out.append(name)
+                break
+    return out
 
 
 def _energy(residual) -> np.ndarray:

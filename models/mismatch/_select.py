@@ -214,12 +214,15 @@ def _within_reach(ranked: list[_Job], nominal_cost: float, keep: int) -> list[_J
     return kept[: 3 * keep]
 
 
-def _grow(current: _Scored, singles: list[_Scored], top: int) -> dict:
+def _grow(current: _Scored, singles: list[_Scored], top: int, wide: bool = False) -> dict:
     """``{effect keys: (current, single)}`` for the runner-ups and companions to try.
 
     For the ``top`` refitted runner-ups (lowest validation RMSE first) and the companions of
     ``current``'s effects: effects it does not hold already, nor nests (Stribeck and Coulomb
-    on one velocity).
+    on one velocity). With ``wide`` (used when ``current`` leaves a clearly structured
+    residual), every such single, refitted or only screened: effects that hide each
+    other (a pump's threshold and an overflow) help little alone, so the best few alone
+    need not hold the one that helps once another is in (the caller screens them).
     """
     held = {(e.id, e.target) for e in current.effects}
     for e in current.effects:  # nor one that nests it or that it nests
@@ -237,7 +240,7 @@ def _grow(current: _Scored, singles: list[_Scored], top: int) -> dict:
         if (f.id, f.target) in held:
             continue
         companion = any(f.id in e.candidate.companions for e in current.effects)
-        if (s.refit and len(out) < top) or companion:
+        if (s.refit and len(out) < top) or companion or wide:
             held.add((f.id, f.target))
             out[frozenset({*keys, f.key})] = (current, s)
     return out
@@ -317,6 +320,16 @@ def _companion_pairs(singles: list[_Scored], top: int) -> list:
     return out
 
 
+def _adds_companion(s: _Scored, ref: _Scored) -> bool:
+    """Whether ``s`` holds ``ref``'s effects plus companions of them only."""
+    held = set(ref.effects)
+    new = [e for e in s.effects if e not in held]
+    if not new or len(held & set(s.effects)) != len(held):
+        return False
+    names = {c for e in ref.effects for c in e.candidate.companions}
+    return all(e.id in names for e in new)
+
+
 def _white(s: _Scored) -> bool:
     """Whether every output's validation residual passes the whiteness test."""
     return all(whiteness_test(s.e_val[:, j])["white"] for j in range(s.e_val.shape[1]))
@@ -376,8 +389,16 @@ class Significance:
     min_improvement: float
     alpha: float
 
-    def __call__(self, s: _Scored, ref: _Scored) -> bool:
+    def __call__(self, s: _Scored, ref: _Scored, companion: bool = False) -> bool:
+        """Whether ``s`` beats ``ref``.
+
+        ``companion``: ``s`` adds to ``ref`` an effect that one of ``ref``'s effects
+        names as its companion (expected beside it, :attr:`Candidate.companions`);
+        the relative gain it must make is then half of ``min_improvement`` (the test
+        and the BIC unchanged).
+        """
         gain = 1.0 - s.rmse_val / ref.rmse_val if ref.rmse_val > 0 else 0.0
-        if gain < self.min_improvement or s.bic >= ref.bic:
+        need = 0.5 * self.min_improvement if companion else self.min_improvement
+        if gain < need or s.bic >= ref.bic:
             return False
         return p_value(ref, s) < self.alpha
