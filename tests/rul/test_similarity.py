@@ -170,7 +170,7 @@ def test_unfitted_and_bad_parameters():
         PairwiseSimilarityModel(distance="cosine").fit(train)
     with pytest.raises(ValueError, match="align"):
         ResidualSimilarityModel(align="end").fit(train)
-    with pytest.raises(DataError, match="indicator column.*nope.*not in the table"):
+    with pytest.raises(DataError, match=r"indicator column.*nope.*not in the table"):
         ResidualSimilarityModel(indicator="nope").fit(train)
     with pytest.raises(ValueError, match="Invalid parameter"):
         HashSimilarityModel().set_params(widow=3)
