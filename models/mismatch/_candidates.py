@@ -205,7 +205,7 @@ def _force_gain(model, velocity: str, scales: Scales) -> dict:
     return {"force_gain": best[0], "force_input": best[1], "force_unit": best[2]}
 
 
-def attach_candidates(  # noqa: C901
+def attach_candidates(
     model,
     scales: Scales,
     ids: Sequence[str] | None = None,
@@ -271,55 +271,93 @@ def attach_candidates(  # noqa: C901
         keep.add(c.id)
     out: list[Effect] = []
     for c in (*_ALL, *extra):
-        if c.id not in keep:
-            continue
-        if c.attach == "velocity":
-            for s, k in model.states.items():
-                if k in _VEL:
-                    eps = 0.005 * scales.x_scale(s)
-                    out.append(
-                        Effect(c, s, None, {"eps": eps, **_force_gain(model, s, scales)})
-                    )
-        elif c.attach == "velocity_position":
-            for s, k in model.states.items():
-                if k in _VEL:
-                    p = _position_partner(model, s, scales)
-                    if p is not None:
-                        out.append(Effect(c, s, p, {}))
-        elif c.attach == "input":
-            for s in model.inputs:
-                a = scales.u_absmax(s)
-                out.append(
-                    Effect(
-                        c, s, None, {"w": 0.01 * a, "one_sided": float(scales.one_sided(s))}
-                    )
-                )
-        elif c.attach == "level":
-            for s, k in model.states.items():
-                if k not in c.kinds:
-                    continue
-                if c.id == "overflow" and s in clipped:
-                    continue
-                span = max(scales.x_max[s] - scales.x_min[s], scales.x_scale(s))
-                opts = {
-                    "w": 0.005 * span,
-                    "wf": 0.01 * scales.f_scale(s),
-                    "ref": 0.0 if k == "level" else scales.x_min[s],
-                    "mid": scales.q(s, 0.5),
-                    "lo": scales.x_min[s],
-                    "hi": scales.x_max[s],
-                }
-                out.append(Effect(c, s, None, opts))
-                if c.id == "overflow":
-                    for r, kr in model.states.items():
-                        if r != s and kr == k:
-                            out.append(Effect(c, s, r, opts))
-        elif c.attach == "output":
-            for s in model.outputs:
-                lo = scales.y_min.get(s, scales.x_min[s])
-                hi = scales.y_max.get(s, scales.x_max[s])
-                out.append(Effect(c, s, None, {"span": max(hi - lo, 1e-12)}))
+        if c.id in keep:
+            out.extend(_ATTACH[c.attach](c, model, scales, clipped))
     return out
+
+
+def _attach_velocity(c, model, scales: Scales, clipped) -> list[Effect]:
+    """One effect per velocity state, smoothed over 0.5 % of its scale."""
+    return [
+        Effect(
+            c, s, None, {"eps": 0.005 * scales.x_scale(s), **_force_gain(model, s, scales)}
+        )
+        for s, k in model.states.items()
+        if k in _VEL
+    ]
+
+
+def _attach_velocity_position(c, model, scales: Scales, clipped) -> list[Effect]:
+    """One effect per velocity state with the position (or angle) it drives."""
+    out = []
+    for s, k in model.states.items():
+        if k in _VEL:
+            p = _position_partner(model, s, scales)
+            if p is not None:
+                out.append(Effect(c, s, p, {}))
+    return out
+
+
+def _attach_input(c, model, scales: Scales, clipped) -> list[Effect]:
+    """One effect per input."""
+    return [
+        Effect(
+            c,
+            s,
+            None,
+            {"w": 0.01 * scales.u_absmax(s), "one_sided": float(scales.one_sided(s))},
+        )
+        for s in model.inputs
+    ]
+
+
+def _attach_level(c, model, scales: Scales, clipped) -> list[Effect]:
+    """One effect per level / pressure state of the candidate's kinds.
+
+    Overflow also once routed into each other state of the same kind, and none on the
+    state of a clipped output.
+    """
+    out = []
+    for s, k in model.states.items():
+        if k not in c.kinds or (c.id == "overflow" and s in clipped):
+            continue
+        span = max(scales.x_max[s] - scales.x_min[s], scales.x_scale(s))
+        opts = {
+            "w": 0.005 * span,
+            "wf": 0.01 * scales.f_scale(s),
+            "ref": 0.0 if k == "level" else scales.x_min[s],
+            "mid": scales.q(s, 0.5),
+            "lo": scales.x_min[s],
+            "hi": scales.x_max[s],
+        }
+        out.append(Effect(c, s, None, opts))
+        if c.id == "overflow":
+            out.extend(
+                Effect(c, s, r, opts)
+                for r, kr in model.states.items()
+                if r != s and kr == k
+            )
+    return out
+
+
+def _attach_output(c, model, scales: Scales, clipped) -> list[Effect]:
+    """One effect per output, sized by the output's range."""
+    out = []
+    for s in model.outputs:
+        lo = scales.y_min.get(s, scales.x_min[s])
+        hi = scales.y_max.get(s, scales.x_max[s])
+        out.append(Effect(c, s, None, {"span": max(hi - lo, 1e-12)}))
+    return out
+
+
+#: attach kind -> the function attaching a candidate of that kind to a model
+_ATTACH = {
+    "velocity": _attach_velocity,
+    "velocity_position": _attach_velocity_position,
+    "input": _attach_input,
+    "level": _attach_level,
+    "output": _attach_output,
+}
 
 
 def _dummy_scales(model) -> Scales:

@@ -152,10 +152,14 @@ def _excitation(system: str, n: int, ts: float, rng: np.random.Generator) -> dic
     return {name: u}
 
 
-def _true_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict[str, float]:  # noqa: C901
+def _true_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict[str, float]:
     """Effect parameters at magnitude ``m`` in (0, 1]."""
-    t = eff.target
-    i, c = eff.id, eff.candidate
+    return _TRUE_PARAMS[eff.candidate.attach](eff, m, sc, model, sign)
+
+
+def _true_velocity_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict:
+    """True parameters of a friction / force effect on a velocity."""
+    t, i = eff.target, eff.id
     if i == "coulomb_friction":
         return {"a": m * sc.f_absmax[t]}
     if i == "stribeck_friction":
@@ -166,32 +170,52 @@ def _true_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict[
         }
     if i == "bias_force":
         return {"b": sign * m * sc.f_absmax[t]}
-    if i == "hysteresis":  # Bouc-Wen: z saturates near 1 / beta, a third of the swing
-        k = model.params["k"] / model.params["m"]
-        return {"k_h": m * k, "beta": 3.0 / sc.x_scale(eff.partner), "gamma": 0.0}
     if i == "viscous_friction":
         return {"b": 5 * m * sc.f_scale(t) / sc.x_scale(t)}
     if i == "quadratic_drag":
         return {"d": 5 * m * sc.f_scale(t) / sc.x_scale(t) ** 2}
     if i == "asymmetric_friction":
         return {"d": sign * 3 * m * sc.f_scale(t) / sc.x_scale(t)}
+    raise AssertionError(i)
+
+
+def _true_velocity_position_params(
+    eff: Effect, m: float, sc: Scales, model, sign: float
+) -> dict:
+    """True parameters of a restoring-force effect on a velocity paired with a position."""
+    t, i = eff.target, eff.id
+    if i == "hysteresis":  # Bouc-Wen: z saturates near 1 / beta, a third of the swing
+        k = model.params["k"] / model.params["m"]
+        return {"k_h": m * k, "beta": 3.0 / sc.x_scale(eff.partner), "gamma": 0.0}
     if i == "cubic_stiffness":
         return {"k3": 5 * m * sc.f_scale(t) / sc.x_scale(eff.partner) ** 3}
-    if i == "backlash" and c.attach == "velocity_position":
+    if i == "backlash":
         k = model.params["k"] / model.params["m"]
         xs = max(abs(sc.x_max[eff.partner]), abs(sc.x_min[eff.partner]))
         return {"kappa": k, "b": max(m, 1e-6) * xs}
+    raise AssertionError(i)
+
+
+def _true_input_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict:
+    """True parameters of an effect on an input."""
+    t, i = eff.target, eff.id
     if i == "dead_time":
         return {"tau": m * 0.1 * sc.duration}
     if i == "dead_zone":
         return {"d": m * sc.u_absmax(t)}
-    if i == "saturation" and c.attach == "input":
+    if i == "saturation":
         lo = sc.u_min[t] if sc.one_sided(t) else 0.0
         return {"s": sc.u_max[t] - m * (sc.u_max[t] - lo)}
     if i == "backlash":
         return {"b": m * 0.5 * (sc.u_max[t] - sc.u_min[t])}
-    if i == "input_lag" or i == "sensor_lag":
+    if i == "input_lag":
         return {"tau": max(m * 0.05 * sc.duration, sc.h)}
+    raise AssertionError(i)
+
+
+def _true_level_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict:
+    """True parameters of an effect on a level or pressure."""
+    t, i = eff.target, eff.id
     if i == "overflow":
         out = {"cap": sc.x_max[t] - m * (sc.x_max[t] - sc.x_min[t])}
         if eff.partner:
@@ -201,6 +225,12 @@ def _true_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict[
         return {"k": 2 * m * sc.f_scale(t) / np.sqrt(max(sc.x_max[t], 1e-12))}
     if i == "saturation":
         return {"r": sc.f_absmax[t] * (1 - 0.97 * m)}
+    raise AssertionError(i)
+
+
+def _true_output_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict:
+    """True parameters of a sensor effect on an output."""
+    t, i = eff.target, eff.id
     if i == "sensor_offset":
         return {"offset": sign * 2 * m * sc.x_std[t]}
     if i == "sensor_saturation":  # clipped on the side the sign picks
@@ -212,9 +242,27 @@ def _true_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict[
         return {"offset": 0.0, "rate": sign * 2 * m * sc.x_std[t] / sc.duration}
     if i == "sensor_gain":
         return {"gain": 1.0 + sign * 0.5 * m}
-    if i == "sparse":
-        return {"c0": 5 * m}  # the truth's norm carries the sign
+    if i == "sensor_lag":
+        return {"tau": max(m * 0.05 * sc.duration, sc.h)}
     raise AssertionError(i)
+
+
+def _true_state_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict:
+    """True parameters of a sparse term (the truth's norm carries the sign)."""
+    if eff.id == "sparse":
+        return {"c0": 5 * m}
+    raise AssertionError(eff.id)
+
+
+#: attach kind -> the true parameters of a concealed effect of that kind
+_TRUE_PARAMS = {
+    "velocity": _true_velocity_params,
+    "velocity_position": _true_velocity_position_params,
+    "input": _true_input_params,
+    "level": _true_level_params,
+    "output": _true_output_params,
+    "state": _true_state_params,
+}
 
 
 @dataclasses.dataclass

@@ -311,7 +311,7 @@ def _influences(model, target: str, X: Mapping[str, np.ndarray], U, P) -> list[s
     return out
 
 
-def library_terms(  # noqa: C901
+def library_terms(
     model,
     target: str,
     X: Mapping[str, np.ndarray],
@@ -365,6 +365,34 @@ def library_terms(  # noqa: C901
             f"library_terms: {target!r} is not a state that can receive a term (kinds "
             f"{', '.join(_TARGET_KINDS)}); got kind {kind!r}."
         )
+    data = {**{k: np.asarray(v, float) for k, v in U.items()}}
+    data.update({k: np.asarray(v, float) for k, v in X.items()})
+    vars_ = _term_variables(model, target, kind, data, X, U, P)
+    kinds = {**dict.fromkeys(U, "input"), **model.states}
+    terms = _candidate_terms(vars_, data, kinds)
+    n = data[target].size
+    idx = np.unique(np.linspace(0, n - 1, min(n, 400)).astype(int))
+    xs = {s: data[s][idx] for s in X}
+    us = {k: data[k][idx] for k in U}
+    sens = _parameter_sensitivities(model, target, xs, us, P)
+    eps = {v: 0.01 * max(float(np.std(data[v])), 1e-12) for v in vars_}
+    kept, seen = [], []
+    for term in terms:
+        phi = np.broadcast_to(np.asarray(term.evaluate(np, xs, us, eps), float), idx.shape)
+        if term.factors and not (np.std(phi) > 1e-12 * (1 + np.max(np.abs(phi)))):
+            continue
+        unit = phi / max(float(np.linalg.norm(phi)), 1e-300)
+        if any(abs(float(np.dot(unit, s))) > 0.9999 for s in seen):
+            continue
+        if any(abs(_corr(phi, g)) > 0.9999 for g in sens):
+            continue
+        seen.append(unit)
+        kept.append(term)
+    return kept[:max_terms]
+
+
+def _term_variables(model, target: str, kind: str, data: dict, X, U, P) -> list[str]:
+    """The target, what its derivative depends on and the position a velocity drives."""
     vars_ = [target]
     for name in _influences(model, target, X, U, P):
         if name not in vars_:
@@ -374,10 +402,11 @@ def library_terms(  # noqa: C901
         for s, k in model.states.items():
             if k == want and s not in vars_:
                 vars_.append(s)
-    data = {**{k: np.asarray(v, float) for k, v in U.items()}}
-    data.update({k: np.asarray(v, float) for k, v in X.items()})
-    vars_ = [v for v in vars_ if np.std(data[v]) > 1e-12 * (1 + np.max(np.abs(data[v])))]
-    kinds = {**dict.fromkeys(U, "input"), **model.states}
+    return [v for v in vars_ if np.std(data[v]) > 1e-12 * (1 + np.max(np.abs(data[v])))]
+
+
+def _candidate_terms(vars_: list[str], data: dict, kinds: dict) -> list[Term]:
+    """A constant, monomials up to degree 3 and the sign-changing / level functions."""
     terms: list[Term] = [Term(())]
     full = len(vars_) <= 3
     for deg in (1, 2, 3):
@@ -397,12 +426,12 @@ def library_terms(  # noqa: C901
                 terms.append(Term(((v, "sign"),)))
         if kinds[v] in _LEVEL:
             terms.append(Term(((v, "sqrt"),)))
-    # free parameters: a term proportional to d rhs / d p only re-tunes p
+    return terms
+
+
+def _parameter_sensitivities(model, target: str, xs: dict, us: dict, P) -> list:
+    """``d rhs[target] / d p`` of each free parameter: a term along one only re-tunes p."""
     sens = []
-    n = data[target].size
-    idx = np.unique(np.linspace(0, n - 1, min(n, 400)).astype(int))
-    xs = {s: data[s][idx] for s in X}
-    us = {k: data[k][idx] for k in U}
     with np.errstate(all="ignore"):
         f0 = np.asarray(model.derivatives(xs, us, P)[target], dtype=float)
         for p in model.free:
@@ -411,20 +440,7 @@ def library_terms(  # noqa: C901
             g = (np.broadcast_to(np.asarray(f1, dtype=float), f0.shape) - f0) / dp
             if np.all(np.isfinite(g)) and np.std(g) > 0:
                 sens.append(g)
-    eps = {v: 0.01 * max(float(np.std(data[v])), 1e-12) for v in vars_}
-    kept, seen = [], []
-    for term in terms:
-        phi = np.broadcast_to(np.asarray(term.evaluate(np, xs, us, eps), float), idx.shape)
-        if term.factors and not (np.std(phi) > 1e-12 * (1 + np.max(np.abs(phi)))):
-            continue
-        unit = phi / max(float(np.linalg.norm(phi)), 1e-300)
-        if any(abs(float(np.dot(unit, s))) > 0.9999 for s in seen):
-            continue
-        if any(abs(_corr(phi, g)) > 0.9999 for g in sens):
-            continue
-        seen.append(unit)
-        kept.append(term)
-    return kept[:max_terms]
+    return sens
 
 
 def _corr(a: np.ndarray, b: np.ndarray) -> float:

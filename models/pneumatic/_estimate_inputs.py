@@ -151,8 +151,8 @@ def _check_bounds(names: list[str], known: PneumaticParams, bounds) -> tuple:
     )
 
 
-def _check_recording(recording, signals: list[str], member: int):  # noqa: C901
-    """-> (fs, {signal: 1-D float array}, {other signal: array} for windowing)."""
+def _recording_pool(recording, member: int) -> tuple[object, dict, str]:
+    """``(fs as given, {signal: samples of the member}, where)`` of a recording."""
     if isinstance(recording, ResponseData):
         n = recording.n_members
         if not -n <= member < n:
@@ -165,63 +165,79 @@ def _check_recording(recording, signals: list[str], member: int):  # noqa: C901
                 "estimate_parameters: the recording must start at t = 0 of the valve "
                 f"command schedule in `known`; its time starts at {recording.time[0]:g} s."
             )
-        fs = recording.fs
         pool = {k: np.asarray(v)[member] for k, v in recording.outputs.items()}
-        where = "recording.outputs"
-    elif isinstance(recording, Mapping):
+        return recording.fs, pool, "recording.outputs"
+    if isinstance(recording, Mapping):
         if "fs" not in recording:
             raise DataError(
                 "estimate_parameters: the recording mapping has no 'fs' entry; add the "
                 "sampling rate in Hz, e.g. {'fs': 1000.0, 'LeverPosition': x, ...}."
             )
-        fs = recording["fs"]
         pool = {k: v for k, v in recording.items() if k != "fs"}
-        where = "the recording"
-    else:
-        raise DataError(
-            "estimate_parameters: recording must be a mapping of signal name -> 1-D "
-            "array with an 'fs' entry, or a PneumaticResponse; got "
-            f"{type(recording).__name__}."
-        )
+        return recording["fs"], pool, "the recording"
+    raise DataError(
+        "estimate_parameters: recording must be a mapping of signal name -> 1-D "
+        "array with an 'fs' entry, or a PneumaticResponse; got "
+        f"{type(recording).__name__}."
+    )
+
+
+def _checked_rate(fs: object) -> float:
+    """The sampling rate as a positive finite float."""
     try:
         fs = float(fs)
     except (TypeError, ValueError) as exc:
         raise DataError(f"estimate_parameters: fs must be a number; got {fs!r}.") from exc
     if not (math.isfinite(fs) and fs > 0):
         raise DataError(f"estimate_parameters: fs must be positive and finite; got {fs}.")
+    return fs
+
+
+def _checked_signal(s: str, pool: dict, wanted: bool, where: str) -> np.ndarray | None:
+    """Signal ``s`` as a finite 1-D float array, or ``None`` for an unusable extra one."""
+    if s not in pool:
+        if not wanted:
+            return None
+        raise DataError(
+            f"estimate_parameters: signal {s!r} is missing from {where}"
+            f"{did_you_mean(s, pool)} It has "
+            f"{', '.join(map(str, pool)) or 'no signals'}. Record it or drop it from "
+            "`signals`."
+        )
+    try:
+        arr = np.asarray(pool[s], dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise DataError(
+            f"estimate_parameters: signal {s!r} must be numeric; got "
+            f"{type(pool[s]).__name__}."
+        ) from exc
+    if arr.ndim != 1:
+        raise DataError(
+            f"estimate_parameters: signal {s!r} must be 1-D (one member's samples); "
+            f"got shape {arr.shape}. Pass one member (`member=`) of a batch."
+        )
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        if not wanted:
+            return None
+        raise DataError(
+            f"estimate_parameters: signal {s!r} has {int(bad.sum())} non-finite "
+            f"samples (first at index {int(np.flatnonzero(bad)[0])}); fill or "
+            "interpolate the gaps (dropouts) or drop the signal."
+        )
+    return arr
+
+
+def _check_recording(recording, signals: list[str], member: int):
+    """-> (fs, {signal: 1-D float array}, {other signal: array} for windowing)."""
+    fs, pool, where = _recording_pool(recording, member)
+    fs = _checked_rate(fs)
     data = {}
     n = None
     for s in [*signals, *(k for k in ("LeverPosition",) if k not in signals)]:
-        if s not in pool:
-            if s not in signals:
-                continue
-            raise DataError(
-                f"estimate_parameters: signal {s!r} is missing from {where}"
-                f"{did_you_mean(s, pool)} It has "
-                f"{', '.join(map(str, pool)) or 'no signals'}. Record it or drop it from "
-                "`signals`."
-            )
-        try:
-            arr = np.asarray(pool[s], dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise DataError(
-                f"estimate_parameters: signal {s!r} must be numeric; got "
-                f"{type(pool[s]).__name__}."
-            ) from exc
-        if arr.ndim != 1:
-            raise DataError(
-                f"estimate_parameters: signal {s!r} must be 1-D (one member's samples); "
-                f"got shape {arr.shape}. Pass one member (`member=`) of a batch."
-            )
-        bad = ~np.isfinite(arr)
-        if bad.any():
-            if s not in signals:
-                continue
-            raise DataError(
-                f"estimate_parameters: signal {s!r} has {int(bad.sum())} non-finite "
-                f"samples (first at index {int(np.flatnonzero(bad)[0])}); fill or "
-                "interpolate the gaps (dropouts) or drop the signal."
-            )
+        arr = _checked_signal(s, pool, s in signals, where)
+        if arr is None:
+            continue
         if n is None:
             n = arr.size
         elif arr.size != n:
