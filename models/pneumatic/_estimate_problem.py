@@ -26,9 +26,9 @@ from pdmkit.models._optim import (
     levenberg_marquardt,
 )
 from pdmkit.models._xp import TorchNamespace, get_namespace
-from pdmkit.models.pneumatic._integrate import _THETA, simulate_piston
+from pdmkit.models.pneumatic._integrate import _THETA, imex_step, simulate_piston
 from pdmkit.models.pneumatic._sensors import P_STD, T_STD
-from pdmkit.models.pneumatic._twin import PneumaticParams, _command, _derivs, _resolve
+from pdmkit.models.pneumatic._twin import PneumaticParams, _command, _resolve
 
 _RHO_STD = P_STD / (287.1 * T_STD)  # as the flow sensors of _sensors.ideal_readings
 _TO_LPM = 60000.0 / _RHO_STD
@@ -71,16 +71,9 @@ def _run_windows(params, y0, u_table, n_samples: int, n_sub: int, h: float, xp):
     for _ in range(1, n_samples):
         s_ma = zero
         for _j in range(n_sub):
-            u = u_all[step]
-            s_u = s - u
-            d = _derivs(0.0, x, v, pa, pb, pr, u + s_u * half, r, xp, aux=True)
-            dv = h * (d.acc - d.k_eff * v) / (1.0 + d.c_eff + th_h * d.k_eff)
-            x = x + h * (v + _THETA * dv)
-            v = v + dv
-            pa = pa + h * d.dpa
-            pb = pb + h * d.dpb
-            pr = pr + h * d.dpr
-            s = u + s_u * decay
+            (x, v, pa, pb, pr, s), d = imex_step(
+                0.0, (x, v, pa, pb, pr, s), u_all[step], r, h, (th_h, half, decay), xp
+            )
             s_ma = s_ma + d.m_a
             step += 1
         rec_x.append(x)

@@ -190,15 +190,9 @@ def _integrate(
             # the flows see the spool at mid-step (exact for the linear spool), which
             # removes the O(dt) lag of the valve opening in the explicit pressure step
             u = _command_now(t, r, xp)
-            s_u = s - u
-            d = _derivs(t, x, v, pa, pb, pr, u + s_u * half, r, xp, aux=True)
-            dv = h * (d.acc - d.k_eff * v) / (1.0 + d.c_eff + th_h * d.k_eff)
-            x = x + h * (v + _THETA * dv)
-            v = v + dv
-            pa = pa + h * d.dpa
-            pb = pb + h * d.dpb
-            pr = pr + h * d.dpr
-            s = u + s_u * decay
+            (x, v, pa, pb, pr, s), d = imex_step(
+                t, (x, v, pa, pb, pr, s), u, r, h, (th_h, half, decay), xp
+            )
             s_ma = s_ma + d.m_a
             s_ex = s_ex + d.m_exhaust
             s_top = s_top + d.f_top
@@ -208,6 +202,31 @@ def _integrate(
     states = {k: xp.stack(val, axis=1) for k, val in rec.items()}
     signals = {k: xp.stack(val, axis=1) for k, val in aux.items()}
     return xp, r, states, signals, acc0
+
+
+def imex_step(t, state: tuple, u, r, h: float, coefs: tuple, xp) -> tuple:
+    """One step of the piston's integrator: ``((x, v, pa, pb, pr, s), derivatives)``.
+
+    The spool ``s`` relaxes exactly towards the command ``u`` (the flows see it at
+    mid-step, which removes the O(dt) lag of the valve opening), the mechanics take the
+    theta-method step with the dampers' and stops' stiffness implicit, the pressures an
+    explicit one. ``coefs`` = ``(theta * h, exp(-h/(2 t_v)), exp(-h/t_v))``. The one
+    step that :func:`simulate_piston` and the parameter estimation both take.
+    """
+    x, v, pa, pb, pr, s = state
+    th_h, half, decay = coefs
+    s_u = s - u
+    d = _derivs(t, x, v, pa, pb, pr, u + s_u * half, r, xp, aux=True)
+    dv = h * (d.acc - d.k_eff * v) / (1.0 + d.c_eff + th_h * d.k_eff)
+    new = (
+        x + h * (v + _THETA * dv),
+        v + dv,
+        pa + h * d.dpa,
+        pb + h * d.dpb,
+        pr + h * d.dpr,
+        u + s_u * decay,
+    )
+    return new, d
 
 
 def _gas_temperatures(p_chamber, params: PneumaticParams, fs: float, xp):
