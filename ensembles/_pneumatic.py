@@ -1,4 +1,4 @@
-"""Simulated ensembles of the pneumatic piston twin (seed 001, sections 3.3, 8.1, 8.4).
+"""Simulated ensembles of the pneumatic piston twin (Voronin, sections 3.3, 8.1, 8.4).
 
 Three generators, each returning an :class:`~pdmkit.ensembles.Ensemble` of 10 s
 recordings of the fifteen sensors of seed table 3.1:

@@ -1,4 +1,4 @@
-"""The pneumatic piston's rig faults and its fault ensembles (seed 001, 3.3, 8.1.1).
+"""The pneumatic piston's rig faults and its fault ensembles (Voronin's thesis, 3.3, 8.1.1).
 
 The settings of the rig that the seed's faults change (:data:`PNEUMATIC_FAULTS`, seed
 table 3.2), its combined fault codes (:func:`fault_labels`), the twin simulated in

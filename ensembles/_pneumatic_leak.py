@@ -1,4 +1,4 @@
-"""Air-leak run-to-failure units of the pneumatic piston (seed 001, 8.1-8.2 and 8.4).
+"""Air-leak run-to-failure units of the pneumatic piston (Voronin, 8.1-8.2 and 8.4).
 
 :func:`simulate_leak_runs`: units whose chamber air-leak coefficient grows along
 unit-specific random paths, or along the seed author's schedule.

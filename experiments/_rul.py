@@ -48,13 +48,7 @@ model gives no estimate for.
 cells, leave-one-cell-out (:mod:`pdmkit.experiments._rul_battery`).
 
 ``run_rul(dataset="pneumatic-leak", ...)`` runs the same models on air-leak
-run-to-failure units of the pneumatic twin (:func:`simulate_leak_dataset`): the
-candidate indicators of each 10 s cycle are ranked by monotonicity, trendability and
-prognosability on the training units, the best one feeds the model (unsmoothed), and
-every test unit is followed through its whole life with
-:meth:`~pdmkit.rul.LinearDegradationModel.predict_trajectory`; the scores are over the
-predictions in the last half of each test unit's life, with the fraction of test units
-predicted within 10 % (see :func:`leak_accuracy`).
+run-to-failure units of the pneumatic twin (:mod:`pdmkit.experiments._rul_leak`).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The RUL workflow on the twin's air-leak run-to-failure units (seed 001, section 8.4).
+"""The RUL workflow on the twin's air-leak run-to-failure units (Voronin, section 8.4).
 
 The candidate indicators of each 10 s cycle are ranked by monotonicity, trendability
 and prognosability on the training units, the best one feeds the model (unsmoothed),

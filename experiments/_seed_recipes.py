@@ -1,4 +1,4 @@
-"""The seed's recipes, exactly, each named after its section (seed 001, chapters 7-9).
+"""The seed's recipes, exactly, each named after its section (Voronin, chapters 7-9).
 
 Each follows the author's code (github.com/xvoron/thesis: ``sb/sensor_*/``,
 ``mb/functions/``, ``mb/rul.mlx``) where the text leaves a choice open; the table of

@@ -1,4 +1,4 @@
-"""The seed's recipes, exactly, each named after its section (seed 001, chapters 7-9).
+"""The seed's recipes, exactly, each named after its section (Voronin, chapters 7-9).
 
 The seed (a master's thesis on a double-acting pneumatic piston rig) reports its
 numbers from MATLAB's Diagnostic Feature Designer and Classification Learner. Its

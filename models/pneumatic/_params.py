@@ -1,4 +1,4 @@
-"""Parameters of the pneumatic piston digital twin (seed 001, chapters 3-4 and 8).
+"""Parameters of the pneumatic piston digital twin (Voronin's thesis, chapters 3-4 and 8).
 
 :class:`PneumaticParams` (every parameter with its unit, allowed range and source) and
 :func:`stack_params` (scalar sets into one batched set); the physics that uses them is

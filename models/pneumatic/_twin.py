@@ -1,4 +1,4 @@
-"""Physics of the double-acting pneumatic piston (seed 001, chapters 3, 4 and 8).
+"""Physics of the double-acting pneumatic piston (Voronin's thesis, chapters 3, 4 and 8).
 
 The model is written once, on plain array operations (see :mod:`pdmkit.models._xp`), and
 runs on numpy arrays (fast batched path) and on torch tensors (differentiable path).

@@ -33,7 +33,7 @@ def test_demo_writes_summary_and_report(tmp_path):
     assert summary["members"] == 80
     assert len(summary["labels"]) == 20
     assert "cycle" in summary["feature_groups"]
-    # each seed recipe beside the seed's published number (seed 001, tables 7.2, 9.1)
+    # each seed recipe beside the seed's published number (Voronin, tables 7.2, 9.1)
     published = {
         "flow_knn": 97.52,
         "flow_bagged_trees": 99.45,

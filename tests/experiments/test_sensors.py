@@ -208,7 +208,7 @@ def test_default_costs_are_used_when_none(rng):
 
 # --------------------------------------------------------------------------- Pareto
 TABLE_9_1 = pd.DataFrame(
-    {  # seed 001_335ae2076e497459, table 9.1: accuracy on the test set, cost in CZK
+    {  # Voronin's thesis, table 9.1: accuracy on the test set, cost in CZK
         "sensor": ["Acc", "Encoder", "Flow", "Mics", "Pressure", "Proximity", "Strain"],
         "accuracy": [0.916, 0.961, 0.972, 0.958, 0.766, 0.805, 0.950],
         "cost": [2 * 3500, 25000, 6000, 3 * 500, 1000, 2 * 1000, 15000],

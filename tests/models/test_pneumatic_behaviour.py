@@ -1,4 +1,4 @@
-"""Physical behaviour of the pneumatic piston twin (seed 001, chapters 3, 4 and 8).
+"""Physical behaviour of the pneumatic piston twin (Voronin's thesis, chapters 3, 4 and 8).
 
 References are independent of the code under test: closed forms (outflow function,
 critical ratio, static equilibria) re-derived here, and scipy root finders / optimisers.

@@ -1,4 +1,4 @@
-"""``pdmkit study unstable-closed-loop``: seed 003's method end to end (quick run).
+"""``pdmkit study unstable-closed-loop``: the S-Mobile paper's method, quick run.
 
 References: the seed's identified ``theta_x = 20.31`` (sec. 5, "confirmed by the design
 data", the rig's design value here); the exact linearisation's unstable pole and its

@@ -1,4 +1,4 @@
-"""``pdmkit study mass-beam`` (seed 002): the study end to end, quick."""
+"""``pdmkit study mass-beam`` (Khatkhate et al. 2007): the study end to end, quick."""
 
 import json
 
@@ -29,7 +29,7 @@ def test_outputs_and_seed_numbers_beside_pdmkit(study):
     out, summary = study
     assert json.loads((out / "summary.json").read_text())["study"] == "mass-beam"
     html = (out / "report.html").read_text()
-    # seed 002's numbers (section 3, 5, 6) appear beside pdmkit's
+    # the paper's numbers (section 3, 5, 6) appear beside pdmkit's
     for text in ("73.3", "28.9", "87.8", "within 16 min", "more than 24 min", "SFNN"):
         assert text in html, text
     seed = summary["seed_numbers"]

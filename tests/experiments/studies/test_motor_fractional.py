@@ -1,4 +1,4 @@
-"""``pdmkit study motor-fractional`` (seed 004): the study end to end, quick."""
+"""``pdmkit study motor-fractional`` : the fractional-calculus study end to end, quick."""
 
 import json
 
