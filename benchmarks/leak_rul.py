@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from pdmkit.ensembles._pneumatic import _leak_path
+from pdmkit.ensembles._pneumatic_leak import _leak_path
 from pdmkit.experiments._rul import leak_accuracy, run_rul
 from pdmkit.rul import GammaProcessDegradationModel, WienerDegradationModel
 

@@ -47,21 +47,23 @@ from pdmkit.ensembles._member_files import read_members
 from pdmkit.ensembles._parquet import url_filesystem, write_parquet_batches
 from pdmkit.ensembles._parquet_read import iter_parquet
 from pdmkit.ensembles._pneumatic import (
-    PNEUMATIC_FAULTS,
-    PNEUMATIC_SENSORS,
     SEED_JITTER,
     SEED_LABELS,
     SEED_SINGLE_FAULTS,
     SEED_SUPPLY_BAR,
-    fault_labels,
     pneumatic_residuals,
     seed_labels,
-    simulate_fault_ensemble,
-    simulate_leak_runs,
     simulate_seed_ensemble,
     simulate_seed_single_fault_ensemble,
+)
+from pdmkit.ensembles._pneumatic_faults import (
+    PNEUMATIC_FAULTS,
+    PNEUMATIC_SENSORS,
+    fault_labels,
+    simulate_fault_ensemble,
     simulate_sensor_fault_ensemble,
 )
+from pdmkit.ensembles._pneumatic_leak import simulate_leak_runs
 from pdmkit.ensembles._table_files import read_table
 from pdmkit.ensembles._tables import from_frame
 

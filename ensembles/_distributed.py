@@ -38,7 +38,7 @@ from pdmkit.ensembles._parquet import (
     read_manifest,
     url_filesystem,
 )
-from pdmkit.ensembles._pneumatic import simulate_fault_ensemble
+from pdmkit.ensembles._pneumatic_faults import simulate_fault_ensemble
 from pdmkit.ensembles._signals import MEMBER
 from pdmkit.errors import DataError, DataNotFoundError
 

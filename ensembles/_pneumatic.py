@@ -30,37 +30,23 @@ from pdmkit.ensembles._pneumatic_faults import (
     _LOADS_KG,
     _P_AMBIENT,
     PNEUMATIC_FAULTS,
-    PNEUMATIC_SENSORS,
     _fault_settings,
     _operating_conditions,
     _signal_list,
     _simulate_batches,
-    fault_labels,
-    simulate_fault_ensemble,
-    simulate_sensor_fault_ensemble,
-)
-from pdmkit.ensembles._pneumatic_leak import (
-    _leak_path,  # noqa: F401  (benchmarks/leak_rul.py imports it from here)
-    simulate_leak_runs,
 )
 from pdmkit.ensembles._pneumatic_rig import _seed_rig_columns
 from pdmkit.errors import DataError, ModelError
 
 __all__ = [
-    "PNEUMATIC_FAULTS",
-    "PNEUMATIC_SENSORS",
     "SEED_JITTER",
     "SEED_LABELS",
     "SEED_SINGLE_FAULTS",
     "SEED_SUPPLY_BAR",
-    "fault_labels",
     "pneumatic_residuals",
     "seed_labels",
-    "simulate_fault_ensemble",
-    "simulate_leak_runs",
     "simulate_seed_ensemble",
     "simulate_seed_single_fault_ensemble",
-    "simulate_sensor_fault_ensemble",
 ]
 
 

@@ -24,10 +24,6 @@ def _as_columns(value: Any, what: str) -> list[Any]:
     return list(value)
 
 
-def _check_present(table: pd.DataFrame, names: Sequence[Any], what: str) -> None:
-    check_columns_present(table, names, what)
-
-
 def _constant_within(
     codes: np.ndarray, starts: np.ndarray, stops: np.ndarray
 ) -> np.ndarray:
@@ -95,10 +91,10 @@ def from_frame(
     labels = _as_columns(label_columns, "label_columns")
     if not signals:
         raise DataError("signal_columns names no column; give at least one")
-    _check_present(table, signals, "signal column(s)")
-    _check_present(table, labels, "label column(s)")
+    check_columns_present(table, signals, "signal column(s)")
+    check_columns_present(table, labels, "label column(s)")
     if member_column is not None:
-        _check_present(table, [member_column], "member column")
+        check_columns_present(table, [member_column], "member column")
         clash = [c for c in (*signals, *labels) if c == member_column]
         if clash:
             raise DataError(

@@ -53,21 +53,14 @@ from pdmkit.models.mismatch._discover import (
     choose_input_hold,
     discover_mismatch,
 )
-from pdmkit.models.mismatch._fit import (
-    FitResult,
-    Recording,
-    choose_decimation,
-    choose_pieces,
-    decimate,
-    fit_model,
-    make_recording,
-    nominal_scales,
-)
+from pdmkit.models.mismatch._fit import FitResult, fit_model, nominal_scales
 from pdmkit.models.mismatch._locate import (
     region_statistics,
     residual_spectrum,
     residual_windows,
 )
+from pdmkit.models.mismatch._recording import Recording, make_recording
+from pdmkit.models.mismatch._sampling import choose_decimation, choose_pieces, decimate
 from pdmkit.models.mismatch._sparse import (
     SparseTerms,
     Term,

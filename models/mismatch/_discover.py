@@ -46,25 +46,25 @@ import numpy as np
 from pdmkit._progress import progress_bar
 from pdmkit.errors import ConvergenceWarning, ModelError
 from pdmkit.models.mismatch._candidates import SPARSE_ID, Scales, attach_candidates
-from pdmkit.models.mismatch._fit import (
+from pdmkit.models.mismatch._fit import _initial_values
+from pdmkit.models.mismatch._fit_problem import (
     DEADLINE,
-    PIECES_FROM,
-    Recording,
-    _choose_n_sub,
     _effect_starts,
-    _initial_values,
     _Job,
     _lm,
     _make_jobs,
-    _nominal_scales,
     _Problem,
+)
+from pdmkit.models.mismatch._locate import clipped_outputs
+from pdmkit.models.mismatch._recording import Recording, make_recording, part
+from pdmkit.models.mismatch._sampling import (
+    PIECES_FROM,
+    _choose_n_sub,
+    _nominal_scales,
     choose_decimation,
     choose_pieces,
     decimate,
-    make_recording,
-    part,
 )
-from pdmkit.models.mismatch._locate import clipped_outputs
 from pdmkit.models.mismatch._select import (
     Significance,
     _adds_companion,

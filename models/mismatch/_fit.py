@@ -17,27 +17,18 @@ from typing import Any
 import numpy as np
 
 from pdmkit.errors import ModelError
-from pdmkit.models._optim import half_squares
 from pdmkit.models.mismatch._candidates import Effect, Scales
-from pdmkit.models.mismatch._fit_problem import DEADLINE as DEADLINE
-from pdmkit.models.mismatch._fit_problem import _effect_starts as _effect_starts
-from pdmkit.models.mismatch._fit_problem import _Job as _Job
-from pdmkit.models.mismatch._fit_problem import _lm as _lm
-from pdmkit.models.mismatch._fit_problem import _make_jobs as _make_jobs
-from pdmkit.models.mismatch._fit_problem import _Problem as _Problem
+from pdmkit.models.mismatch._fit_problem import (
+    _effect_starts,
+    _Job,
+    _lm,
+    _make_jobs,
+    _Problem,
+)
 from pdmkit.models.mismatch._recording import Recording, make_recording
-from pdmkit.models.mismatch._recording import data_states as data_states
-from pdmkit.models.mismatch._recording import part as part
-from pdmkit.models.mismatch._sampling import PIECES_FROM as PIECES_FROM
-from pdmkit.models.mismatch._sampling import _choose_n_sub as _choose_n_sub
-from pdmkit.models.mismatch._sampling import _nominal_scales as _nominal_scales
-from pdmkit.models.mismatch._sampling import choose_decimation as choose_decimation
-from pdmkit.models.mismatch._sampling import choose_pieces as choose_pieces
-from pdmkit.models.mismatch._sampling import decimate as decimate
-from pdmkit.models.mismatch._sampling import simulate_states as simulate_states
+from pdmkit.models.mismatch._sampling import _choose_n_sub, _nominal_scales
 
 #: half the sum of squares (inf when not finite), as the candidate selection reads costs
-_cost = half_squares
 
 __all__ = ["FitResult", "Recording", "fit_model", "make_recording", "nominal_scales"]
 

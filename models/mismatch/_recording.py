@@ -36,7 +36,7 @@ class Recording:
     --------
     >>> import numpy as np
     >>> import pandas as pd
-    >>> from pdmkit.models.mismatch._fit import make_recording
+    >>> from pdmkit.models.mismatch import make_recording
     >>> from pdmkit.models.ode import showcase_model
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.arange(20) * 0.1
@@ -89,7 +89,7 @@ def make_recording(model, data: Any, name: str = "data") -> Recording:
 
     Examples
     --------
-    >>> from pdmkit.models.mismatch._fit import make_recording
+    >>> from pdmkit.models.mismatch import make_recording
     >>> from pdmkit.models.ode import showcase_model
     >>> import numpy as np
     >>> t = np.arange(12) * 0.1

@@ -179,7 +179,7 @@ def choose_decimation(
     --------
     >>> import numpy as np
     >>> from pdmkit.models.ode import showcase_model
-    >>> from pdmkit.models.mismatch._fit import choose_decimation, make_recording
+    >>> from pdmkit.models.mismatch import choose_decimation, make_recording
     >>> msd = showcase_model("mass_spring_damper")  # resonance near 3 Hz
     >>> t = np.arange(40000) * 1e-4  # sampled at 10 kHz
     >>> F = 20 * np.sin(2 * np.pi * 0.5 * t)
@@ -226,7 +226,7 @@ def decimate(rec: Recording, factor: int) -> Recording:
     Examples
     --------
     >>> import numpy as np
-    >>> from pdmkit.models.mismatch._fit import Recording, decimate
+    >>> from pdmkit.models.mismatch import Recording, decimate
     >>> t = np.arange(6) * 0.1
     >>> rec = Recording(t, 0.1, {"u": np.arange(6.0)}, {"y": 10 * np.arange(6.0)})
     >>> r = decimate(rec, 3)
@@ -280,7 +280,7 @@ def choose_pieces(
     --------
     >>> import numpy as np
     >>> from pdmkit.models.ode import showcase_model
-    >>> from pdmkit.models.mismatch._fit import choose_pieces, make_recording
+    >>> from pdmkit.models.mismatch import choose_pieces, make_recording
     >>> msd = showcase_model("mass_spring_damper")
     >>> t = np.arange(20000) * 0.01
     >>> rec = make_recording(msd, {"time": t, "F": np.sin(t), "x": 0 * t})

@@ -20,16 +20,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from pdmkit.models._optim import half_squares
 from pdmkit.models._residuals import dm_test, whiteness_test
-from pdmkit.models.mismatch._fit import (
-    Recording,
-    _cost,
-    _Job,
-    _lm,
-    _make_jobs,
-    _Problem,
-    data_states,
-)
+from pdmkit.models.mismatch._fit_problem import _Job, _lm, _make_jobs, _Problem
+from pdmkit.models.mismatch._recording import Recording, data_states
 from pdmkit.models.ode import DERIVATIVE_ATTACH
 
 __all__ = ["dm_test"]
@@ -288,7 +282,7 @@ def _by_weight(problem: _Problem, s: _Scored) -> list:
             order.append(e)
     if len(rows) < 2:
         return list(s.effects)
-    costs = [_cost(r) for r in problem.residuals(problem.simulate(rows))]
+    costs = [half_squares(r) for r in problem.residuals(problem.simulate(rows))]
     ranked = [e for _, e in sorted(zip(costs, order, strict=True), key=lambda z: -z[0])]
     return ranked + [e for e in s.effects if e not in ranked]
 

@@ -17,13 +17,14 @@ import numpy as np
 
 from pdmkit.errors import ModelError
 from pdmkit.models.mismatch._candidates import SPARSE_ID, Effect, _position_partner
-from pdmkit.models.mismatch._fit import _Job, simulate_states
+from pdmkit.models.mismatch._fit_problem import _Job
 from pdmkit.models.mismatch._locate import (
     region_statistics,
     residual_spectrum,
     residual_windows,
     whiteness_test,
 )
+from pdmkit.models.mismatch._sampling import simulate_states
 from pdmkit.models.mismatch._select import _rmse, _Scored, _structured, p_value
 
 __all__ = ["MismatchResult", "add_warnings", "build_verdict", "candidate_table"]

@@ -20,7 +20,7 @@ from pdmkit.models.mismatch import (
     generate_concealed_case,
     make_recording,
 )
-from pdmkit.models.mismatch._fit import _lm, _make_jobs, _Problem
+from pdmkit.models.mismatch._fit_problem import _lm, _make_jobs, _Problem
 from pdmkit.models.ode import integrate_batch, load_model_file, showcase_model, simulate_ode
 
 

@@ -18,7 +18,7 @@ from scipy.integrate import solve_ivp
 
 from pdmkit.models.mismatch._cases import generate_concealed_case
 from pdmkit.models.mismatch._discover import choose_input_hold, discover_mismatch
-from pdmkit.models.mismatch._fit import make_recording
+from pdmkit.models.mismatch._recording import make_recording
 from pdmkit.models.mismatch._verdict import _signatures
 from pdmkit.models.ode import showcase_model
 from pdmkit.models.ode._modelfile import OdeModel, load_model_file
@@ -162,7 +162,7 @@ def test_a_value_on_its_bound_is_warned_about_unless_the_effect_fades_there():
     a warning; an effect parameter at the bound where the effect vanishes (no
     friction, a saturation level at its far end) is not."""
     from pdmkit.models.mismatch._candidates import _dummy_scales, attach_candidates
-    from pdmkit.models.mismatch._fit import _make_jobs
+    from pdmkit.models.mismatch._fit_problem import _make_jobs
     from pdmkit.models.mismatch._verdict import _at_bounds
 
     msd = showcase_model("mass_spring_damper")
