@@ -43,6 +43,27 @@ import time
 import pandas as pd
 
 
+def _explain_table_9_1(sensors, rho: float, within: int) -> None:
+    """Where the table 9.1 line is missed: by how much, and the measurement why."""
+    if rho >= 0.7 and within == len(sensors):
+        return
+    far = sensors[sensors["difference"].abs() > 10]
+    gaps = ", ".join(
+        f"{r.sensor} {r.difference:+.1f} (band 10, rig's own tables {r.rig_tables:.1f})"
+        for r in far.itertuples()
+    )
+    print(
+        f"table 9.1 line missed: rho short by {max(0.7 - rho, 0.0):.3f}"
+        + (f"; outside the band: {gaps}" if gaps else "")
+    )
+    print(
+        "why: the same recipes on the rig's own feature tables (rig_tables, the "
+        "author's sb/sensor_*/*Features*.mat) give rho "
+        f"{sensors.attrs['rig_tables_rho']:.3f} against table 9.1; a twin that "
+        "matched the rig would not reach the line either (docs/seed_study.md)"
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--members", type=int, default=4840)
@@ -63,6 +84,12 @@ def main(argv: list[str] | None = None) -> int:
         choices=("twin", "seed_rig"),
         default="twin",
         help="valve program: the twin's five 2 s cycles or the rig's one (up 1-6 s)",
+    )
+    parser.add_argument(
+        "--rig",
+        choices=("seed", "twin"),
+        default="seed",
+        help="machine: the seed rig's identified one (params.m) or the generic twin",
     )
     parser.add_argument("--json", help="write the results to this JSON file")
     parser.add_argument("--table", help="write the indicator table to this parquet file")
@@ -85,27 +112,29 @@ def main(argv: list[str] | None = None) -> int:
         split=args.split,
         seed=args.seed,
         test_cycle=args.test_cycle,
+        rig=args.rig,
     )
     wall = time.perf_counter() - started
     pd.set_option("display.width", 200)
     pd.set_option("display.max_colwidth", 90)
     print(
         f"\nseed study: {args.members} members, {args.repeats} repeats per fault code, "
-        f"variation per {args.variation}, split {args.split}, seed {args.seed}"
+        f"variation per {args.variation}, split {args.split}, seed {args.seed}, "
+        f"machine {args.rig}"
     )
     print("\nseed's number | pdmkit on the twin | why they differ")
     print(out["comparison"].to_string(index=False))
     sensors = out["sensors"]
     print("\nsensors (seed table 9.1)")
-    print(
-        sensors[["sensor", "seed", "pdmkit", "difference", "model"]].to_string(index=False)
-    )
+    columns = ["sensor", "seed", "rig_tables", "pdmkit", "difference", "model"]
+    print(sensors[columns].to_string(index=False))
     rho = sensors.attrs["spearman_rho"]
     within = int((sensors["difference"].abs() <= 10).sum())
     print(
         f"Spearman rho against the seed's order: {rho:.3f}; "
         f"{within}/{len(sensors)} sensors within 10 points"
     )
+    _explain_table_9_1(sensors, rho, within)
     if args.table:
         out["table"].to_parquet(args.table)
         print(f"wrote {args.table}")

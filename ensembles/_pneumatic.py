@@ -35,7 +35,7 @@ from pdmkit.ensembles._pneumatic_faults import (
     _signal_list,
     _simulate_batches,
 )
-from pdmkit.ensembles._pneumatic_rig import _seed_rig_columns
+from pdmkit.ensembles._pneumatic_rig import _seed_rig_columns, seed_rig_machine
 from pdmkit.errors import DataError, ModelError
 
 __all__ = [
@@ -423,8 +423,8 @@ def simulate_seed_ensemble(
     if rig == "seed":
         codes = design["fault_code"].str[2:].astype(int).to_numpy()
         cols = _seed_rig_columns(cols, codes, seed, int(n_members))
-    elif rig != "twin":
-        raise DataError(f"rig must be 'seed' or 'twin'; got {rig!r}")
+    else:
+        cols = _machine(cols, rig, len(design))
     cols.update(_test_cycle(test_cycle, len(design)))
     specs = _acquisition_specs(acquisition)
     data = _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size, specs)
@@ -440,9 +440,19 @@ def simulate_seed_ensemble(
             "damper_upper": cols["damper_upper"],
             "damper_bottom": cols["damper_bottom"],
             "large_damper_damping": cols["damper_large_damping"],
+            "machine": rig,
         }
     )
     return Ensemble(data, fs=fs, conditions=conditions, member_ids=list(ids))
+
+
+def _machine(cols: dict, rig: str, n: int) -> dict:
+    """Parameter columns of ``n`` members on the machine ``rig`` ("twin" or "seed")."""
+    if rig == "seed":
+        return seed_rig_machine(cols, n)
+    if rig != "twin":
+        raise DataError(f"rig must be 'seed' or 'twin'; got {rig!r}")
+    return cols
 
 
 def _acquisition_specs(acquisition: str):
@@ -493,6 +503,7 @@ def pneumatic_residuals(
     reference: str = "operating_point",
     nominal_point: tuple[float, float] = (0.0, 6.0),
     test_cycle: str = "twin",
+    rig: str | None = None,
 ) -> Ensemble:
     """Residuals of recordings against the nominal twin (seed section 8.3).
 
@@ -521,6 +532,11 @@ def pneumatic_residuals(
     test_cycle : {"twin", "seed_rig"}, default "twin"
         The reference's valve program (the recordings'; see
         :func:`simulate_seed_ensemble`).
+    rig : {"twin", "seed"}, optional
+        The reference's machine: the generic twin, or the seed rig's identified one
+        (the seed's reference was simulated with that parameter file). Default: the
+        recordings' own, their ``machine`` condition (which the seed data sets carry),
+        else the generic twin.
 
     Returns
     -------
@@ -567,12 +583,21 @@ def pneumatic_residuals(
         points = conditions[["load_kg", "supply_bar"]].drop_duplicates()
         points = points.reset_index(drop=True)
     healthy = {s.parameter: float(np.mean(s.healthy)) for s in PNEUMATIC_FAULTS.values()}
-    params = PneumaticParams(
-        mass_load=points["load_kg"].to_numpy(float),
-        p_supply=_P_AMBIENT + points["supply_bar"].to_numpy(float) * 1e5,
+    cols = {
+        "mass_load": points["load_kg"].to_numpy(float),
+        "p_supply": _P_AMBIENT + points["supply_bar"].to_numpy(float) * 1e5,
         **healthy,
         **_test_cycle(test_cycle, len(points)),
-    )
+    }
+    if rig is None:
+        machines = set(conditions.get("machine", pd.Series(["twin"])).astype(str))
+        if len(machines) != 1:
+            raise DataError(
+                f"the recordings come from several machines {sorted(machines)}: "
+                "pass rig= for the reference, or one machine's members"
+            )
+        rig = machines.pop()
+    params = PneumaticParams(**_machine(cols, rig, len(points)))
     rate = {fs[name] for name in signals}
     if len(rate) != 1:
         raise DataError(f"signals {list(signals)} have different rates {sorted(rate)}")
@@ -657,6 +682,7 @@ def simulate_seed_single_fault_ensemble(
     seed: int = 0,
     variation: str = "rig",
     test_cycle: str = "twin",
+    rig: str = "seed",
 ):
     """The seed's smaller data set (8.2.1) on the twin: single faults at one point.
 
@@ -672,7 +698,10 @@ def simulate_seed_single_fault_ensemble(
     ``LeverPosition`` signal. ``variation="code"`` draws the unlabelled parameters and
     the knobs that are not faulty per code instead (pdmkit's reading before);
     ``test_cycle="seed_rig"`` records the rig's valve program (:data:`SEED_TEST_CYCLE`)
-    instead of the twin's.
+    instead of the twin's. ``rig="seed"`` (default) records on the seed rig's identified
+    machine as :func:`simulate_seed_ensemble` does (the author's ``params.m``: its heavy
+    lever creeps into the small dampers, so a damper fault moves the position by
+    millimetres); ``rig="twin"`` on the generic twin.
 
     Examples
     --------
@@ -719,6 +748,7 @@ def simulate_seed_single_fault_ensemble(
         gauge = gauge * (1.0 + SEED_SUPPLY_REPEATABILITY * noise[3])
     cols["p_supply"] = _P_AMBIENT + gauge
     cols.update(_test_cycle(test_cycle, n))
+    cols = _machine(cols, rig, n)
     ids = np.array([f"seed{i:05d}" for i in range(n)])
     specs = _acquisition_specs("seed_rig")
     data = _simulate_members(cols, ids, seed, t_end, 1000.0, ["LeverPosition"], 250, specs)
@@ -730,6 +760,7 @@ def simulate_seed_single_fault_ensemble(
             "fault_code": [f"RC{c:04d}" for c in member_code],
             "load_kg": load_kg,
             "supply_bar": supply_bar,  # the set point
+            "machine": rig,
         }
     )
     return Ensemble(data, fs=1000.0, conditions=conditions, member_ids=list(ids))

@@ -16,6 +16,7 @@ __all__ = [
     "SEED_RIG_PARAMS",
     "SEED_SUPPLY_CODE_DRIFT",
     "SEED_SUPPLY_CODE_SPREAD",
+    "seed_rig_machine",
 ]
 
 #: Code-to-code spread (relative standard deviation of the gauge pressure) of the
@@ -98,25 +99,45 @@ SEED_RIG_LARGE_DAMPING_SCALE = 1400.0 / 400.0
 _SEED_RIG_SCALED = ("c_a_in", "c_a_out", "c_b_in", "c_b_out")
 
 
-def _seed_rig_columns(cols, codes, seed: int, n_members: int) -> dict[str, np.ndarray]:
-    """The design's parameter columns on the seed rig (``SEED_RIG_PARAMS``).
+def seed_rig_machine(cols: dict, n: int) -> dict[str, np.ndarray]:
+    """Parameter columns of ``n`` members on the seed rig's machine (``SEED_RIG_PARAMS``).
 
-    ``codes``: each member's fault code number; the supply of a code wanders by
-    ``SEED_SUPPLY_CODE_SPREAD`` (one draw per code number, whatever part is simulated).
+    ``cols`` holds the members' own columns (knobs, loads, ...); the machine's values
+    replace or scale them (the valve coefficients drawn around the twin's nominal keep
+    their spread, scaled to the rig's nominal). Missing scaled columns start from the
+    twin's nominal.
+
+    Examples
+    --------
+    >>> from pdmkit.ensembles._pneumatic_rig import seed_rig_machine
+    >>> m = seed_rig_machine({"damper_large_damping": [400.0]}, 1)
+    >>> float(m["mass_piston"][0]), float(m["damper_large_damping"][0])
+    (6.7798462575453, 1400.0)
     """
     from pdmkit.models import PneumaticParams
 
     nominal = PneumaticParams()
-    n = len(codes)
     out = dict(cols)
     for key, value in SEED_RIG_PARAMS.items():
         if key in _SEED_RIG_SCALAR:
             out[key] = float(value)
         elif key in _SEED_RIG_SCALED:
-            out[key] = out[key] * (value / float(getattr(nominal, key)))
+            own = np.asarray(out.get(key, getattr(nominal, key)), dtype=float)
+            out[key] = np.broadcast_to(own, (n,)) * (value / float(getattr(nominal, key)))
         else:
             out[key] = np.full(n, float(value))
-    out["damper_large_damping"] = out["damper_large_damping"] * SEED_RIG_LARGE_DAMPING_SCALE
+    large = np.asarray(out.get("damper_large_damping", nominal.damper_large_damping))
+    out["damper_large_damping"] = large * SEED_RIG_LARGE_DAMPING_SCALE
+    return out
+
+
+def _seed_rig_columns(cols, codes, seed: int, n_members: int) -> dict[str, np.ndarray]:
+    """The design's parameter columns on the seed rig (:func:`seed_rig_machine`).
+
+    ``codes``: each member's fault code number; the supply of a code wanders by
+    ``SEED_SUPPLY_CODE_SPREAD`` (one draw per code number, whatever part is simulated).
+    """
+    out = seed_rig_machine(cols, len(codes))
     share, phi = SEED_SUPPLY_CODE_DRIFT
     noise = np.random.default_rng([seed, 2]).standard_normal((2, n_members))
     drift = np.empty(n_members)

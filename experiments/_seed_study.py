@@ -168,6 +168,7 @@ def run_seed_study(
     split: str = "seed",
     seed: int = 0,
     test_cycle: str = "twin",
+    rig: str = "seed",
 ) -> dict[str, Any]:
     """The whole seed study on the twin: data set, every recipe, the sensor table.
 
@@ -196,6 +197,9 @@ def run_seed_study(
     test_cycle : {"twin", "seed_rig"}, default "twin"
         The valve program of every recording
         (:func:`pdmkit.ensembles.simulate_seed_ensemble`).
+    rig : {"seed", "twin"}, default "seed"
+        The machine that records both data sets and the residuals' reference: the
+        seed rig's identified one, or the generic twin.
 
     Returns
     -------
@@ -225,6 +229,7 @@ def run_seed_study(
             t_end=t_end,
             seed=seed,
             test_cycle=test_cycle,
+            rig=rig,
         )
     ]
     table = pd.concat(parts)
@@ -238,7 +243,7 @@ def run_seed_study(
     )
     # the seed's residual study has its own, smaller data set (8.2.1, 8.3)
     results["residual_classification"] = seed_residual_classification(
-        split=split, t_end=t_end, seed=seed, test_cycle=test_cycle
+        split=split, t_end=t_end, seed=seed, test_cycle=test_cycle, rig=rig
     )
     sensors = seed_sensor_table(table, split=split, seed=seed)
     seconds["classification"] = round(time.perf_counter() - stage, 1)
@@ -270,5 +275,6 @@ def run_seed_study(
             "seed": int(seed),
             "t_end": float(t_end),
             "test_cycle": test_cycle,
+            "rig": rig,
         },
     }

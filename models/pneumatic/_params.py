@@ -147,14 +147,15 @@ class PneumaticParams:
         Pressure ratio above which the outflow function blends into a laminar (linear)
         law (numerical regularisation near zero pressure difference). Default 0.99.
     frame_frequency : float, Hz
-        Natural frequency of the frame mode seen by the static accelerometer and the
-        strain gauge (assumed 120; below the 500 Hz Nyquist frequency at 1 kHz).
+        Natural frequency of the frame mode seen by the static accelerometer (assumed
+        120; below the 500 Hz Nyquist frequency at 1 kHz).
     frame_damping_ratio : float, -
         Damping ratio of that frame mode (assumed 0.05).
     frame_mass : float, kg
         Modal mass of the frame (assumed 8).
     strain_area : float, m^2
-        Cross-section of the gauged frame member: stress = mount force / area (1e-4).
+        Cross-section of the gauged member, the rod's load cell: its reading is the
+        rod force over this area (1e-4).
     mic_frequency : float, Hz
         Resonance excited at the bumpers by impacts, heard by the microphones (assumed
         310).

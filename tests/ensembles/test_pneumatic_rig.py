@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from pdmkit.ensembles import simulate_seed_ensemble
+from pdmkit.ensembles import Ensemble, simulate_seed_ensemble
 from pdmkit.ensembles._pneumatic_rig import (
     SEED_RIG_LARGE_DAMPING_SCALE,
     SEED_RIG_PARAMS,
@@ -100,3 +100,59 @@ def test_supply_wander_is_one_draw_per_code():
     order = per_code["mean"].to_numpy()
     assert np.corrcoef(order[:-1], order[1:])[0, 1] > 0.3
     assert np.all(out["mass_piston"] == SEED_RIG_PARAMS["mass_piston"])
+
+
+def test_the_rod_load_cell_reads_what_the_rigs_reads_at_both_ends():
+    """The rig's load cell (``data11_1_1..3.mat``, 6.25 kg, 6 bar): -212.8 N at rest at
+    the bottom (mean of 7-10 s over the three recordings), 85.8 N at rest at the top
+    (3-5.9 s): 298.6 N apart. A cell under the frame reads the same weight at both."""
+    from pdmkit.ensembles._pneumatic import SEED_TEST_CYCLE
+    from pdmkit.ensembles._pneumatic_rig import seed_rig_machine
+    from pdmkit.models import (
+        PneumaticParams,
+        SensorSpec,
+        default_sensor_specs,
+        simulate_piston,
+    )
+
+    cols = {"mass_load": 6.25, "p_supply": 1.01325e5 + 6e5, **SEED_TEST_CYCLE}
+    p = PneumaticParams(**seed_rig_machine(cols, 1))
+    spec = default_sensor_specs("seed_rig")["StrainGauge"]
+    r = simulate_piston(
+        p,
+        t_end=10.0,
+        sensors=["StrainGauge"],
+        sensor_specs={"StrainGauge": spec.replace(noise_std=0.0, quantization=0.0)},
+    )
+    strain = r.outputs["StrainGauge"][0] * 1e-4  # N at the default strain_area
+    t = r.time
+    bottom = strain[(t > 7.0) & (t < 10.0)].mean()
+    top = strain[(t > 3.0) & (t < 5.9)].mean()
+    assert bottom == pytest.approx(-212.8, abs=10.0)
+    assert top == pytest.approx(85.8, abs=20.0)
+    assert top - bottom == pytest.approx(298.6, rel=0.1)
+    assert isinstance(spec, SensorSpec) and spec.offset == pytest.approx(-5.8e5)
+
+
+def test_residuals_are_taken_against_the_recordings_own_machine():
+    from pdmkit.ensembles import (
+        pneumatic_residuals,
+        simulate_seed_single_fault_ensemble,
+    )
+
+    ens = simulate_seed_single_fault_ensemble(10, repeats=2, t_end=2.0, seed=1)
+    assert set(ens.conditions["machine"]) == {"seed"}
+    kw = dict(reference="nominal", nominal_point=(6.25, 6.0))
+    own = pneumatic_residuals(ens, **kw).stack("LeverPosition_res")[0]
+    seed = pneumatic_residuals(ens, rig="seed", **kw).stack("LeverPosition_res")[0]
+    twin = pneumatic_residuals(ens, rig="twin", **kw).stack("LeverPosition_res")[0]
+    np.testing.assert_array_equal(own, seed)
+    # the healthy members against their own machine: millimetres less than against
+    # the generic twin, whose lighter piston runs another course
+    healthy = (ens.conditions["fault"] == "healthy").to_numpy()
+    rms = lambda r: np.sqrt(np.mean(r[healthy] ** 2))  # noqa: E731
+    assert rms(own) < 0.1 * rms(twin)
+    conditions = ens.conditions.assign(machine=["twin"] + ["seed"] * (len(ens) - 1))
+    mixed = Ensemble({"LeverPosition": ens.stack("LeverPosition")[0]}, 1000.0, conditions)
+    with pytest.raises(DataError, match="several machines"):
+        pneumatic_residuals(mixed, **kw)

@@ -134,12 +134,26 @@ def test_flow_sensor_volume_matches_the_chamber_fill(clean) -> None:
     assert litres == pytest.approx(mass / (1.0e5 / (287.1 * 293.15)) * 1e3, rel=0.02)
 
 
-def test_strain_gauge_reads_the_static_weight_at_rest(clean) -> None:
+def test_strain_gauge_reads_the_rod_force(clean) -> None:
+    """The load cell in the rod: the pressure force less the cylinder's top end's."""
     p = clean.params
-    strain = clean.outputs["StrainGauge"][0]
-    rest = (clean.time > 1.9) & (clean.time < 2.1)  # at rest on the bottom stop
+    t, x = clean.time, clean.states["position"][0]
+    strain = clean.outputs["StrainGauge"][0] * p.strain_area  # N
+    s_a = np.pi / 4 * p.bore**2
+    s_b = s_a - np.pi / 4 * p.rod_diameter**2
+    gauge_b = clean.states["pressure_b"][0] - p.p_ambient
+    # at rest on the bottom stop (an external one): chamber B pulls the lever down
+    bottom = (t > 1.9) & (t < 2.1)
+    assert np.ptp(x[bottom]) < 1e-5
+    rest = strain[bottom].mean()
+    assert rest == pytest.approx(-(gauge_b[bottom] * s_b).mean(), rel=1e-3)
+    assert rest == pytest.approx(-(p.p_supply - p.p_ambient) * s_b, rel=0.02)
+    # at rest at the top the cylinder's own end takes the pressure: the rod carries the
+    # lever's weight (friction holds at most friction_coulomb of it)
+    top = (t > 1.0) & (t < 1.1)
+    assert np.ptp(x[top]) < 1e-5 and x[top].mean() > 0.9 * p.stroke
     weight = (p.mass_piston + p.mass_load) * p.gravity
-    assert strain[rest].mean() == pytest.approx(weight / p.strain_area, rel=0.01)
+    assert abs(strain[top].mean() - weight) <= p.friction_coulomb + 1e-6
 
 
 def test_static_accelerometer_rings_at_the_frame_mode(clean) -> None:
