@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import scipy.stats
+from sklearn.base import BaseEstimator, ClassifierMixin
 
 from pdmkit.ensembles import (
     SEED_LABELS,
@@ -266,12 +267,49 @@ def test_seed_residual_set_is_single_faults_at_the_references_point(residual_set
     assert (cond.groupby("fault_code")["fault"].nunique() == 1).all()
 
 
+class _HandQuadraticSVM(ClassifierMixin, BaseEstimator):
+    """A MATLAB quadratic-SVM binary learner written out for few rows per class."""
+
+    def fit(self, X, y):
+        from scipy.spatial.distance import cdist
+        from sklearn.svm import SVC
+
+        self.classes_ = np.unique(y)
+        self.mu_, self.sd_ = X.mean(axis=0), X.std(axis=0, ddof=1)
+        z = (X - self.mu_) / self.sd_
+        d = cdist(z[y == self.classes_[1]], z[y == self.classes_[0]])
+        s = np.median(np.where(d > 0, d, np.inf).min(axis=1))
+        self.svc_ = SVC(kernel="poly", degree=2, coef0=1.0, gamma=s**-2).fit(z, y)
+        return self
+
+    def decision_function(self, X):
+        return self.svc_.decision_function((X - self.mu_) / self.sd_)
+
+    def predict(self, X):
+        return self.svc_.predict((X - self.mu_) / self.sd_)
+
+
+def test_matlab_auto_kernel_scale():
+    from pdmkit.experiments._seed_indicators import _auto_kernel_scale
+
+    z = np.array([[0.0], [1.0], [2.0], [3.0]])
+    codes = np.array([0, 1, 1, 1])  # nearest distances 1, 2, 3 from the second class
+    assert _auto_kernel_scale(z, codes, seed=0) == pytest.approx(2.0)
+    # 400 rows a class: 100 drawn of each, the median scaled by sqrt(1/16)^(1/p)
+    rng = np.random.default_rng(1)
+    z = rng.standard_normal((800, 2))
+    codes = np.repeat([0, 1], 400)
+    got = _auto_kernel_scale(z, codes, seed=3)
+    drawn = np.random.default_rng(3)
+    a = drawn.choice(np.arange(400), 100, replace=False)
+    b = drawn.choice(np.arange(400, 800), 100, replace=False)
+    d = np.linalg.norm(z[b][:, None, :] - z[a][None, :, :], axis=-1)
+    assert got == pytest.approx(np.median(d.min(axis=1)) * 0.25**0.5)
+
+
 def test_residual_recipe_equals_a_hand_sklearn_pipeline(residual_set):
     from sklearn.model_selection import train_test_split
     from sklearn.multiclass import OneVsOneClassifier
-    from sklearn.pipeline import make_pipeline
-    from sklearn.preprocessing import StandardScaler
-    from sklearn.svm import SVC
 
     from pdmkit.ensembles import pneumatic_residuals
     from pdmkit.experiments import seed_residual_classification
@@ -291,10 +329,9 @@ def test_residual_recipe_equals_a_hand_sklearn_pipeline(residual_set):
     train, test = train_test_split(
         np.arange(len(y)), test_size=0.3, stratify=y, random_state=1
     )
-    # MATLAB's fitcecoc: each one-vs-one learner standardises its own two classes
-    svm = OneVsOneClassifier(
-        make_pipeline(StandardScaler(), SVC(kernel="poly", degree=2, coef0=1.0))
-    )
+    # MATLAB's fitcecoc: each one-vs-one learner standardises its own two classes and
+    # sets its own kernel scale (here every row is drawn: the median nearest distance)
+    svm = OneVsOneClassifier(_HandQuadraticSVM())
     svm.fit(x[train], y[train])
     hand = 100 * np.mean(svm.predict(x[test]) == y[test])
     assert got.pdmkit == pytest.approx(hand, abs=0.01)
