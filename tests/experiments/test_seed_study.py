@@ -222,6 +222,27 @@ def test_residual_and_sensor_table_on_a_small_ensemble(flow_table):
     sensors = seed_sensor_table(flow_table, sensors=["Flow", "Encoder"])
     assert sensors["n_indicators"].tolist() == [24, 26]  # no residual columns in Encoder
     assert sensors["seed"].tolist() == [97.2, 96.1]
+    # the live script that printed table 9.1 (sb/signal_based_live.mlx at 8fc3da9):
+    # encoder_FineKNN_train on the top 5, a 30 % holdout for every sensor
+    assert sensors["model"].tolist() == ["knn", "knn"]
+    assert set(sensors["validation"]) == {"holdout"}
+    assert sensors["rig_tables"].tolist() == [97.25, 95.11]
+
+
+def test_the_rig_tables_order_against_table_9_1():
+    from pdmkit.experiments import (
+        RIG_TABLE_SENSOR_ACCURACY,
+        SEED_SENSOR_ACCURACY,
+        SEED_SENSOR_RECIPES,
+    )
+
+    names = list(SEED_SENSOR_ACCURACY)
+    rho = scipy.stats.spearmanr(
+        [SEED_SENSOR_ACCURACY[n] for n in names],
+        [RIG_TABLE_SENSOR_ACCURACY[n] for n in names],
+    ).statistic
+    assert rho == pytest.approx(1 - 6 * 38 / (7 * 48))  # sum of squared rank gaps 38
+    assert SEED_SENSOR_RECIPES["Acc"].top_k == 50  # acc_BaggedTrees_50_features
 
 
 def test_seed_leak_schedule_and_rul_recipe():
