@@ -26,6 +26,7 @@ from sklearn.base import BaseEstimator, ClassifierMixin
 from pdmkit._outputs import to_jsonable
 from pdmkit.ensembles import SEED_SINGLE_FAULTS, pneumatic_residuals
 from pdmkit.errors import DataError
+from pdmkit.experiments._classify import make_classifier
 
 __all__ = [
     "RIG_TABLE_SENSOR_ACCURACY",
@@ -67,8 +68,8 @@ SEED_SENSOR_ACCURACY: dict[str, float] = {
 #: the twin has them; with the Y axes too, as the author ranked them, 88.84). Measured
 #: 2026-11-25; Spearman rho against table 9.1: 0.321. They say what a twin that matched
 #: the rig exactly would score with these recipes. The author's own runs of the same
-#: script printed Proximity 80.51, 87.33 and 90.91 (commits 8fc3da9, 04a08bb and the
-#: LaTeX export): MATLAB's trees stop a recording whose split value is missing (the
+#: script printed Proximity 80.51 (commit 8fc3da9), 90.91 (04a08bb) and 87.33 (its LaTeX
+#: export): MATLAB's trees stop a recording whose split value is missing (the
 #: switch never switched) at the inner node, and the split is drawn anew in each run.
 RIG_TABLE_SENSOR_ACCURACY: dict[str, float] = {
     "Flow": 97.25,
@@ -542,8 +543,6 @@ def _model(kind: str, seed: int):
     from sklearn.pipeline import make_pipeline
     from sklearn.preprocessing import StandardScaler
     from sklearn.tree import DecisionTreeClassifier
-
-    from pdmkit.experiments._classify import make_classifier
 
     if kind == "knn":  # MATLAB "Fine KNN": 1 neighbour, Euclidean, standardised
         return make_pipeline(StandardScaler(), KNeighborsClassifier(n_neighbors=1))

@@ -276,9 +276,9 @@ def default_sensor_specs(acquisition: str = "typical") -> dict[str, SensorSpec]:
     :data:`SEED_RIG_ACQUISITION` as the seed rig's recordings show them (white noise
     and the recorded resolution; the noise is the rest spread less the resolution's
     own ``q / sqrt(12)``), the load cell's zero (:data:`SEED_RIG_STRAIN_TARE`), and the
-    proximity switches' switching point repeating to the
-    0.2 mm of the rig's switches (Festo SMT-8M-A-PS-24V-E-0,3-M8D, part 574334, the
-    datasheet in the author's repository: "Repetition accuracy 0.2 mm").
+    proximity switches' switching point repeating to the 0.2 mm of the rig's switches
+    (Festo SMT-8M-A-PS-24V-E-0,3-M8D, part 574334, the datasheet in the author's
+    repository: "Repetition accuracy 0.2 mm").
 
     Parameters
     ----------
