@@ -59,8 +59,10 @@ def _explain_table_9_1(sensors, rho: float, within: int) -> None:
     print(
         "why: the same recipes on the rig's own feature tables (rig_tables, the "
         "author's sb/sensor_*/*Features*.mat) give rho "
-        f"{sensors.attrs['rig_tables_rho']:.3f} against table 9.1; a twin that "
-        "matched the rig would not reach the line either (docs/seed_study.md)"
+        f"{sensors.attrs['rig_tables_rho']:.3f} against table 9.1, and table 9.1 is "
+        "one unseeded run of the author's live script (its reruns printed Proximity "
+        "87.3 and 90.9 against 80.5): a twin that matched the rig would not reach the "
+        "line either (docs/seed_study.md)"
     )
 
 
