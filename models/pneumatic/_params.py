@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -537,6 +538,21 @@ def _check_consistency(p: PneumaticParams) -> None:
             "PneumaticParams.damper_small_max must be >= damper_small_min; got "
             f"{p.damper_small_max!r} < {p.damper_small_min!r}."
         )
+
+
+def piston_areas(bore, rod_diameter):
+    """Piston areas ``(S_A, S_B)``, m^2: the cap side and the rod side (S_A less the rod).
+
+    Works on floats, numpy arrays and torch tensors alike.
+
+    Examples
+    --------
+    >>> from pdmkit.models.pneumatic._params import piston_areas
+    >>> [round(s * 1e6, 1) for s in piston_areas(0.02, 0.008)]
+    [314.2, 263.9]
+    """
+    s_a = math.pi / 4.0 * bore * bore
+    return s_a, s_a - math.pi / 4.0 * rod_diameter * rod_diameter
 
 
 def stack_params(members: list[PneumaticParams]) -> PneumaticParams:

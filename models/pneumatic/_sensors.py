@@ -24,6 +24,7 @@ from scipy import signal as sps
 
 from pdmkit._checks import replace_fields
 from pdmkit.errors import ModelError, did_you_mean
+from pdmkit.models.pneumatic._params import piston_areas
 
 __all__ = ["SENSOR_NAMES", "SENSOR_UNITS", "SensorSpec", "default_sensor_specs"]
 
@@ -410,8 +411,7 @@ def rod_force(raw: Mapping[str, np.ndarray], p, rows=slice(None)) -> np.ndarray:
     at rest at the bottom the cell reads the chamber-B pressure force pulling the lever
     onto its stop, at rest at the top only the lever's weight, 298 N apart.
     """
-    s_a = np.pi / 4.0 * _col(p.bore, rows) ** 2
-    s_b = s_a - np.pi / 4.0 * _col(p.rod_diameter, rows) ** 2
+    s_a, s_b = piston_areas(_col(p.bore, rows), _col(p.rod_diameter, rows))
     p0 = _col(p.p_ambient, rows)
     pressure = (raw["pressure_a"] - p0) * s_a - (raw["pressure_b"] - p0) * s_b
     return pressure - raw["force_top"]

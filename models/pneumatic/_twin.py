@@ -55,7 +55,12 @@ import numpy as np
 
 from pdmkit.errors import ModelError
 from pdmkit.models._xp import get_namespace, is_torch
-from pdmkit.models.pneumatic._params import PneumaticParams, _values, stack_params
+from pdmkit.models.pneumatic._params import (
+    PneumaticParams,
+    _values,
+    piston_areas,
+    stack_params,
+)
 
 __all__ = [
     "STATE_NAMES",
@@ -139,10 +144,8 @@ def _resolve(p: PneumaticParams, xp) -> _Resolved:
     r = _Resolved()
     r.params = p
     r.xp = xp
-    pi = math.pi
-    r.s_a = pi / 4.0 * p.bore * p.bore
-    r.s_rod = pi / 4.0 * p.rod_diameter * p.rod_diameter
-    r.s_b = r.s_a - r.s_rod
+    r.s_a, r.s_b = piston_areas(p.bore, p.rod_diameter)
+    r.s_rod = r.s_a - r.s_b
     r.ks_a = p.kappa * r.s_a
     r.ks_b = p.kappa * r.s_b
     r.length = p.stroke
@@ -524,11 +527,8 @@ def piston_rhs(t, state, params: PneumaticParams):
 
 def _rest_position(p: PneumaticParams, xp):
     """Static equilibrium at the bottom: the contact springs carry the net load."""
-    s_a = math.pi / 4.0 * p.bore * p.bore
-    s_rod = math.pi / 4.0 * p.rod_diameter * p.rod_diameter
-    load = (p.p_supply - p.p_ambient) * (s_a - s_rod) + (p.mass_piston + p.mass_load) * (
-        p.gravity
-    )
+    _, s_b = piston_areas(p.bore, p.rod_diameter)
+    load = (p.p_supply - p.p_ambient) * s_b + (p.mass_piston + p.mass_load) * p.gravity
     k_hs, k_ld, k_sd = p.stop_stiffness, p.damper_large_stiffness, p.damper_small_stiffness
     dl, ds = p.damper_large_travel, p.damper_small_travel
     pre = k_ld * dl + k_sd * ds  # spring force of both dampers at x = 0
