@@ -63,15 +63,23 @@ SEED_RIG_PARAMS = {
     "damper_small_travel": 0.0115,
     "damper_small_stiffness": 0.0,
     "proximity_distance": 0.19382 - 0.1925,  # gp - prox_up_band
-    # valve paths: valve and one-way throttle in series give the identified healthy
-    # coefficients C_A_out 5.155e-7, C_B_out 9.1476e-7 (exhaust, through the throttle
-    # at its mark, 1e-6 m^2 with c_throttle_max 2e-6 [assumed]) and C_A_in 6.0242e-7,
-    # C_B_in 1.7518e-7 (filling, throttle and check valve 6e-6 m^2 in parallel)
+    # valve paths: valve and throttle in series give the identified healthy
+    # coefficients C_A_out 5.155e-7, C_B_out 9.1476e-7, C_A_in 6.0242e-7 and C_B_in
+    # 1.7518e-7 with the throttle at its mark (1e-6 m^2; c_throttle_max 2e-6
+    # [assumed]). The rig's throttles restrict both directions: they are Festo
+    # GRP-160-1/8-AL (the author's doc/notes/pneustand_components.md), flow control
+    # valves without the check valve of the one-way GRLA series, and the rig's own
+    # recordings show it: its throttle valve 2 (line B) lowers the FlowContraction
+    # peak of the down stroke, which fills chamber B, by 12.5 % (RMS 6.7 %; medians
+    # of the valve2 and healthy labels of sb/sensor_flow/FlowsFeaturesAll.mat), which
+    # a throttle bypassed while its chamber fills cannot do (the twin with one-way
+    # throttles: 0.0 %)
     "c_throttle_max": 2e-6,
+    "c_check_valve": 0.0,
     "c_a_out": 6.02e-7,
     "c_b_out": 2.26e-6,
-    "c_a_in": 6.05e-7,
-    "c_b_in": 1.752e-7,
+    "c_a_in": 7.547e-7,
+    "c_b_in": 1.779e-7,
     # the supply behind the pressure transmitter (params.m has none: P_s constant):
     # estimated from the rig's healthy recordings (data11_1_1..3.mat), whose reading
     # sags 0.3 bar (6.05 -> 5.73) while 36 l/min fill chamber A (FlowExtrusion) and

@@ -405,8 +405,9 @@ def _seed_section(report: Report, anchors: dict, comparison_table, seed_sensors)
         f"it; Spearman rho of the ordering {attrs.get('spearman_rho', 0):.2f}. "
         "rig_tables: the same recipes on the rig's own feature tables (the author's "
         "sb/sensor_*/*Features*.mat, the 4840 recordings behind table 9.1), rho "
-        f"{attrs.get('rig_tables_rho', 0):.2f}: the rig itself puts Proximity near 98 %, "
-        "not 80.5 (docs/seed_study.md)",
+        f"{attrs.get('rig_tables_rho', 0):.2f}: the recipes reproduce table 9.1 on the "
+        "rig's own data; where the twin's column differs, the twin does "
+        "(docs/seed_study.md)",
     )
 
 

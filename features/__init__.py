@@ -6,6 +6,7 @@ Signal functions take an array with the samples along ``axis`` (1-D for one memb
 - :func:`stats` - time-domain statistics (group ``"stats"``);
 - :func:`harmonic` - SINAD, SNR, THD as MATLAB computes them (group ``"harmonic"``);
 - :func:`spectral` - Welch-PSD peaks, band powers and spectral shape (group ``"spectral"``);
+  :func:`matlab_pwelch` - the Welch PSD with MATLAB's defaults (the Feature Designer's);
 - :func:`envelope_spectrum`, :func:`envelope_features`, :func:`bearing_frequencies` -
   bearing envelope analysis (group ``"envelope"``);
 - :func:`cycle_features`, :func:`cycle_average` - per-stroke and phase-window indicators
@@ -71,6 +72,7 @@ __all__ = [
     "harmonic",
     "hw_feature_names",
     "hw_features",
+    "matlab_pwelch",
     "plan_extraction",
     "rank_features",
     "spectral",
@@ -118,6 +120,7 @@ _LAZY = {
     "SelectTopRanked": "_selection",
     "rank_features": "_ranking",
     "spectral": "_spectral",
+    "matlab_pwelch": "_spectral",
     "harmonic": "_stats",
     "stats": "_stats",
 }

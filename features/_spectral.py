@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike
 from pdmkit.errors import DataError
 from pdmkit.features._common import check_finite, check_fs, from_rows, to_rows
 
-__all__ = ["band_name", "spectral"]
+__all__ = ["band_name", "matlab_pwelch", "spectral"]
 
 _DETRENDS = ("constant", "linear", False)
 
@@ -78,8 +78,13 @@ def resolve_spectral_options(
     detrend: str | bool = "constant",
     frange=None,
     name: str = "x",
+    nfft: int | None = None,
 ) -> dict:
-    """Validate the spectral options against a signal length; return them resolved."""
+    """Validate the spectral options against a signal length; return them resolved.
+
+    ``nfft`` (None: ``nperseg``) is set only by ``welch="matlab"``: a Hamming-window
+    PSD of ``nfft`` bins, :func:`matlab_pwelch`.
+    """
     if nperseg is None:
         nperseg = min(1024, n_samples)
     nperseg = _check_int(nperseg, "nperseg", 1)
@@ -97,7 +102,7 @@ def resolve_spectral_options(
     n_peaks = _check_int(n_peaks, "n_peaks", 0)
     if detrend not in _DETRENDS:
         raise DataError(f"detrend must be one of {_DETRENDS}, got {detrend!r}")
-    freqs = np.fft.rfftfreq(nperseg, 1.0 / fs)
+    freqs = np.fft.rfftfreq(nperseg if nfft is None else nfft, 1.0 / fs)
     if frange is not None:
         try:
             f_lo, f_hi = (float(v) for v in frange)
@@ -142,6 +147,7 @@ def resolve_spectral_options(
         "n_peaks": n_peaks,
         "detrend": detrend,
         "frange": frange,
+        "nfft": nfft,
     }
 
 
@@ -323,10 +329,89 @@ def welch_rows(x: np.ndarray, fs: float, nperseg: int, noverlap: int, detrend="c
     )
 
 
-def _spectral_rows(x: np.ndarray, fs: float, options: dict) -> dict[str, np.ndarray]:
-    freqs, psd = welch_rows(
-        x, fs, options["nperseg"], options["noverlap"], options["detrend"]
+def _matlab_segment(n_samples: int, name: str) -> int:
+    """MATLAB ``pwelch``'s default segment: eight, overlapping by half."""
+    segment = int(n_samples // 4.5)
+    if segment < 2:
+        raise DataError(
+            f"{name}: MATLAB's Welch needs at least 9 samples a member; got {n_samples}"
+        )
+    return segment
+
+
+def _matlab_nfft(segment: int) -> int:
+    return max(256, 1 << (int(segment) - 1).bit_length())
+
+
+def matlab_pwelch(x: ArrayLike, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """MATLAB ``pwelch(x, [], [], [], fs)``: the Welch PSD with MATLAB's defaults.
+
+    What MATLAB's Diagnostic Feature Designer computes for its "power spectrum" and the
+    spectral features on it: the signal cut into eight segments of ``floor(n / 4.5)``
+    samples overlapping by half, each multiplied by a symmetric Hamming window (MATLAB's
+    ``hamming``) and zero-padded to ``nfft = max(256, 2**nextpow2(segment))`` points,
+    no detrending, a one-sided density (units**2/Hz). On the seed rig's recordings
+    (github.com/xvoron/thesis, ``models/models_datastore/data11_1_1..3.mat``) the peaks
+    and band powers of the author's Designer tables (``sb/sensor_*/*Features*.mat``) come
+    out to every printed digit with it; the Hann-window default of :func:`spectral` put
+    the first peak at 0.98 Hz instead of 0.244 Hz (10 s at 1 kHz: 2222-sample segments,
+    ``nfft`` 4096).
+
+    Parameters
+    ----------
+    x : array_like
+        Samples along the last axis: 1-D, or 2-D ``(members, samples)``.
+    fs : float
+        Sampling rate in Hz.
+
+    Returns
+    -------
+    freqs, psd : ndarray
+        ``nfft // 2 + 1`` frequencies (Hz) and the PSD along the last axis.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.features import matlab_pwelch
+    >>> f, p = matlab_pwelch(np.random.default_rng(0).standard_normal(10_000), 1000.0)
+    >>> len(f), round(float(f[1]), 4)  # 2222-sample segments, nfft 4096
+    (2049, 0.2441)
+    >>> round(float(np.mean(p)) * 500, 1)  # unit-variance white noise: 1 over 500 Hz
+    1.0
+    """
+    fs = check_fs(fs)
+    values = np.asarray(x, dtype=float)
+    rows = np.atleast_2d(values)
+    if rows.ndim != 2 or rows.shape[-1] == 0:
+        raise DataError(f"x must be 1-D or 2-D (members, samples); got {values.shape}")
+    check_finite(rows, "x")
+    freqs, psd = _matlab_welch_rows(rows, fs, _matlab_segment(rows.shape[-1], "x"))
+    return freqs, psd if values.ndim > 1 else psd[0]
+
+
+def _matlab_welch_rows(
+    rows: np.ndarray, fs: float, segment: int
+) -> tuple[np.ndarray, np.ndarray]:
+    return scipy.signal.welch(
+        rows,
+        fs=fs,
+        window=scipy.signal.windows.hamming(segment, sym=True),
+        nperseg=segment,
+        noverlap=segment // 2,
+        nfft=_matlab_nfft(segment),
+        detrend=False,
+        scaling="density",
+        axis=-1,
     )
+
+
+def _spectral_rows(x: np.ndarray, fs: float, options: dict) -> dict[str, np.ndarray]:
+    if options.get("nfft") is not None:  # welch="matlab"
+        freqs, psd = _matlab_welch_rows(x, fs, options["nperseg"])
+    else:
+        freqs, psd = welch_rows(
+            x, fs, options["nperseg"], options["noverlap"], options["detrend"]
+        )
     if options.get("frange") is not None:
         lo, hi = options["frange"]
         keep = (freqs >= lo) & (freqs <= hi)
@@ -344,6 +429,7 @@ def spectral(
     n_peaks: int = 5,
     detrend: str | bool = "constant",
     frange: tuple[float, float] | None = None,
+    welch: str = "scipy",
     axis: int = -1,
 ) -> dict[str, np.ndarray | float]:
     """Spectral condition indicators from a Welch power spectral density.
@@ -371,6 +457,13 @@ def spectral(
         peaks are searched there, ``TotalPower`` is the power of that band (the
         Designer's ``BandPower``) and the shape indicators describe it. Default: the
         whole ``[0, fs/2]``.
+    welch : {"scipy", "matlab"}, default "scipy"
+        ``"scipy"``: the Hann-window Welch above (``nperseg``, ``noverlap``,
+        ``detrend`` apply). ``"matlab"``: MATLAB ``pwelch``'s defaults, which the
+        Diagnostic Feature Designer's power spectrum uses (:func:`matlab_pwelch`: eight
+        segments of ``floor(n / 4.5)`` samples overlapping by half, a symmetric
+        Hamming window, ``nfft = max(256, 2**nextpow2(segment))``, no detrending;
+        ``nperseg``, ``noverlap`` and ``detrend`` must be left at their defaults).
     axis : int, default -1
         Axis holding the samples.
 
@@ -404,6 +497,16 @@ def spectral(
     """
     fs = check_fs(fs)
     rows, batch_shape = to_rows(x, axis, "x")
+    if welch not in ("scipy", "matlab"):
+        raise DataError(f"welch must be 'scipy' or 'matlab', got {welch!r}")
+    if welch == "matlab":
+        if nperseg is not None or noverlap is not None or detrend != "constant":
+            raise DataError(
+                "welch='matlab' sets its own segments and no detrending; leave nperseg, "
+                "noverlap and detrend at their defaults"
+            )
+        nperseg, detrend = _matlab_segment(rows.shape[1], "x"), False
+        noverlap = nperseg // 2
     options = resolve_spectral_options(
         rows.shape[1],
         fs,
@@ -413,6 +516,7 @@ def spectral(
         n_peaks=n_peaks,
         detrend=detrend,
         frange=frange,
+        nfft=_matlab_nfft(nperseg) if welch == "matlab" else None,
     )
     check_finite(rows, "x")
     out = _spectral_rows(rows, fs, options)

@@ -46,15 +46,28 @@ def test_seed_rig_parameters_are_the_authors_params_m():
 def test_valve_and_throttle_in_series_give_the_identified_coefficients():
     p = SEED_RIG_PARAMS
     throttle = p["c_throttle_max"] * 5.0 / 10.0  # the knob at its mark
-    check = 5e-6  # the twin's check valve, open while a chamber fills
+    # the rig's GRP throttles restrict both directions: no check valve beside them
+    assert p["c_check_valve"] == 0.0
     identified = {  # params.m, healthy fault code 1100001
-        "c_a_out": (5.155e-07, throttle),
-        "c_b_out": (9.1476e-07, throttle),
-        "c_a_in": (6.0242e-07, throttle + check),
-        "c_b_in": (1.7518e-07, throttle + check),
+        "c_a_out": 5.155e-07,
+        "c_b_out": 9.1476e-07,
+        "c_a_in": 6.0242e-07,
+        "c_b_in": 1.7518e-07,
     }
-    for name, (target, in_series) in identified.items():
-        assert _series(p[name], in_series) == pytest.approx(target, rel=0.01), name
+    for name, target in identified.items():
+        assert _series(p[name], throttle) == pytest.approx(target, rel=0.01), name
+    # and the twin computes them so
+    from pdmkit.ensembles._pneumatic_rig import seed_rig_machine
+    from pdmkit.models import PneumaticParams
+    from pdmkit.models._xp import get_namespace
+    from pdmkit.models.pneumatic._twin import _resolve
+
+    params = PneumaticParams(**seed_rig_machine({}, 1))
+    resolved = _resolve(params, get_namespace(np.zeros(1)))
+    for name, target in identified.items():
+        assert float(np.ravel(getattr(resolved, name))[0]) == pytest.approx(
+            target, rel=0.01
+        ), name
 
 
 def test_seed_rig_ensemble_reaches_the_rigs_stop_and_its_supply_wanders_per_code():

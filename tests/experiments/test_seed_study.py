@@ -172,7 +172,7 @@ def test_seed_indicators_are_the_designers_24_and_match_pdmkit_features(flow_ens
     np.testing.assert_allclose(
         table["FlowContraction_stats/THD"], harmonic(x, 1000.0)["THD"]
     )
-    band = spectral(x, 1000.0, frange=(0, 55))
+    band = spectral(x, 1000.0, frange=(0, 55), welch="matlab")  # the Designer's
     np.testing.assert_allclose(
         table["FlowContraction_ps_spec/BandPower"], band["TotalPower"]
     )
@@ -241,7 +241,11 @@ def test_the_rig_tables_order_against_table_9_1():
         [SEED_SENSOR_ACCURACY[n] for n in names],
         [RIG_TABLE_SENSOR_ACCURACY[n] for n in names],
     ).statistic
-    assert rho == pytest.approx(1 - 6 * 38 / (7 * 48))  # sum of squared rank gaps 38
+    # Mics and Acc swap places (ranks 3 and 5): the sum of squared rank gaps is 8
+    assert rho == pytest.approx(1 - 6 * 8 / (7 * 48))
+    assert (
+        max(abs(SEED_SENSOR_ACCURACY[n] - RIG_TABLE_SENSOR_ACCURACY[n]) for n in names) < 10
+    )
     assert SEED_SENSOR_RECIPES["Acc"].top_k == 50  # acc_BaggedTrees_50_features
 
 

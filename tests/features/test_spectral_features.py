@@ -177,3 +177,62 @@ def test_batched_psd_equals_scipy_welch(rng, n, nperseg, noverlap, detrend):
     np.testing.assert_allclose(f, f_ref)
     # bin by bin, relative: noise floors down to ~1e-8 of the tones here
     np.testing.assert_allclose(p, p_ref, rtol=1e-7, atol=1e-14 * p_ref.max())
+
+
+def _pwelch_by_hand(x, fs):
+    """MATLAB's documented ``pwelch`` defaults, written out (not scipy's welch)."""
+    n = len(x)
+    segment = int(n // 4.5)  # eight segments, overlapping by half
+    step = segment - segment // 2
+    nfft = max(256, 2 ** int(np.ceil(np.log2(segment))))
+    k = np.arange(segment)
+    window = 0.54 - 0.46 * np.cos(2 * np.pi * k / (segment - 1))  # MATLAB's hamming
+    starts = range(0, n - segment + 1, step)
+    power = np.mean(
+        [np.abs(np.fft.fft(x[s : s + segment] * window, nfft)) ** 2 for s in starts],
+        axis=0,
+    ) / (fs * np.sum(window**2))
+    onesided = power[: nfft // 2 + 1].copy()
+    onesided[1:-1] *= 2.0
+    return np.arange(nfft // 2 + 1) * fs / nfft, onesided, len(starts)
+
+
+def test_matlab_pwelch_is_matlabs_documented_default(rng):
+    x = np.cumsum(rng.normal(size=10_000)) + 3.0  # a wandering level: DC kept
+    f, p = pf.matlab_pwelch(x, 1000.0)
+    f_ref, p_ref, n_segments = _pwelch_by_hand(x, 1000.0)
+    assert n_segments == 8 and len(f) == 2049 and f[1] == pytest.approx(1000 / 4096)
+    np.testing.assert_allclose(f, f_ref)
+    np.testing.assert_allclose(p, p_ref, rtol=1e-10, atol=1e-12 * p_ref.max())
+    # a batch gives each row's own PSD
+    _, batch = pf.matlab_pwelch(np.stack([x, 2 * x]), 1000.0)
+    np.testing.assert_allclose(batch[1], 4 * p, rtol=1e-12)
+
+
+def test_spectral_on_matlabs_welch_peaks_and_band_power(rng):
+    x = np.cumsum(rng.normal(size=(3, 10_000)), axis=1)
+    s = pf.spectral(x, 1000.0, frange=(0, 40), n_peaks=10, welch="matlab")
+    for i, row in enumerate(x):
+        f, p, _ = _pwelch_by_hand(row, 1000.0)
+        keep = f <= 40
+        f, p = f[keep], p[keep]
+        peaks, _ = scipy.signal.find_peaks(p)
+        order = peaks[np.argsort(-p[peaks], kind="stable")][:10]
+        np.testing.assert_allclose(s["PeakFreq1"][i], f[order[0]])
+        np.testing.assert_allclose(
+            [s[f"PeakAmp{j + 1}"][i] for j in range(len(order))], p[order], rtol=1e-9
+        )
+        total = scipy.integrate.trapezoid(p, f)
+        assert s["TotalPower"][i] == pytest.approx(total, rel=1e-9)
+
+
+def test_matlab_welch_bad_options():
+    x = np.zeros((2, 1000))
+    with pytest.raises(DataError, match="welch must be"):
+        pf.spectral(x, 100.0, welch="matlab2")
+    with pytest.raises(DataError, match="leave nperseg"):
+        pf.spectral(x, 100.0, welch="matlab", nperseg=128)
+    with pytest.raises(DataError, match="at least 9 samples"):
+        pf.matlab_pwelch(np.zeros(5), 100.0)
+    with pytest.raises(DataError, match=r"NaN|inf|finite"):
+        pf.matlab_pwelch(np.array([0.0, np.nan] * 20), 100.0)
