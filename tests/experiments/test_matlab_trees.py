@@ -155,3 +155,17 @@ def test_bagged_trees_are_reproducible_and_take_infinite_values(blobs):
     np.testing.assert_allclose(a.predict_proba(x).sum(axis=1), 1.0)
     assert len(a.trees_) == 5 and set(a.predict(x)) <= set(a.classes_)
     assert np.mean(a.predict(x) == y) > 0.95
+
+
+def test_wide_tables_are_scored_in_blocks_with_the_same_result(blobs, monkeypatch):
+    import pdmkit.experiments._matlab_trees as mt
+
+    x, y = blobs
+    x = x.copy()
+    x[::5, 1] = np.nan
+    whole = MatlabTree(max_splits=None, min_parent=2).fit(x, y).tree_
+    monkeypatch.setattr(mt, "_BLOCK_CELLS", 1)  # one predictor a block
+    blocks = MatlabTree(max_splits=None, min_parent=2).fit(x, y).tree_
+    for key in ("feature", "left", "right"):
+        np.testing.assert_array_equal(whole[key], blocks[key])
+    np.testing.assert_allclose(whole["cut"], blocks["cut"])
