@@ -115,7 +115,8 @@ class SeedSensorRecipe:
         Spectral peaks per signal.
     model : {"knn", "tree", "bagged_trees"}
         1-nearest neighbour on standardised indicators (MATLAB "Fine KNN"), one tree of
-        at most 100 splits ("Fine Tree"), or 30 bagged full-depth trees.
+        at most 100 splits ("Fine Tree"), or 30 bagged full-depth trees; the trees are
+        MATLAB's, missing indicators included (:mod:`pdmkit.experiments._matlab_trees`).
     top_k : int or None
         Keep the Kruskal-Wallis top ``top_k`` indicators; None keeps all.
     validation : {"holdout", "kfold"}
@@ -263,9 +264,12 @@ def seed_indicators(
     Per signal: the 13 signal statistics ``<signal>_stats/<name>`` of :data:`SEED_STATS`
     (:func:`pdmkit.features.stats` and :func:`pdmkit.features.harmonic`) and, when
     ``frange`` is given, ``<signal>_ps_spec/PeakAmp1..n_peaks``, ``PeakFreq1..`` and
-    ``BandPower`` of the Welch PSD within ``frange`` (:func:`pdmkit.features.spectral`;
-    ``BandPower`` is its ``TotalPower`` of the band). A band reaching past ``fs/2`` is
-    cut there. Peaks the band does not hold are NaN, as in the Designer.
+    ``BandPower`` of the Designer's power spectrum within ``frange``: MATLAB
+    ``pwelch``'s defaults (:func:`pdmkit.features.matlab_pwelch`, through
+    :func:`pdmkit.features.spectral` with ``welch="matlab"``; ``BandPower`` is its
+    ``TotalPower`` of the band), which give the author's feature tables to 1e-14 on the
+    rig's recordings. A band reaching past ``fs/2`` is cut there. Peaks the band does
+    not hold are NaN, as in the Designer.
 
     Parameters
     ----------
