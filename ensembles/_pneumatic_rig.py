@@ -69,11 +69,13 @@ SEED_RIG_PARAMS = {
     # [assumed]). The rig's throttles restrict both directions: they are Festo
     # GRP-160-1/8-AL (the author's doc/notes/pneustand_components.md), flow control
     # valves without the check valve of the one-way GRLA series, and the rig's own
-    # recordings show it: its throttle valve 2 (line B) lowers the FlowContraction
-    # peak of the down stroke, which fills chamber B, by 12.5 % (RMS 6.7 %; medians
-    # of the valve2 and healthy labels of sb/sensor_flow/FlowsFeaturesAll.mat), which
+    # recordings show it: each throttle also slows the stroke that fills its chamber
+    # (throttle valve 2 lowers the down stroke's FlowContraction peak by 12.5 %,
+    # throttle valve 1 the up stroke's FlowExtrusion peak by 8.7 %: medians of the
+    # valve2, valve1 and healthy labels of sb/sensor_flow/FlowsFeaturesAll.mat), which
     # a throttle bypassed while its chamber fills cannot do (the twin with one-way
-    # throttles: 0.0 %)
+    # throttles: 0.0 % and 0.4 %; with these, throttle 2 still only 0.4 %, see
+    # docs/seed_study.md)
     "c_throttle_max": 2e-6,
     "c_check_valve": 0.0,
     "c_a_out": 6.02e-7,
