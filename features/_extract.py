@@ -174,7 +174,9 @@ def extract(
         - ``"spectral"``: ``nperseg=None`` (``min(1024, n_samples)``),
           ``noverlap=None`` (``nperseg // 2``), ``bands=None`` (list of ``(lo, hi)`` Hz),
           ``n_peaks=5``, ``detrend="constant"``, ``frange=None`` (``(lo, hi)`` Hz:
-          every spectral indicator of that band only).
+          every spectral indicator of that band only), ``welch="scipy"``
+          (``"matlab"``: MATLAB ``pwelch``'s defaults, the Diagnostic Feature
+          Designer's spectrum, :func:`matlab_pwelch`).
         - ``"envelope"``: ``bearing`` (:class:`BearingGeometry`), ``shaft_hz`` (Hz, one
           value or one per member), ``envelope_band=None`` (band-pass before the
           envelope, Hz), ``tolerance=0.02``, ``envelope_harmonics=3``.

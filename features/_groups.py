@@ -226,6 +226,7 @@ _GROUP_LIST = (
             "n_peaks": 5,
             "detrend": "constant",
             "frange": None,
+            "welch": "scipy",
         },
         _resolve_spectral,
         lambda settings: spectral_feature_names(settings["n_peaks"], settings["bands"]),

@@ -67,6 +67,21 @@ def _check_int(value, name: str, minimum: int) -> int:
     return int(value)
 
 
+def _welch_segments(welch, nperseg, noverlap, detrend, n_samples: int, name: str):
+    """(nperseg, noverlap, detrend, nfft) of a Welch flavour; nfft None for scipy's."""
+    if welch not in ("scipy", "matlab"):
+        raise DataError(f"welch must be 'scipy' or 'matlab', got {welch!r}")
+    if welch == "scipy":
+        return nperseg, noverlap, detrend, None
+    if nperseg is not None or noverlap is not None or detrend != "constant":
+        raise DataError(
+            "welch='matlab' sets its own segments and no detrending; leave nperseg, "
+            "noverlap and detrend at their defaults"
+        )
+    segment = _matlab_segment(n_samples, name)
+    return segment, segment // 2, False, _matlab_nfft(segment)
+
+
 def resolve_spectral_options(
     n_samples: int,
     fs: float,
@@ -77,14 +92,17 @@ def resolve_spectral_options(
     n_peaks: int = 5,
     detrend: str | bool = "constant",
     frange=None,
+    welch: str = "scipy",
     name: str = "x",
-    nfft: int | None = None,
 ) -> dict:
     """Validate the spectral options against a signal length; return them resolved.
 
-    ``nfft`` (None: ``nperseg``) is set only by ``welch="matlab"``: a Hamming-window
-    PSD of ``nfft`` bins, :func:`matlab_pwelch`.
+    ``welch="matlab"`` sets the segments, the overlap, no detrending and ``nfft`` (the
+    PSD of :func:`matlab_pwelch`); ``nfft`` is None for scipy's Welch.
     """
+    nperseg, noverlap, detrend, nfft = _welch_segments(
+        welch, nperseg, noverlap, detrend, n_samples, name
+    )
     if nperseg is None:
         nperseg = min(1024, n_samples)
     nperseg = _check_int(nperseg, "nperseg", 1)
@@ -497,16 +515,6 @@ def spectral(
     """
     fs = check_fs(fs)
     rows, batch_shape = to_rows(x, axis, "x")
-    if welch not in ("scipy", "matlab"):
-        raise DataError(f"welch must be 'scipy' or 'matlab', got {welch!r}")
-    if welch == "matlab":
-        if nperseg is not None or noverlap is not None or detrend != "constant":
-            raise DataError(
-                "welch='matlab' sets its own segments and no detrending; leave nperseg, "
-                "noverlap and detrend at their defaults"
-            )
-        nperseg, detrend = _matlab_segment(rows.shape[1], "x"), False
-        noverlap = nperseg // 2
     options = resolve_spectral_options(
         rows.shape[1],
         fs,
@@ -516,7 +524,7 @@ def spectral(
         n_peaks=n_peaks,
         detrend=detrend,
         frange=frange,
-        nfft=_matlab_nfft(nperseg) if welch == "matlab" else None,
+        welch=welch,
     )
     check_finite(rows, "x")
     out = _spectral_rows(rows, fs, options)

@@ -236,3 +236,14 @@ def test_matlab_welch_bad_options():
         pf.matlab_pwelch(np.zeros(5), 100.0)
     with pytest.raises(DataError, match=r"NaN|inf|finite"):
         pf.matlab_pwelch(np.array([0.0, np.nan] * 20), 100.0)
+
+
+def test_matlab_welch_is_a_spectral_group_option(rng):
+    # the Designer's spectrum through the feature registry (pdmkit features --option
+    # welch=matlab): extract's columns are spectral's
+    x = np.cumsum(rng.normal(size=(4, 5000)), axis=1)
+    table = pf.extract(x, 1000.0, groups=("spectral",), welch="matlab", frange=(0, 40))
+    direct = pf.spectral(x, 1000.0, welch="matlab", frange=(0, 40))
+    for name in ("PeakAmp1", "PeakFreq2", "TotalPower", "SpectralCentroid"):
+        np.testing.assert_allclose(table[f"spectral/{name}"], direct[name])
+    assert pf.group_of_option("welch") == "spectral"
