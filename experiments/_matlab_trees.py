@@ -34,6 +34,8 @@ import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils.validation import check_is_fitted
 
+from pdmkit.errors import DataError
+
 __all__ = ["MatlabBaggedTrees", "MatlabTree"]
 
 
@@ -208,21 +210,38 @@ class _MatlabClassifier(ClassifierMixin, BaseEstimator):
 
     def _codes(self, X, y) -> tuple[np.ndarray, np.ndarray]:
         x = np.asarray(X, dtype=float)
-        self.classes_, codes = np.unique(np.asarray(y), return_inverse=True)
+        labels = np.asarray(y)
+        if x.ndim != 2 or labels.ndim != 1 or len(x) != len(labels) or not len(x):
+            raise DataError(
+                f"{type(self).__name__}: X must be (observations, predictors) and y one "
+                f"label an observation; got X {x.shape} and y {labels.shape}"
+            )
+        self.classes_, codes = np.unique(labels, return_inverse=True)
         self.n_features_in_ = x.shape[1]
         return x, codes
+
+    def _rows(self, X) -> np.ndarray:
+        x = np.asarray(X, dtype=float)
+        if x.ndim != 2 or x.shape[1] != self.n_features_in_:
+            raise DataError(
+                f"{type(self).__name__}: X must have {self.n_features_in_} predictors a "
+                f"row, as in fitting; got {x.shape}"
+            )
+        return x
 
     def _trees(self) -> list[dict[str, np.ndarray]]:
         raise NotImplementedError
 
     def predict_proba(self, X) -> np.ndarray:
         """Class posteriors, columns in the order of ``classes_``."""
-        x = np.asarray(X, dtype=float)
-        return np.mean([_tree_posterior(tree, x) for tree in self._trees()], axis=0)
+        trees = self._trees()  # not fitted: sklearn's NotFittedError
+        x = self._rows(X)
+        return np.mean([_tree_posterior(tree, x) for tree in trees], axis=0)
 
     def predict(self, X) -> np.ndarray:
         """The class of the largest posterior (the first of ``classes_`` on a tie)."""
-        return self.classes_[np.argmax(self.predict_proba(X), axis=1)]
+        posterior = self.predict_proba(X)
+        return self.classes_[np.argmax(posterior, axis=1)]
 
 
 class MatlabTree(_MatlabClassifier):

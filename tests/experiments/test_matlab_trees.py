@@ -169,3 +169,19 @@ def test_wide_tables_are_scored_in_blocks_with_the_same_result(blobs, monkeypatc
     for key in ("feature", "left", "right"):
         np.testing.assert_array_equal(whole[key], blocks[key])
     np.testing.assert_allclose(whole["cut"], blocks["cut"])
+
+
+def test_bad_shapes_are_named():
+    from sklearn.exceptions import NotFittedError
+
+    from pdmkit.errors import DataError
+
+    with pytest.raises(DataError, match=r"MatlabTree: X must be .* got X \(3,\)"):
+        MatlabTree().fit([1.0, 2.0, 3.0], ["a", "b", "a"])
+    with pytest.raises(DataError, match="one label an observation"):
+        MatlabBaggedTrees(n_estimators=2).fit(np.zeros((3, 2)), ["a", "b"])
+    model = MatlabBaggedTrees(n_estimators=2).fit(np.eye(4), list("abab"))
+    with pytest.raises(DataError, match="must have 4 predictors"):
+        model.predict(np.zeros((2, 3)))
+    with pytest.raises(NotFittedError):
+        MatlabTree().predict(np.zeros((1, 2)))
