@@ -229,14 +229,11 @@ class _MatlabClassifier(ClassifierMixin, BaseEstimator):
             )
         return x
 
-    def _trees(self) -> list[dict[str, np.ndarray]]:
-        raise NotImplementedError
-
     def predict_proba(self, X) -> np.ndarray:
         """Class posteriors, columns in the order of ``classes_``."""
-        trees = self._trees()  # not fitted: sklearn's NotFittedError
+        check_is_fitted(self, "trees_")
         x = self._rows(X)
-        return np.mean([_tree_posterior(tree, x) for tree in trees], axis=0)
+        return np.mean([_tree_posterior(tree, x) for tree in self.trees_], axis=0)
 
     def predict(self, X) -> np.ndarray:
         """The class of the largest posterior (the first of ``classes_`` on a tie)."""
@@ -285,12 +282,14 @@ class MatlabTree(_MatlabClassifier):
         grown = _grow(
             x, codes, len(self.classes_), int(self.min_leaf), int(self.min_parent), limit
         )
-        self.tree_ = _as_arrays(grown)
+        self.trees_ = [_as_arrays(grown)]
         return self
 
-    def _trees(self) -> list[dict[str, np.ndarray]]:
-        check_is_fitted(self, "tree_")
-        return [self.tree_]
+    @property
+    def tree_(self) -> dict[str, np.ndarray]:
+        """The fitted tree: split predictor (-1 at leaves), cut, children, posteriors."""
+        check_is_fitted(self, "trees_")
+        return self.trees_[0]
 
 
 class MatlabBaggedTrees(_MatlabClassifier):
@@ -337,7 +336,3 @@ class MatlabBaggedTrees(_MatlabClassifier):
             grown = _grow(x[pick], codes[pick], len(self.classes_), 1, 2, n - 1)
             self.trees_.append(_as_arrays(grown))
         return self
-
-    def _trees(self) -> list[dict[str, np.ndarray]]:
-        check_is_fitted(self, "trees_")
-        return self.trees_

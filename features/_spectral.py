@@ -378,14 +378,15 @@ def matlab_pwelch(x: ArrayLike, fs: float) -> tuple[np.ndarray, np.ndarray]:
     Parameters
     ----------
     x : array_like
-        Samples along the last axis: 1-D, or 2-D ``(members, samples)``.
+        Samples along the last axis: 1-D for one member, or ``(members, samples)``.
     fs : float
         Sampling rate in Hz.
 
     Returns
     -------
     freqs, psd : ndarray
-        ``nfft // 2 + 1`` frequencies (Hz) and the PSD along the last axis.
+        ``nfft // 2 + 1`` frequencies (Hz); the PSD, of ``x``'s batch shape plus the
+        frequencies.
 
     Examples
     --------
@@ -398,13 +399,11 @@ def matlab_pwelch(x: ArrayLike, fs: float) -> tuple[np.ndarray, np.ndarray]:
     1.0
     """
     fs = check_fs(fs)
-    values = np.asarray(x, dtype=float)
-    rows = np.atleast_2d(values)
-    if rows.ndim != 2 or rows.shape[-1] == 0:
-        raise DataError(f"x must be 1-D or 2-D (members, samples); got {values.shape}")
+    rows, batch_shape = to_rows(x, -1, "x")
+    segment = _matlab_segment(rows.shape[1], "x")
     check_finite(rows, "x")
-    freqs, psd = _matlab_welch_rows(rows, fs, _matlab_segment(rows.shape[-1], "x"))
-    return freqs, psd if values.ndim > 1 else psd[0]
+    freqs, psd = _matlab_welch_rows(rows, fs, segment)
+    return freqs, psd.reshape(*batch_shape, len(freqs))
 
 
 def _matlab_welch_rows(
