@@ -34,8 +34,13 @@ from pdmkit.ensembles._pneumatic_faults import (
     _operating_conditions,
     _signal_list,
     _simulate_batches,
+    _slice_spec,
 )
-from pdmkit.ensembles._pneumatic_rig import _seed_rig_columns, seed_rig_machine
+from pdmkit.ensembles._pneumatic_rig import (
+    _seed_rig_columns,
+    seed_rig_machine,
+    seed_rig_session_specs,
+)
 from pdmkit.errors import DataError, ModelError
 
 __all__ = [
@@ -420,13 +425,16 @@ def simulate_seed_ensemble(
     labels = ("fault", "seed_label", "fault_code", "supply_bar")
     params = [c for c in design.columns if c not in labels]
     cols = {c: design[c].to_numpy(float) for c in params}
+    specs = _acquisition_specs(acquisition)
     if rig == "seed":
         codes = design["fault_code"].str[2:].astype(int).to_numpy()
         cols = _seed_rig_columns(cols, codes, seed, int(n_members))
+        if acquisition == "seed_rig":
+            numbers = np.array([int(i[-5:]) for i in ids])
+            specs = seed_rig_session_specs(specs, codes, numbers, seed, int(n_members))
     else:
         cols = _machine(cols, rig, len(design))
     cols.update(_test_cycle(test_cycle, len(design)))
-    specs = _acquisition_specs(acquisition)
     data = _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size, specs)
     conditions = pd.DataFrame(
         {
@@ -469,7 +477,8 @@ def _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size, specs=Non
     """Simulate members in blocks of ``batch_size`` member numbers, one noise seed each.
 
     A part of the design made of whole blocks records what the whole design records.
-    ``specs``: sensor specs (scalar fields) for every member, default the twin's.
+    ``specs``: sensor specs for every member (fields scalar or one value per member),
+    default the twin's.
     """
     numbers = np.array([int(i[-5:]) for i in ids])
     block = numbers // batch_size
@@ -487,7 +496,9 @@ def _simulate_members(cols, ids, seed, t_end, fs, signals, batch_size, specs=Non
             seed=[seed, int(b)],
             batch_size=len(rows),
             desc="",
-            specs=specs,
+            specs=None
+            if specs is None
+            else {name: _slice_spec(spec, rows) for name, spec in specs.items()},
         )
         for name in signals:
             out.setdefault(name, []).append(part[name])

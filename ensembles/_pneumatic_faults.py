@@ -213,7 +213,7 @@ def _fault_settings(
 
 
 def _slice_spec(spec, sl: slice):
-    """The members ``sl`` of a SensorSpec whose fields are per-member arrays."""
+    """The members ``sl`` (a slice or indices) of a SensorSpec with per-member fields."""
     fields = {k: (v[sl] if np.ndim(v) else v) for k, v in dataclasses.asdict(spec).items()}
     return type(spec)(**fields)
 

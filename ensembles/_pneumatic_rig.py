@@ -12,11 +12,15 @@ import numpy as np
 from pdmkit.ensembles._pneumatic_faults import _P_AMBIENT
 
 __all__ = [
+    "SEED_MIC_BIAS",
+    "SEED_MIC_BIAS_DRIFT",
     "SEED_RIG_LARGE_DAMPING_SCALE",
     "SEED_RIG_PARAMS",
     "SEED_SUPPLY_CODE_DRIFT",
     "SEED_SUPPLY_CODE_SPREAD",
+    "SEED_UPPER_STOP_LOWERED",
     "seed_rig_machine",
+    "seed_rig_session_specs",
 ]
 
 #: Code-to-code spread (relative standard deviation of the gauge pressure) of the
@@ -141,20 +145,116 @@ def seed_rig_machine(cols: dict, n: int) -> dict[str, np.ndarray]:
     return out
 
 
-def _seed_rig_columns(cols, codes, seed: int, n_members: int) -> dict[str, np.ndarray]:
-    """The design's parameter columns on the seed rig (:func:`seed_rig_machine`).
+def _code_wander(
+    codes, seed: int, n_members: int, stream: int, drift=SEED_SUPPLY_CODE_DRIFT
+) -> np.ndarray:
+    """Unit-variance wander of each member's fault code, from one random ``stream``.
 
-    ``codes``: each member's fault code number; the supply of a code wanders by
-    ``SEED_SUPPLY_CODE_SPREAD`` (one draw per code number, whatever part is simulated).
+    ``drift`` = (share, phi): that share of the variance drifts along the code numbers
+    (AR(1), correlation phi from one code to the next), the rest is independent per
+    code. One draw per code number, whatever part of the design is simulated.
     """
-    out = seed_rig_machine(cols, len(codes))
-    share, phi = SEED_SUPPLY_CODE_DRIFT
-    noise = np.random.default_rng([seed, 2]).standard_normal((2, n_members))
+    share, phi = drift
+    noise = np.random.default_rng([seed, stream]).standard_normal((2, n_members))
     drift = np.empty(n_members)
     drift[0] = noise[1, 0]
     for i in range(1, n_members):  # AR(1) along the code numbers, unit variance
         drift[i] = phi * drift[i - 1] + np.sqrt(1.0 - phi * phi) * noise[1, i]
-    wander = (np.sqrt(1.0 - share) * noise[0] + np.sqrt(share) * drift)[codes]
+    return (np.sqrt(1.0 - share) * noise[0] + np.sqrt(share) * drift)[codes]
+
+
+def _seed_rig_columns(cols, codes, seed: int, n_members: int) -> dict[str, np.ndarray]:
+    """The design's parameter columns on the seed rig (:func:`seed_rig_machine`).
+
+    ``codes``: each member's fault code number; the supply of a code wanders by
+    ``SEED_SUPPLY_CODE_SPREAD`` and its upper end stop sits lower in the share
+    ``SEED_UPPER_STOP_LOWERED`` of the codes (one draw per code number, whatever part
+    is simulated).
+    """
+    out = seed_rig_machine(cols, len(codes))
+    wander = _code_wander(codes, seed, n_members, stream=2)
     gauge = (out["p_supply"] - _P_AMBIENT) * (1.0 + SEED_SUPPLY_CODE_SPREAD * wander)
     out["p_supply"] = _P_AMBIENT + gauge
+    # the sessions whose upper end stop sat lower (the switch stays where it was:
+    # seed_rig_session_specs)
+    out["stroke"] = out["stroke"] - _upper_stop_lowering(codes, seed, n_members)
+    return out
+
+
+def _upper_stop_lowering(codes, seed: int, n_members: int) -> np.ndarray:
+    """How much lower (m) each member's upper end stop sat (``SEED_UPPER_STOP_LOWERED``)."""
+    share, (low, high) = SEED_UPPER_STOP_LOWERED
+    draw = np.random.default_rng([seed, 5]).random((2, n_members))[:, codes]
+    return np.where(draw[0] < share, low + (high - low) * draw[1], 0.0)
+
+
+#: The microphones' bias (V) on the seed rig: its level and its spread from fault code
+#: to fault code (standard deviation of the 242 code means), from the 10 s means of the
+#: author's ``sb/sensor_mics/MICsFeaturesAll.mat``. Its rows are not in recording
+#: order: each of its nine sessions (100, 580, 660, 600, 320, 680, 660, 580, 660 rows)
+#: lists its recordings by file name, ``..._1, _10, _100, _11, ...``, so recording j of a
+#: session is code (j - 1) // 20 of it, which gives every code one label (the first
+#: three rows are ``data11_1_1..3.mat``, whose means they equal). So ordered, a code's
+#: 20 recordings spread their mean by 2.6e-5, 8.5e-5 and 1.2e-4 V (median; the twin's
+#: own noise gives about 6e-5 and 2e-4), the codes by 45-200 times that; the three
+#: biases move together (correlation of the code means 0.86-0.97) and drift from code to
+#: code (0.84, 0.76, 0.91 one code apart, 0.48, 0.43, 0.57 five apart): one wander for
+#: all three (``SEED_MIC_BIAS_DRIFT``). The twin's microphones had no bias, their mean
+#: told the codes apart not at all (spread between codes 0.6 times that within).
+SEED_MIC_BIAS = {
+    "MIC_uBumper": (0.2333, 0.00283),
+    "MIC_bBumper": (0.2659, 0.00382),
+    "MIC_Ambient": (2.677, 0.0235),
+}
+#: (share of the code-to-code variance that drifts, correlation from code to code) of
+#: the microphones' bias: all of it drifts, 0.86 from one code to the next (the rig's
+#: 0.76-0.91; five codes apart 0.43-0.57, AR(1): 0.47).
+SEED_MIC_BIAS_DRIFT = (1.0, 0.86)
+
+#: Share of the seed rig's fault codes recorded with its lever stopping short of the
+#: top, and by how much (m). In ``sb/sensor_proximity/ProximityAllFeatures.mat`` (in
+#: recording order, see ``SEED_MIC_BIAS``) the upper switch never switches in any
+#: recording of 61 codes. 12 of them, in runs of one or two, are the hardest settings of
+#: throttle valve 2 and of the upper damper, whose lever stops short: the fault. The
+#: other 44 are the first 27 codes of the fifth session and the first 17 of the sixth,
+#: every single-fault label among them, healthy ones too, whose lever reaches the switch
+#: 3.3 s after the valve everywhere else (switch at 4.38 s in
+#: ``models/models_datastore/data11_1_1..3.mat``). The encoder says why
+#: (``sb/sensor_encoder/LeverPosition_LeverVelocity_stat_features.mat``, medians of the
+#: codes' peak position): there the lever's travel ended at 191.6 and 191.3 mm, against
+#: 193.7 mm in the codes that switch, below the switch (192.55 mm): in those sessions
+#: the upper end stop sat 2.0-2.4 mm lower. 44 of 242 codes; drawn per code,
+#: independently of its label. (Checked independently from the tables alone by a
+#: helper that had not read pdmkit, who also found the recording order.)
+SEED_UPPER_STOP_LOWERED = (44 / 242, (0.0020, 0.0024))
+
+
+def seed_rig_session_specs(specs: dict, codes, members, seed: int, n_members: int) -> dict:
+    """The seed rig's sensor specs per member, as its recording sessions left them.
+
+    The microphones get the rig's bias (:data:`SEED_MIC_BIAS`). The upper proximity
+    switch stays where it is mounted when a session's upper end stop sits lower
+    (:data:`SEED_UPPER_STOP_LOWERED`; the twin places the switch relative to the stop,
+    so its sensed position is offset by the lowering). ``codes`` and ``members``: each
+    member's fault code number and member number; one draw per code and member number,
+    whatever part of the design is simulated.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models import default_sensor_specs
+    >>> from pdmkit.ensembles._pneumatic_rig import seed_rig_session_specs
+    >>> specs = seed_rig_session_specs(
+    ...     default_sensor_specs("seed_rig"), np.arange(4840) // 20, np.arange(4840),
+    ...     0, 4840)
+    >>> round(float(np.mean(specs["MIC_Ambient"].offset)), 1)
+    2.7
+    """
+    codes = np.asarray(codes)
+    out = dict(specs)
+    wander = _code_wander(codes, seed, n_members, stream=3, drift=SEED_MIC_BIAS_DRIFT)
+    for name, (level, per_code) in SEED_MIC_BIAS.items():
+        out[name] = out[name].replace(offset=level + per_code * wander)
+    lowered = _upper_stop_lowering(codes, seed, n_members)
+    out["ProximitySensor_upper"] = out["ProximitySensor_upper"].replace(offset=-lowered)
     return out

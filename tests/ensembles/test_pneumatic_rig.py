@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from pdmkit.ensembles import Ensemble, simulate_seed_ensemble
@@ -74,8 +75,13 @@ def test_seed_rig_ensemble_reaches_the_rigs_stop_and_its_supply_wanders_per_code
     ens = simulate_seed_ensemble(
         40, repeats=2, t_end=3.0, signals=["LeverPosition"], batch_size=20
     )
+    from pdmkit.ensembles._pneumatic_rig import _upper_stop_lowering
+
     x, _ = ens.stack("LeverPosition")
-    assert x.max() == pytest.approx(SEED_RIG_PARAMS["stroke"], abs=5e-4)
+    codes = ens.conditions["fault_code"].str[2:].astype(int).to_numpy()
+    at_mark = _upper_stop_lowering(codes, 0, 40) == 0  # the stop at its place
+    assert 0.1925 < x[at_mark].max() <= SEED_RIG_PARAMS["stroke"] + 5e-4
+    assert x[~at_mark].max() < 0.1925  # below the upper switch
     twin = simulate_seed_ensemble(
         40, repeats=2, t_end=3.0, signals=["LeverPosition"], batch_size=20, rig="twin"
     )
@@ -169,3 +175,101 @@ def test_residuals_are_taken_against_the_recordings_own_machine():
     mixed = Ensemble({"LeverPosition": ens.stack("LeverPosition")[0]}, 1000.0, conditions)
     with pytest.raises(DataError, match="several machines"):
         pneumatic_residuals(mixed, **kw)
+
+
+def _design_codes(n_members: int = 4840):
+    from pdmkit.ensembles._pneumatic import _seed_design
+
+    design = _seed_design(n_members, 20, "rig", 0, jitter=0.0)
+    return design, design["fault_code"].str[2:].astype(int).to_numpy()
+
+
+def test_microphone_bias_wanders_per_code_as_the_rigs_does():
+    """The rig's MICsFeaturesAll.mat in recording order: the 10 s means of a code's 20
+    recordings share a bias that wanders from code to code (spread of the code means
+    0.0028 / 0.0038 / 0.024 V, 45-200 times the spread within a code) and drifts
+    (neighbours correlate 0.76-0.91); the three microphones move together (0.86-0.97)."""
+    from pdmkit.ensembles._pneumatic_rig import SEED_MIC_BIAS, seed_rig_session_specs
+    from pdmkit.models import default_sensor_specs
+
+    design, codes = _design_codes()
+    specs = seed_rig_session_specs(
+        default_sensor_specs("seed_rig"), codes, np.arange(4840), 0, 4840
+    )
+    means = {}
+    for name, (level, per_code) in SEED_MIC_BIAS.items():
+        bias = design.assign(b=specs[name].offset).groupby("fault_code")["b"]
+        assert bias.std().max() < 1e-12  # a code's recordings share it
+        assert bias.mean().mean() == pytest.approx(level, abs=3 * per_code)
+        assert bias.mean().std() == pytest.approx(per_code, rel=0.35)
+        means[name] = bias.mean().to_numpy()
+        assert np.corrcoef(means[name][:-1], means[name][1:])[0, 1] > 0.6
+    assert np.corrcoef(means["MIC_uBumper"], means["MIC_Ambient"])[0, 1] > 0.85
+    # the other sensors keep their scalar specs
+    assert np.ndim(specs["FlowContraction"].offset) == 0
+    # recorded, the bias shows in the microphones' mean as on the rig: a code's
+    # recordings agree to the twin's noise, the codes differ by the bias
+    ens = simulate_seed_ensemble(
+        60, repeats=3, t_end=3.0, signals=["MIC_uBumper"], test_cycle="seed_rig"
+    )
+    mean = ens.stack("MIC_uBumper")[0].mean(axis=1)
+    per_code = pd.Series(mean).groupby(ens.conditions["fault_code"].to_numpy())
+    assert per_code.mean().std() > 5 * per_code.std().median()
+
+
+def test_upper_stop_sits_lower_in_a_share_of_codes_and_the_switch_stays():
+    """ProximityAllFeatures.mat in recording order: the first 27 and 17 codes of two
+    sessions, every label among them, never switch the upper switch; the encoder's
+    peak position there is 191.6 and 191.3 mm (medians) against 193.7 mm in the codes
+    that switch (LeverPosition_LeverVelocity_stat_features.mat): the lever stopped
+    short of the switch (192.55 mm) in those sessions."""
+    from pdmkit.ensembles._pneumatic import SEED_TEST_CYCLE
+    from pdmkit.ensembles._pneumatic_rig import (
+        SEED_UPPER_STOP_LOWERED,
+        _seed_rig_columns,
+        seed_rig_machine,
+        seed_rig_session_specs,
+    )
+    from pdmkit.models import PneumaticParams, default_sensor_specs, simulate_piston
+
+    design, codes = _design_codes()
+    params = [c for c in design.columns if c not in ("fault", "seed_label", "fault_code")]
+    cols = {c: design[c].to_numpy(float) for c in params if c != "supply_bar"}
+    out = _seed_rig_columns(cols, codes, 0, 4840)
+    lowered = SEED_RIG_PARAMS["stroke"] - out["stroke"]
+    per_code = design.assign(d=lowered).groupby("fault_code")["d"]
+    assert per_code.std().max() < 1e-15  # a code's repeats share their session
+    share = (per_code.mean() > 0).mean()
+    assert share == pytest.approx(SEED_UPPER_STOP_LOWERED[0], abs=0.05)
+    assert lowered[lowered > 0].min() >= 0.0020 and lowered.max() <= 0.0024
+    specs = seed_rig_session_specs(
+        default_sensor_specs("seed_rig"), codes, np.arange(4840), 0, 4840
+    )
+    np.testing.assert_allclose(specs["ProximitySensor_upper"].offset, -lowered, atol=1e-15)
+    # one healthy lever at 6.25 kg, 6 bar, the rig's program: stop at its place and
+    # 2 mm lower (the switch on the frame, 192.5 mm)
+    low = float(lowered[lowered > 0][0])
+    members = {
+        "mass_load": np.array([6.25, 6.25]),
+        "p_supply": np.full(2, 101325.0 + 6e5),
+        "stroke": SEED_RIG_PARAMS["stroke"] - np.array([0.0, low]),
+        **{k: np.full(2, v) for k, v in SEED_TEST_CYCLE.items()},
+    }
+    p = PneumaticParams(**{**seed_rig_machine(members, 2), "stroke": members["stroke"]})
+    switch = default_sensor_specs("seed_rig")["ProximitySensor_upper"]
+    r = simulate_piston(
+        p,
+        t_end=10.0,
+        seed=0,
+        sensors=["LeverPosition", "ProximitySensor_upper"],
+        sensor_specs={
+            "ProximitySensor_upper": switch.replace(offset=np.array([0.0, -low]))
+        },
+    )
+    peak = r.outputs["LeverPosition"].max(axis=1)
+    assert 0.1925 < peak[0] <= SEED_RIG_PARAMS["stroke"] + 1e-4
+    # the rig: 191.3-191.6 mm; the twin rests 0.5-1 mm below its stop where the rig
+    # rests on it (193.7 mm)
+    assert 0.1900 < peak[1] < 0.1925
+    on = r.outputs["ProximitySensor_upper"]
+    assert on[0].max() == 1.0 and on[1].max() == 0.0
