@@ -19,16 +19,18 @@ Usage::
 instead of the seed's random member split. Peak memory stays at one part of
 ``--part-size`` members' recordings (about 1.2 MB a member).
 
-Measured (4840 members, seed 0, the seed rig's machine, the twin's five cycles;
-2026-11-26, 6 min 34 s wall, 438 s CPU, 2.0 GB at load 0.8-1.2): flow kNN 98.48,
-bagged trees 98.80, PCA + bagged trees 95.74, residual 100, sensor faults 100, air-leak
-RUL 8.5 %; table 9.1 Flow 98.48, Encoder 99.04, Mics 91.25, Strain 95.39, Acc 98.07,
-Proximity 56.89, Pressure 75.62 (Spearman 0.786, 6 of 7 within 10 points). The same
-recipes on the rig's own feature tables (the author's ``sb/sensor_*/*Features*.mat``)
-give Flow 97.25, Encoder 95.11, Mics 90.43, Strain 92.29, Acc 94.42 (Z axes), Proximity
-86.29, Pressure 77.75: Spearman 0.857 against table 9.1, every sensor within 6 points.
-``--test-cycle seed_rig`` (968 members, 4 repeats, one-way throttles) gave flow 72.5 %:
-the twin's one down stroke carries too little of the faults.
+Measured (4840 members, seed 0, the seed rig's machine and its recording sessions, the
+twin's five cycles; afc3e09, 6 min 23 s wall, 425 s CPU, 2.1 GB at load 1.1): flow kNN
+99.72, bagged trees 99.50, PCA + bagged trees 96.94, residual 100, sensor faults 100,
+air-leak RUL 8.5 %; table 9.1 Flow 99.72, Encoder 99.04, Mics 87.26, Strain 93.18, Acc
+98.69, Proximity 77.34, Pressure 76.79 (Spearman 0.857, 7 of 7 within 10 points; over
+the holdouts ``seed_sensor_table(table, seed=0..4)``: rho 0.714-0.857, 7 of 7 in all).
+The same recipes on the rig's own feature tables (the author's
+``sb/sensor_*/*Features*.mat``) give Flow 97.25, Encoder 95.11, Mics 90.43, Strain 92.29,
+Acc 94.42 (Z axes), Proximity 86.29, Pressure 77.75: Spearman 0.857 against table 9.1,
+every sensor within 6 points. ``--test-cycle seed_rig`` (the rig's one 5 s stroke, full
+size) gave Mics 75.8 and Pressure 65.4 (rho 0.571): the twin's one down stroke carries
+too little of the faults (docs/seed_study.md).
 """
 
 from __future__ import annotations
@@ -59,9 +61,10 @@ def _explain_table_9_1(sensors, rho: float, within: int) -> None:
         f"{sensors.attrs['rig_tables_rho']:.3f} against table 9.1, every sensor within "
         "6 points: the gap is the twin's. Its valve program is five 1 s strokes where "
         "the rig's is one 5 s stroke (with the rig's, the twin's one down stroke "
-        "carries too little of the faults: flow 68 %), and in 1 s strokes the upper "
-        "proximity switch stays off in 59 % of the twin's recordings (the rig's: 26 %), "
-        "which MATLAB's trees cannot classify (docs/seed_study.md)"
+        "carries too little of the faults for the microphones and the pressure "
+        "transmitter), and in 1 s strokes its upper proximity switch stays off in 70 % "
+        "of the recordings (the rig's: 26 %), which MATLAB's trees classify unlike the "
+        "rig's (docs/seed_study.md)"
     )
 
 
