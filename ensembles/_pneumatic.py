@@ -429,9 +429,9 @@ def simulate_seed_ensemble(
     if rig == "seed":
         codes = design["fault_code"].str[2:].astype(int).to_numpy()
         cols = _seed_rig_columns(cols, codes, seed, int(n_members))
-        if acquisition == "seed_rig":
-            numbers = np.array([int(i[-5:]) for i in ids])
-            specs = seed_rig_session_specs(specs, codes, numbers, seed, int(n_members))
+        specs = seed_rig_session_specs(
+            specs, codes, seed, int(n_members), microphones=acquisition == "seed_rig"
+        )
     else:
         cols = _machine(cols, rig, len(design))
     cols.update(_test_cycle(test_cycle, len(design)))

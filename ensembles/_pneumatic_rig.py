@@ -156,11 +156,11 @@ def _code_wander(
     """
     share, phi = drift
     noise = np.random.default_rng([seed, stream]).standard_normal((2, n_members))
-    drift = np.empty(n_members)
-    drift[0] = noise[1, 0]
+    walk = np.empty(n_members)
+    walk[0] = noise[1, 0]
     for i in range(1, n_members):  # AR(1) along the code numbers, unit variance
-        drift[i] = phi * drift[i - 1] + np.sqrt(1.0 - phi * phi) * noise[1, i]
-    return (np.sqrt(1.0 - share) * noise[0] + np.sqrt(share) * drift)[codes]
+        walk[i] = phi * walk[i - 1] + np.sqrt(1.0 - phi * phi) * noise[1, i]
+    return (np.sqrt(1.0 - share) * noise[0] + np.sqrt(share) * walk)[codes]
 
 
 def _seed_rig_columns(cols, codes, seed: int, n_members: int) -> dict[str, np.ndarray]:
@@ -229,15 +229,17 @@ SEED_MIC_BIAS_DRIFT = (1.0, 0.86)
 SEED_UPPER_STOP_LOWERED = (44 / 242, (0.0020, 0.0024))
 
 
-def seed_rig_session_specs(specs: dict, codes, members, seed: int, n_members: int) -> dict:
+def seed_rig_session_specs(
+    specs: dict, codes, seed: int, n_members: int, microphones: bool = True
+) -> dict:
     """The seed rig's sensor specs per member, as its recording sessions left them.
 
-    The microphones get the rig's bias (:data:`SEED_MIC_BIAS`). The upper proximity
-    switch stays where it is mounted when a session's upper end stop sits lower
-    (:data:`SEED_UPPER_STOP_LOWERED`; the twin places the switch relative to the stop,
-    so its sensed position is offset by the lowering). ``codes`` and ``members``: each
-    member's fault code number and member number; one draw per code and member number,
-    whatever part of the design is simulated.
+    The upper proximity switch stays where it is mounted when a session's upper end
+    stop sits lower (:data:`SEED_UPPER_STOP_LOWERED`; the twin places the switch
+    relative to the stop, so its sensed position is offset by the lowering), and with
+    ``microphones`` the microphones get the rig's bias (:data:`SEED_MIC_BIAS`).
+    ``codes``: each member's fault code number; one draw per code number, whatever
+    part of the design is simulated.
 
     Examples
     --------
@@ -245,16 +247,16 @@ def seed_rig_session_specs(specs: dict, codes, members, seed: int, n_members: in
     >>> from pdmkit.models import default_sensor_specs
     >>> from pdmkit.ensembles._pneumatic_rig import seed_rig_session_specs
     >>> specs = seed_rig_session_specs(
-    ...     default_sensor_specs("seed_rig"), np.arange(4840) // 20, np.arange(4840),
-    ...     0, 4840)
+    ...     default_sensor_specs("seed_rig"), np.arange(4840) // 20, 0, 4840)
     >>> round(float(np.mean(specs["MIC_Ambient"].offset)), 1)
     2.7
     """
     codes = np.asarray(codes)
     out = dict(specs)
-    wander = _code_wander(codes, seed, n_members, stream=3, drift=SEED_MIC_BIAS_DRIFT)
-    for name, (level, per_code) in SEED_MIC_BIAS.items():
-        out[name] = out[name].replace(offset=level + per_code * wander)
+    if microphones:
+        wander = _code_wander(codes, seed, n_members, 3, drift=SEED_MIC_BIAS_DRIFT)
+        for name, (level, per_code) in SEED_MIC_BIAS.items():
+            out[name] = out[name].replace(offset=level + per_code * wander)
     lowered = _upper_stop_lowering(codes, seed, n_members)
     out["ProximitySensor_upper"] = out["ProximitySensor_upper"].replace(offset=-lowered)
     return out

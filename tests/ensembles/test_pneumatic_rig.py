@@ -193,9 +193,7 @@ def test_microphone_bias_wanders_per_code_as_the_rigs_does():
     from pdmkit.models import default_sensor_specs
 
     design, codes = _design_codes()
-    specs = seed_rig_session_specs(
-        default_sensor_specs("seed_rig"), codes, np.arange(4840), 0, 4840
-    )
+    specs = seed_rig_session_specs(default_sensor_specs("seed_rig"), codes, 0, 4840)
     means = {}
     for name, (level, per_code) in SEED_MIC_BIAS.items():
         bias = design.assign(b=specs[name].offset).groupby("fault_code")["b"]
@@ -242,10 +240,17 @@ def test_upper_stop_sits_lower_in_a_share_of_codes_and_the_switch_stays():
     share = (per_code.mean() > 0).mean()
     assert share == pytest.approx(SEED_UPPER_STOP_LOWERED[0], abs=0.05)
     assert lowered[lowered > 0].min() >= 0.0020 and lowered.max() <= 0.0024
-    specs = seed_rig_session_specs(
-        default_sensor_specs("seed_rig"), codes, np.arange(4840), 0, 4840
-    )
+    specs = seed_rig_session_specs(default_sensor_specs("seed_rig"), codes, 0, 4840)
     np.testing.assert_allclose(specs["ProximitySensor_upper"].offset, -lowered, atol=1e-15)
+    # the machine's stop goes with it whatever the acquisition; the microphones' bias
+    # only with the rig's
+    typical = seed_rig_session_specs(
+        default_sensor_specs("typical"), codes, 0, 4840, microphones=False
+    )
+    np.testing.assert_array_equal(
+        typical["ProximitySensor_upper"].offset, specs["ProximitySensor_upper"].offset
+    )
+    assert typical["MIC_uBumper"].offset == 0.0
     # one healthy lever at 6.25 kg, 6 bar, the rig's program: stop at its place and
     # 2 mm lower (the switch on the frame, 192.5 mm)
     low = float(lowered[lowered > 0][0])
