@@ -369,7 +369,7 @@ def read_members(
     on_error: str = "raise",
     return_errors: bool = False,
     progress: bool | None = None,
-):
+) -> Ensemble | tuple[Ensemble, pd.DataFrame]:
     r"""Build an ensemble from member files: one recording per file.
 
     A member file is a CSV / Parquet table (numeric columns are signals, a ``time``

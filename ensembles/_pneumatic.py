@@ -285,7 +285,7 @@ def simulate_seed_ensemble(
     fs: float = 1000.0,
     seed: int = 0,
     batch_size: int = 250,
-    members=None,
+    members: slice | Sequence[int] | None = None,
     acquisition: str = "seed_rig",
     test_cycle: str = "twin",
     rig: str = "seed",
@@ -694,7 +694,7 @@ def simulate_seed_single_fault_ensemble(
     variation: str = "rig",
     test_cycle: str = "twin",
     rig: str = "seed",
-):
+) -> Ensemble:
     """The seed's smaller data set (8.2.1) on the twin: single faults at one point.
 
     The set of the seed's residual classification (8.3; the author's ``data11``: 660

@@ -272,7 +272,7 @@ def simulate_fault_ensemble(
     signals: Sequence[str] | None = None,
     seed: int = 0,
     batch_size: int = 500,
-    operating_points=None,
+    operating_points: pd.DataFrame | dict | None = None,
 ) -> Ensemble:
     """Simulate labelled fault recordings of the pneumatic piston.
 

@@ -53,6 +53,7 @@ run-to-failure units of the pneumatic twin (:mod:`pdmkit.experiments._rul_leak`)
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -182,10 +183,10 @@ def split_run_to_failure(
 
 
 def predict_rul(
-    model_file,
-    history,
+    model_file: str | Path,
+    history: str | Path | pd.DataFrame,
     *,
-    json_path=None,
+    json_path: str | Path | None = None,
     expect_sha256: str | None = None,
     unit: str | None = None,
     time: str | None = None,
@@ -383,13 +384,13 @@ def _predict_rul(
 
 
 def run_rul(
-    dataset="cmapss-fd001",
+    dataset: str | tuple[pd.DataFrame, pd.DataFrame] = "cmapss-fd001",
     model: str = "similarity",
     out_dir: str | Path = "results/rul",
     json_path: str | Path | None = None,
     seed: int = 0,
     *,
-    features=None,
+    features: Sequence[str] | None = None,
     rul_cap: float | str | None = "convention",
     options: dict | None = None,
     n_trajectories: int = 4,

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._atomic import atomic_path
-from pdmkit.ensembles import simulate_leak_runs
+from pdmkit.ensembles import Ensemble, simulate_leak_runs
 from pdmkit.errors import DataError
 from pdmkit.experiments._report import Report
 from pdmkit.experiments._rul_models import (
@@ -64,7 +65,9 @@ _SEED_INDICATOR = "FlowExtrusion/stats/ShapeFactor"  # the seed's (section 8.4.2
 # --------------------------------------------------------------------------- air leak
 
 
-def leak_indicators(ensemble, *, signals=None) -> pd.DataFrame:
+def leak_indicators(
+    ensemble: Ensemble, *, signals: Sequence[str] | None = None
+) -> pd.DataFrame:
     """Candidate prognostic indicators of air-leak runs, one row per cycle.
 
     For each signal: the time-domain statistics of each recording (group ``"stats"``
@@ -144,7 +147,7 @@ def simulate_leak_dataset(
     t_end: float = 10.0,
     walk_shape: float = 16.0,
     seed: int = 0,
-    signals=LEAK_SIGNALS,
+    signals: Sequence[str] = LEAK_SIGNALS,
     cache_dir: str | Path | None = None,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Simulate training and test air-leak units of the twin and their indicators.

@@ -9,10 +9,13 @@ from __future__ import annotations
 import hashlib
 import inspect
 import time
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from pdmkit import rul
 from pdmkit._persist import save_model
@@ -44,13 +47,13 @@ RUL_MODELS = {
 
 def make_rul_model(
     model: str,
-    features,
+    features: Sequence[str],
     *,
     seed: int = 0,
     rul_cap: float | None = None,
     options: dict | None = None,
     smoothing: float | None = 10,
-):
+) -> tuple[rul.HealthIndicator | None, Any]:
     """Build ``(indicator, estimator)`` for a workflow model name.
 
     Parameters
@@ -262,7 +265,14 @@ _READINGS = {
 }
 
 
-def leak_accuracy(unit, time, rul_pred, life, *, alpha: float = 0.1) -> pd.DataFrame:
+def leak_accuracy(
+    unit: ArrayLike,
+    time: ArrayLike,
+    rul_pred: ArrayLike,
+    life: Mapping | pd.Series,
+    *,
+    alpha: float = 0.1,
+) -> pd.DataFrame:
     """Per-unit accuracy of RUL predictions over the last half of life.
 
     For each unit, the predictions made at times ``t`` with ``life / 2 <= t < life``

@@ -24,7 +24,7 @@ import pandas as pd
 from sklearn.base import BaseEstimator, ClassifierMixin
 
 from pdmkit._outputs import to_jsonable
-from pdmkit.ensembles import SEED_SINGLE_FAULTS, pneumatic_residuals
+from pdmkit.ensembles import SEED_SINGLE_FAULTS, Ensemble, pneumatic_residuals
 from pdmkit.errors import DataError
 from pdmkit.experiments._matlab_trees import MatlabBaggedTrees, MatlabTree
 
@@ -252,7 +252,7 @@ def _result(recipe: str, value: float, why: str, details: dict) -> SeedResult:
 
 # --------------------------------------------------------------------------- indicators
 def seed_indicators(
-    ensemble,
+    ensemble: Ensemble,
     signals: Sequence[str],
     *,
     frange: tuple[float, float] | None = None,
@@ -329,7 +329,7 @@ def seed_indicators(
 
 
 def seed_feature_table(
-    ensemble,
+    ensemble: Ensemble,
     *,
     sensors: Sequence[str] | None = None,
     residuals: bool = True,
@@ -396,7 +396,7 @@ def seed_feature_table(
 def seed_rank(
     table: pd.DataFrame,
     features: Sequence[str],
-    labels,
+    labels: pd.Series | np.ndarray | Sequence,
     *,
     correlation_weight: float = 1.0,
 ) -> pd.Series:

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit.ensembles import (
+    Ensemble,
     pneumatic_residuals,
     simulate_leak_runs,
     simulate_seed_single_fault_ensemble,
@@ -58,7 +59,7 @@ _WHY_FLOW = (
 
 
 def seed_flow_knn(
-    data,
+    data: Ensemble | pd.DataFrame,
     *,
     label: str = _LABEL,
     top_k: int = 5,
@@ -121,7 +122,11 @@ def seed_flow_knn(
 
 
 def seed_flow_bagged_trees(
-    data, *, label: str = _LABEL, split: str = "seed", seed: int = 0
+    data: Ensemble | pd.DataFrame,
+    *,
+    label: str = _LABEL,
+    split: str = "seed",
+    seed: int = 0,
 ) -> SeedResult:
     """Seed table 7.2: flow sensor, all indicators, bagged trees (99.45 %).
 
@@ -166,7 +171,11 @@ def _all_flow_indicators(data, label: str, model: str, split: str, seed: int):
 
 
 def seed_flow_pca_bagged_trees(
-    data, *, label: str = _LABEL, split: str = "seed", seed: int = 0
+    data: Ensemble | pd.DataFrame,
+    *,
+    label: str = _LABEL,
+    split: str = "seed",
+    seed: int = 0,
 ) -> SeedResult:
     """Seed table 7.2: flow sensor, PCA then bagged trees (95.18 %).
 
@@ -209,7 +218,7 @@ def seed_flow_pca_bagged_trees(
 
 
 def seed_sensor_table(
-    data,
+    data: Ensemble | pd.DataFrame,
     *,
     label: str = _LABEL,
     sensors: Sequence[str] | None = None,
@@ -305,7 +314,7 @@ SEED_RESIDUAL_FEATURES = tuple(
 
 
 def seed_residual_classification(
-    data=None,
+    data: Ensemble | pd.DataFrame | None = None,
     *,
     label: str = "fault",
     n_members: int = 660,

@@ -78,6 +78,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from pdmkit.errors import DataError
 from pdmkit.features._common import check_finite, check_fs, from_rows, to_rows
@@ -462,11 +463,11 @@ def _cycle_feature_rows(x: np.ndarray, fs: float, opts: dict) -> dict[str, np.nd
 
 # --------------------------------------------------------------------------- public
 def cycle_features(
-    x,
+    x: ArrayLike,
     fs: float,
-    period,
+    period: float | ArrayLike,
     *,
-    start=0.0,
+    start: float | ArrayLike = 0.0,
     phases: Sequence[float] = (0.0, 0.5),
     levels: Sequence[float] = CYCLE_LEVELS,
     n_windows: int = 8,
@@ -569,7 +570,7 @@ def cycle_features(
 
 
 def cycle_average(
-    x,
+    x: ArrayLike,
     fs: float,
     period: float,
     *,

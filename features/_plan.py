@@ -14,12 +14,19 @@ import math
 import os
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from pdmkit._progress import progress as _progress_bar
-from pdmkit.ensembles import Partition, dask_map, parquet_partitions, read_partition
+from pdmkit.ensembles import (
+    Ensemble,
+    Partition,
+    dask_map,
+    parquet_partitions,
+    read_partition,
+)
 from pdmkit.errors import DataError
 from pdmkit.features._common import MemberDataError
 from pdmkit.features._extract import check_batch_size, extract
@@ -112,7 +119,7 @@ class ExtractionPlan:
 
 
 def plan_extraction(
-    ensemble,
+    ensemble: Ensemble,
     *,
     signals: Sequence[str] | None = None,
     groups: Sequence[str] = ("stats", "spectral"),
@@ -414,7 +421,13 @@ def _signal_features(
 
 
 def extract_task(
-    item, *, signals, groups, options, shaft_column, on_error
+    item: Partition | Ensemble,
+    *,
+    signals: Sequence[str] | None,
+    groups: Sequence[str],
+    options: dict,
+    shaft_column: str | None,
+    on_error: str,
 ) -> tuple[pd.DataFrame | None, list[dict], list[str]]:
     """One unit of work of an :class:`ExtractionPlan`: a batch or a Parquet partition.
 
@@ -478,17 +491,17 @@ def extract_task(
 
 
 def extract_ensemble(
-    ensemble,
+    ensemble: Ensemble,
     *,
     signals: Sequence[str] | None = None,
     groups: Sequence[str] = ("stats", "spectral"),
     batch_size: int = 512,
     progress: bool | None = None,
-    client=None,
+    client: Any = None,
     on_error: str = "raise",
     return_errors: bool = False,
     **options,
-):
+) -> pd.DataFrame | tuple[pd.DataFrame, pd.DataFrame]:
     """Feature table of an ensemble: :func:`extract` per signal, members by id.
 
     Members stream through in batches of ``batch_size``, so an on-disk ensemble is

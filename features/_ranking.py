@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import scipy.stats
+from numpy.typing import ArrayLike
 from sklearn.feature_selection import f_classif
 
 from pdmkit._checks import parse_timestamps
@@ -500,7 +501,7 @@ def _lifetime_column(table: pd.DataFrame, given, candidates: Sequence[str], what
 
 def rank_features(
     table: pd.DataFrame,
-    labels=None,
+    labels: pd.Series | ArrayLike | None = None,
     *,
     method: str = "kruskal",
     features: Sequence[str] | None = None,

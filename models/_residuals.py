@@ -11,10 +11,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pdmkit.errors import DataError
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["dm_test", "whiteness_test"]
 
@@ -41,7 +45,9 @@ def _xcf(r: np.ndarray, u: np.ndarray, max_lag: int) -> np.ndarray:
 
 
 def whiteness_test(
-    residual, inputs: Mapping[str, np.ndarray] | None = None, max_lag: int | None = None
+    residual: ArrayLike,
+    inputs: Mapping[str, np.ndarray] | None = None,
+    max_lag: int | None = None,
 ) -> dict:
     """Whether anything systematic is left in the residual (Ljung-Box, correlation bands).
 

@@ -22,7 +22,7 @@ output's units.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -59,6 +59,11 @@ from pdmkit.models.mismatch._effects_sensor import (
     SensorOffset,
     SensorSaturation,
 )
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from pdmkit.models.ode import OdeModel
 
 __all__ = [
     "CANDIDATES",
@@ -122,7 +127,7 @@ _ATTACH_TEXT = {
 }
 
 
-def candidate_library():
+def candidate_library() -> pd.DataFrame:
     """The candidate effects as a table: id, where each attaches, parameters, physics.
 
     The last row is the data-driven fallback ``sparse``
@@ -206,7 +211,7 @@ def _force_gain(model, velocity: str, scales: Scales) -> dict:
 
 
 def attach_candidates(
-    model,
+    model: OdeModel,
     scales: Scales,
     ids: Sequence[str] | None = None,
     extra: Sequence[Candidate] = (),

@@ -15,7 +15,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,6 +38,13 @@ from pdmkit.models.ode import (
     showcase_model,
     showcase_source,
 )
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    import pandas as pd
+
+    from pdmkit.models.mismatch._verdict import MismatchResult
 
 _NP = NumpyNamespace()
 
@@ -359,7 +366,7 @@ def generate_concealed_case(
     system: str | None = None,
     noise: float | None = None,
     n_samples: int | None = None,
-):
+) -> ConcealedCase:
     """A random recording with one concealed effect (or none), for testing discovery.
 
     The effect is simulated in a sharper form than the smooth one pdmkit fits (10x
@@ -596,7 +603,7 @@ def _misset_model(true_model, system: str, place, strength: float, rng):
     return load_model_source(source, name=system), source
 
 
-def example_result(seed: int = 1):
+def example_result(seed: int = 1) -> MismatchResult:
     """A small, fast :class:`~pdmkit.models.mismatch.MismatchResult` for examples.
 
     Discovery on a 300-sample effect-free control (:func:`generate_concealed_case`
@@ -622,7 +629,7 @@ def example_result(seed: int = 1):
 
 
 def score_concealed_cases(
-    effects=None,
+    effects: Sequence[str] | None = None,
     repeats: int = 1,
     controls: int = 2,
     seed: int = 0,
@@ -630,7 +637,7 @@ def score_concealed_cases(
     n_samples: int | None = None,
     verbose: bool = False,
     **options: Any,
-):
+) -> pd.DataFrame:
     """Run discovery on random concealed cases and score the verdicts.
 
     For each repeat: one case per effect (random place, strength uniform in

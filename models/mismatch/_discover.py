@@ -39,7 +39,7 @@ import math
 import time
 import warnings
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -90,6 +90,9 @@ from pdmkit.models.mismatch._verdict import (
     candidate_table,
 )
 
+if TYPE_CHECKING:
+    from pdmkit.models.ode import OdeModel
+
 __all__ = ["MismatchResult", "choose_input_hold", "discover_mismatch"]
 
 
@@ -120,7 +123,7 @@ def choose_input_hold(rec: Recording) -> str:
 
 
 def discover_mismatch(
-    model,
+    model: OdeModel,
     data: Any,
     validation: Any = None,
     *,

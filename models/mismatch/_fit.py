@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +27,9 @@ from pdmkit.models.mismatch._fit_problem import (
 )
 from pdmkit.models.mismatch._recording import Recording, make_recording
 from pdmkit.models.mismatch._sampling import _choose_n_sub, _nominal_scales
+
+if TYPE_CHECKING:
+    from pdmkit.models.ode import OdeModel
 
 #: half the sum of squares (inf when not finite), as the candidate selection reads costs
 
@@ -102,7 +105,7 @@ def _initial_values(model, rec: Recording) -> dict[str, float]:
 
 
 def fit_model(
-    model,
+    model: OdeModel,
     data: Recording | Any,
     *,
     effects: Sequence[Effect] = (),
@@ -200,7 +203,9 @@ def _result(problem: _Problem, job: _Job, n_full: int | None = None) -> FitResul
     )
 
 
-def nominal_scales(model, data: Recording | Any, fit: FitResult, n_sub: int) -> Scales:
+def nominal_scales(
+    model: OdeModel, data: Recording | Any, fit: FitResult, n_sub: int
+) -> Scales:
     """Magnitudes of the fitted nominal trajectory, for candidate guesses and widths.
 
     Examples

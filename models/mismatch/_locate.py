@@ -14,11 +14,18 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pdmkit.errors import DataError
 from pdmkit.models._residuals import whiteness_test
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from numpy.typing import ArrayLike
+
+    from pdmkit.models.ode import OdeModel
 
 __all__ = [
     "clipped_outputs",
@@ -97,7 +104,9 @@ def _energy(residual) -> np.ndarray:
     return np.sum(r**2, axis=1)
 
 
-def residual_windows(time, residual, n_windows: int = 20, top: int = 5) -> list[dict]:
+def residual_windows(
+    time: ArrayLike, residual: ArrayLike, n_windows: int = 20, top: int = 5
+) -> list[dict]:
     """Time windows ranked by their share of the residual energy.
 
     The record is cut into ``n_windows`` equal windows; the ``top`` windows with the
@@ -217,7 +226,12 @@ def _regions(model, x: Mapping[str, np.ndarray], u: Mapping[str, np.ndarray]):
     return regions
 
 
-def region_statistics(model, x, u, residual):
+def region_statistics(
+    model: OdeModel,
+    x: Mapping[str, np.ndarray],
+    u: Mapping[str, np.ndarray],
+    residual: np.ndarray,
+) -> pd.DataFrame:
     """Residual energy over regions of the state / input space.
 
     For each region (near-zero and large velocity, direction reversals, large
@@ -283,7 +297,9 @@ def region_statistics(model, x, u, residual):
     return df
 
 
-def residual_spectrum(residual, inputs: Mapping[str, np.ndarray], fs: float):
+def residual_spectrum(
+    residual: ArrayLike, inputs: Mapping[str, np.ndarray], fs: float
+) -> pd.DataFrame:
     """Welch spectrum of the residual and its coherence with each input.
 
     Parameters

@@ -7,12 +7,15 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pdmkit._checks import uniform_step
 from pdmkit.errors import DataError
+
+if TYPE_CHECKING:
+    from pdmkit.models.ode import OdeModel
 
 __all__ = ["Recording", "data_states", "make_recording", "part"]
 
@@ -65,7 +68,7 @@ class Recording:
         return np.stack([self.outputs[o] for o in model.outputs], 1)
 
 
-def make_recording(model, data: Any, name: str = "data") -> Recording:
+def make_recording(model: OdeModel, data: Any, name: str = "data") -> Recording:
     """Check a table against a model and return a :class:`Recording`.
 
     Parameters

@@ -25,7 +25,7 @@ import dataclasses
 import itertools
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,6 +33,9 @@ from pdmkit.errors import ModelError
 from pdmkit.models.mismatch._candidates import Candidate, Effect, ParamSpec, Scales
 from pdmkit.models.mismatch._fit_problem import _fd_jacobians, _fd_rows, _lm, _make_jobs
 from pdmkit.models.mismatch._stlsq import stlsq_path
+
+if TYPE_CHECKING:
+    from pdmkit.models.ode import OdeModel
 
 __all__ = ["SparseTerms", "Term", "library_terms", "sparse_equation", "stlsq_path"]
 
@@ -312,7 +315,7 @@ def _influences(model, target: str, X: Mapping[str, np.ndarray], U, P) -> list[s
 
 
 def library_terms(
-    model,
+    model: OdeModel,
     target: str,
     X: Mapping[str, np.ndarray],
     U: Mapping[str, np.ndarray],

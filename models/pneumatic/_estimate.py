@@ -44,6 +44,7 @@ import math
 import time as _time
 import warnings
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -60,6 +61,9 @@ from pdmkit.models.pneumatic._estimate_result import (
     _estimation_result,
 )
 from pdmkit.models.pneumatic._twin import PneumaticParams
+
+if TYPE_CHECKING:
+    from pdmkit.models.pneumatic._integrate import PneumaticResponse
 
 __all__ = ["DEFAULT_FREE", "DEFAULT_SIGNALS", "EstimationResult", "estimate_parameters"]
 
@@ -90,7 +94,7 @@ def _latin_hypercube(rng: np.random.Generator, n: int, p: int) -> np.ndarray:
 
 # ---------------------------------------------------------------------------- public
 def estimate_parameters(
-    recording,
+    recording: Mapping[str, Any] | PneumaticResponse,
     *,
     free: Sequence[str] = DEFAULT_FREE,
     known: PneumaticParams | None = None,
@@ -103,7 +107,7 @@ def estimate_parameters(
     dt: float = 2e-4,
     jacobian: str = "fd",
     max_iter: int = 40,
-    seed=0,
+    seed: int | None = 0,
     progress: bool | None = None,
 ) -> EstimationResult:
     """Estimate parameters of the pneumatic twin from a recording (seed 4.7).

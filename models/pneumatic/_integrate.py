@@ -34,6 +34,7 @@ import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from pdmkit._progress import progress
 from pdmkit.errors import ModelError
@@ -255,7 +256,7 @@ def simulate_piston(
     fs: float = 1000.0,
     batch: int | None = None,
     sensors: bool | Sequence[str] = True,
-    seed=None,
+    seed: int | np.random.SeedSequence | np.random.Generator | None = None,
     dt: float = 2e-4,
     sensor_specs: Mapping | None = None,
     progress: bool | None = None,
@@ -413,7 +414,7 @@ def simulate_piston_ivp(
     fs: float = 1000.0,
     method: str = "LSODA",
     rtol: float = 1e-6,
-    atol=None,
+    atol: float | ArrayLike | None = None,
 ) -> PneumaticResponse:
     """Reference solution of the same :func:`piston_rhs` with ``scipy.integrate.solve_ivp``.
 

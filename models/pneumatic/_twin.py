@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 import numpy as np
 
@@ -61,6 +62,9 @@ from pdmkit.models.pneumatic._params import (
     piston_areas,
     stack_params,
 )
+
+#: A float, numpy array or torch tensor: the twin's functions work on all three.
+ArrayOrTensor = Any
 
 __all__ = [
     "STATE_NAMES",
@@ -252,7 +256,9 @@ def _flow(p_up, p_down, kt, c: _PsiConstants, xp):
     return (kt * xp.sign(p_up - p_down)) * (hi * psi)
 
 
-def outflow_function(pressure_ratio, kappa=1.4, laminar_ratio=0.99):
+def outflow_function(
+    pressure_ratio: ArrayOrTensor, kappa: float = 1.4, laminar_ratio: float = 0.99
+) -> ArrayOrTensor:
     """Outflow function psi(p_down / p_up) of an orifice (seed eqs. 4.12-4.16).
 
     ``psi = sqrt(k/(k-1) * (r**(2/k) - r**((k+1)/k)))`` for subcritical ratios
@@ -294,8 +300,14 @@ def outflow_function(pressure_ratio, kappa=1.4, laminar_ratio=0.99):
 
 
 def orifice_mass_flow(
-    c, p_up, p_down, t_up=293.15, kappa=1.4, r_gas=287.1, laminar_ratio=0.99
-):
+    c: ArrayOrTensor,
+    p_up: ArrayOrTensor,
+    p_down: ArrayOrTensor,
+    t_up: ArrayOrTensor = 293.15,
+    kappa: float = 1.4,
+    r_gas: float = 287.1,
+    laminar_ratio: float = 0.99,
+) -> ArrayOrTensor:
     """Mass flow through an orifice of coefficient ``c`` (seed eqs. 4.13, 4.31, 8.1).
 
     ``m = c * p_hi * sqrt(2 / (R T)) * psi(p_lo / p_hi)``, positive from ``p_up`` to
@@ -356,7 +368,7 @@ def _command_now(t, r: _Resolved, xp):
     return _command(t - r.valve_delay, r, xp)
 
 
-def valve_command(t, params: PneumaticParams):
+def valve_command(t: float | ArrayOrTensor, params: PneumaticParams) -> ArrayOrTensor:
     """The valve command u(t) in {-1, +1} (seed eq. 4.27): +1 fills chamber A (up).
 
     A square wave of period ``cycle_period`` and duty ``cycle_duty`` starting at
@@ -477,7 +489,9 @@ def _derivs(t, x, v, pa, pb, pr, s, r: _Resolved, xp, aux: bool = False) -> _Der
     return d
 
 
-def piston_rhs(t, state, params: PneumaticParams):
+def piston_rhs(
+    t: float | ArrayOrTensor, state: ArrayOrTensor, params: PneumaticParams
+) -> ArrayOrTensor:
     """Right-hand side dy/dt of the piston model, usable by ``scipy.integrate.solve_ivp``.
 
     Parameters
@@ -539,7 +553,7 @@ def _rest_position(p: PneumaticParams, xp):
     return xp.minimum(x, ds)
 
 
-def initial_state(params: PneumaticParams, n_members: int | None = None):
+def initial_state(params: PneumaticParams, n_members: int | None = None) -> ArrayOrTensor:
     """Rest state at the bottom end with the valve commanded down.
 
     Chamber A at ambient pressure, chamber B and the reservoir at supply pressure, the
