@@ -214,11 +214,12 @@ SEED_MIC_BIAS_DRIFT = (1.0, 0.86)
 #: Share of the seed rig's fault codes recorded with its lever stopping short of the
 #: top, and by how much (m). In ``sb/sensor_proximity/ProximityAllFeatures.mat`` (in
 #: recording order, see ``SEED_MIC_BIAS``) the upper switch never switches in any
-#: recording of 61 codes. 12 of them, in runs of one or two, are the hardest settings of
-#: throttle valve 2 and of the upper damper, whose lever stops short: the fault. The
-#: other 44 are the first 27 codes of the fifth session and the first 17 of the sixth,
-#: every single-fault label among them, healthy ones too, whose lever reaches the switch
-#: 3.3 s after the valve everywhere else (switch at 4.38 s in
+#: recording of 61 codes. 13 of them, in runs of one or two, are the hardest settings of
+#: throttle valve 2 and of the upper damper, whose lever stops short: the fault; 4 are
+#: combined codes at the low supply (pressure+..., peak 190.5 mm). The other 44 are the
+#: first 27 codes of the fifth session and the first 17 of the sixth, every single-fault
+#: label among them, healthy ones too, whose lever reaches the switch 3.3 s after the
+#: valve everywhere else (switch at 4.38 s in
 #: ``models/models_datastore/data11_1_1..3.mat``). The encoder says why
 #: (``sb/sensor_encoder/LeverPosition_LeverVelocity_stat_features.mat``, medians of the
 #: codes' peak position): there the lever's travel ended at 191.6 and 191.3 mm, against
