@@ -154,12 +154,15 @@ def _code_wander(
     (AR(1), correlation phi from one code to the next), the rest is independent per
     code. One draw per code number, whatever part of the design is simulated.
     """
+    from scipy.signal import lfilter  # not at import: pdmkit.ensembles stays light
+
     share, phi = drift
     noise = np.random.default_rng([seed, stream]).standard_normal((2, n_members))
-    walk = np.empty(n_members)
-    walk[0] = noise[1, 0]
-    for i in range(1, n_members):  # AR(1) along the code numbers, unit variance
-        walk[i] = phi * walk[i - 1] + np.sqrt(1.0 - phi * phi) * noise[1, i]
+    # AR(1) along the code numbers, unit variance from the first code on
+    start = noise[1, :1]
+    step = np.sqrt(1.0 - phi * phi)
+    rest, _ = lfilter([step], [1.0, -phi], noise[1, 1:], zi=phi * start)
+    walk = np.concatenate([start, rest])
     return (np.sqrt(1.0 - share) * noise[0] + np.sqrt(share) * walk)[codes]
 
 
