@@ -80,6 +80,7 @@ class Scales:
     #: nominal simulation)
     y_min: dict[str, float] = dataclasses.field(default_factory=dict)
     y_max: dict[str, float] = dataclasses.field(default_factory=dict)
+    y_std: dict[str, float] = dataclasses.field(default_factory=dict)
     #: ``(velocity, input) -> d(dv/dt)/du`` for force / torque inputs: 1 / mass (or
     #: inertia) when the input is the force; turns per-unit-mass terms into N (N m)
     input_gain: dict[tuple[str, str], float] = dataclasses.field(default_factory=dict)
@@ -98,6 +99,13 @@ class Scales:
 
     def x_scale(self, state: str) -> float:
         return max(self.x_std[state], 1e-3 * max(abs(self.x_max[state]), 1e-12), 1e-12)
+
+    def y_scale(self, output: str) -> float:
+        """An output's scale: its measured spread (a state's scale for older callers)."""
+        if output in self.y_std:
+            hi = max(abs(self.y_max[output]), abs(self.y_min[output]), 1e-12)
+            return max(self.y_std[output], 1e-3 * hi, 1e-12)
+        return self.x_scale(output)
 
     def f_scale(self, state: str) -> float:
         return max(self.f_std[state], 1e-3 * self.f_absmax[state], 1e-12)

@@ -323,8 +323,10 @@ def _attach_level(c, model, scales: Scales, clipped) -> list[Effect]:
     state of a clipped output.
     """
     out = []
+    read_by = {o: s for o, (s, _, _) in model.output_states().items()}
+    clipped_states = {read_by[o] for o in clipped if o in read_by}
     for s, k in model.states.items():
-        if k not in c.kinds or (c.id == "overflow" and s in clipped):
+        if k not in c.kinds or (c.id == "overflow" and s in clipped_states):
             continue
         span = max(scales.x_max[s] - scales.x_min[s], scales.x_scale(s))
         opts = {
@@ -349,8 +351,8 @@ def _attach_output(c, model, scales: Scales, clipped) -> list[Effect]:
     """One effect per output, sized by the output's range."""
     out = []
     for s in model.outputs:
-        lo = scales.y_min.get(s, scales.x_min[s])
-        hi = scales.y_max.get(s, scales.x_max[s])
+        lo = scales.y_min[s] if s in scales.y_min else scales.x_min[s]
+        hi = scales.y_max[s] if s in scales.y_max else scales.x_max[s]
         out.append(Effect(c, s, None, {"span": max(hi - lo, 1e-12)}))
     return out
 

@@ -46,7 +46,7 @@ import numpy as np
 from pdmkit._progress import progress_bar
 from pdmkit.errors import ConvergenceWarning, ModelError
 from pdmkit.models.mismatch._candidates import SPARSE_ID, Scales, attach_candidates
-from pdmkit.models.mismatch._fit import _initial_values
+from pdmkit.models.mismatch._fit import _initial_values, measured_scales
 from pdmkit.models.mismatch._fit_problem import (
     DEADLINE,
     _effect_starts,
@@ -396,9 +396,7 @@ def _prepare(model, data, validation, *, data_name, validation_name, input_hold)
     w = 1.0 / np.maximum(np.std(y_all[:n_fit], axis=0), 1e-12)
     values0 = _initial_values(model, rec)
     n_sub = _choose_n_sub(model, rec, values0)
-    x_scale = {s: 1.0 for s in model.states}
-    for o in model.outputs:
-        x_scale[o] = float(np.std(rec.outputs[o])) or 1.0
+    x_scale = measured_scales(model, rec)
     # a long record is fitted in pieces, each from its own fitted initial state
     pieces = choose_pieces(model, rec, n_fit, values0, n_sub)
     if pieces is not None and rec_val is None:  # validate on the tail, restarted

@@ -28,7 +28,7 @@ class SensorOffset(Candidate):
     )
 
     def specs(self, eff, sc):
-        s = sc.x_scale(eff.target)
+        s = sc.y_scale(eff.target)
         return {"offset": _lin("offset", -math.inf, math.inf, s)}
 
     def guesses(self, eff, sc):
@@ -51,8 +51,8 @@ class SensorSaturation(Candidate):
     )
 
     def _range(self, eff, sc):
-        lo = sc.y_min.get(eff.target, sc.x_min.get(eff.target, -1.0))
-        hi = sc.y_max.get(eff.target, sc.x_max.get(eff.target, 1.0))
+        lo = sc.y_min.get(eff.target, -1.0)
+        hi = sc.y_max.get(eff.target, 1.0)
         return lo, hi, max(hi - lo, 1e-12)
 
     def specs(self, eff, sc):
@@ -87,7 +87,7 @@ class SensorDrift(Candidate):
     )
 
     def specs(self, eff, sc):
-        s = sc.x_scale(eff.target)
+        s = sc.y_scale(eff.target)
         return {
             "offset": _lin("offset", -math.inf, math.inf, s),
             "rate": _lin("rate", -math.inf, math.inf, s / sc.duration),

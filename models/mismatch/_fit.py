@@ -25,7 +25,7 @@ from pdmkit.models.mismatch._fit_problem import (
     _make_jobs,
     _Problem,
 )
-from pdmkit.models.mismatch._recording import Recording, make_recording
+from pdmkit.models.mismatch._recording import Recording, make_recording, state_reading
 from pdmkit.models.mismatch._sampling import _choose_n_sub, _nominal_scales
 
 if TYPE_CHECKING:
@@ -95,12 +95,24 @@ class FitResult:
         return {k: v for k, v in self.values.items() if not k.startswith(("p:", "x0:"))}
 
 
+def measured_scales(model, rec: Recording) -> dict[str, float]:
+    """Each state's scale: its reading's spread where an output reads it, else 1."""
+    x_scale = {s: 1.0 for s in model.states}
+    for s in model.states:
+        y = state_reading(model, rec, s)
+        if y is not None:
+            x_scale[s] = float(np.std(y)) or 1.0
+    return x_scale
+
+
 def _initial_values(model, rec: Recording) -> dict[str, float]:
     vals = {f"p:{k}": v for k, v in model.params.items()}
     for s in model.states:
         vals[f"x0:{s}"] = model.initial[s]
-    for o in model.outputs:
-        vals[f"x0:{o}"] = float(np.mean(rec.outputs[o][:3]))
+    for s in model.states:
+        y = state_reading(model, rec, s)
+        if y is not None:
+            vals[f"x0:{s}"] = float(np.mean(y[:3]))
     return vals
 
 
@@ -170,8 +182,7 @@ def fit_model(
     if scales is not None:
         x_scale = {s: scales.x_scale(s) for s in model.states}
     else:
-        for o in model.outputs:
-            x_scale[o] = float(np.std(rec.outputs[o])) or 1.0
+        x_scale = measured_scales(model, rec)
     starts = _effect_starts(effects, scales) if effects else [{}]
     if start:
         starts = [{**s, **{k: v for k, v in start.items() if "." in k}} for s in starts]

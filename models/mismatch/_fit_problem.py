@@ -197,14 +197,26 @@ class _Problem:
         """The recording's sample of every fitted residual row, ``(K * L,)``."""
         return (self.starts[:, None] + np.arange(self.length)[None, :]).ravel()
 
-    def initial_pieces(self, x0_first: np.ndarray) -> np.ndarray:
+    def initial_pieces(
+        self, x0_first: np.ndarray, values: Mapping[str, float] | None = None
+    ) -> np.ndarray:
         """A first guess of every piece's initial state, ``(K, nx)``, from the data.
 
         The first piece starts from ``x0_first``; the others from the measured
-        outputs at their first sample, a velocity from the slope of its measured
-        position, and any other state from ``x0_first``.
+        outputs at their first sample and a velocity from the slope of its measured
+        position. An unmeasured state (a chamber pressure) is carried over: with
+        ``values``, it is the state a simulation from ``x0_first`` reaches at the
+        piece's start (never the model file's initial value, which belongs to
+        sample 0 only); without, ``x0_first``.
         """
-        X = data_states(self.model, self.rec, self.starts, x0_first)
+        fallback = np.asarray(x0_first, dtype=float)
+        if values is not None and self.n_pieces > 1:
+            n = int(self.starts[-1]) + 1
+            row = (_NoEffects(), values, fallback[None, :])
+            X = self.simulate([row], n=n, states=True)[0]
+            if np.all(np.isfinite(X[self.starts])):
+                fallback = X[self.starts]
+        X = data_states(self.model, self.rec, self.starts, fallback)
         X[0] = x0_first
         return X
 
@@ -480,6 +492,6 @@ def _lm(
     deadline = DEADLINE.get() if budgeted else math.inf
     for job in jobs:  # pieces' initial states start from the data when not given
         if job.x0.shape[0] != problem.n_pieces:
-            job.x0 = problem.initial_pieces(job.x0[0])
+            job.x0 = problem.initial_pieces(job.x0[0], job.values())
             job.r = job.J = job.Jx = None
     levenberg_marquardt(problem, jobs, max_iter, _lm_options(ftol), deadline=deadline)

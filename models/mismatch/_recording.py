@@ -17,7 +17,14 @@ from pdmkit.errors import DataError
 if TYPE_CHECKING:
     from pdmkit.models.ode import OdeModel
 
-__all__ = ["Recording", "data_states", "make_recording", "part"]
+__all__ = [
+    "Recording",
+    "data_states",
+    "make_recording",
+    "measured_states",
+    "part",
+    "state_reading",
+]
 
 
 # ---------------------------------------------------------------------------- data
@@ -145,24 +152,56 @@ def make_recording(model: OdeModel, data: Any, name: str = "data") -> Recording:
     )
 
 
+def measured_states(model) -> dict[str, tuple[str, float, float]]:
+    """States read by an output alone: ``{state: (output, gain, offset)}``.
+
+    ``output = gain * state + offset`` (:meth:`OdeModel.output_states`); a state read
+    by several outputs takes the first. Outputs computed from several states (a flow
+    from two pressures) measure none.
+
+    Examples
+    --------
+    >>> from pdmkit.models.ode import showcase_model
+    >>> measured_states(showcase_model("mass_spring_damper"))
+    {'x': ('x', 1.0, 0.0)}
+    """
+    out: dict[str, tuple[str, float, float]] = {}
+    for o, (s, gain, offset) in model.output_states().items():
+        out.setdefault(s, (o, gain, offset))
+    return out
+
+
+def state_reading(model, rec: Recording, state: str) -> np.ndarray | None:
+    """The recording of ``state`` in the state's units (None when no output reads it)."""
+    m = measured_states(model).get(state)
+    if m is None:
+        return None
+    o, gain, offset = m
+    return (np.asarray(rec.outputs[o], dtype=float) - offset) / gain
+
+
 def data_states(model, rec: Recording, samples: np.ndarray, fallback) -> np.ndarray:
     """States at ``samples`` guessed from the data, ``(len(samples), nx)``.
 
-    A measured output is its own state; a velocity is the slope of its measured
-    position (over four samples); any other state takes ``fallback`` (``(nx,)``).
+    A measured state takes its output's reading; a velocity the slope of its measured
+    position (over four samples); any other state ``fallback`` (``(nx,)`` or
+    ``(len(samples), nx)``: e.g. a simulation's states there).
     """
     k = np.asarray(samples, dtype=int)
-    X = np.tile(np.asarray(fallback, dtype=float), (k.size, 1))
+    X = np.array(
+        np.broadcast_to(np.asarray(fallback, dtype=float), (k.size, len(model.states)))
+    )
+    readings = {s: state_reading(model, rec, s) for s in model.states}
     position = [
         q
         for q, kq in model.states.items()
-        if kq in ("position", "angle") and q in rec.outputs
+        if kq in ("position", "angle") and readings[q] is not None
     ]
     for j, (s, kind) in enumerate(model.states.items()):
-        if s in rec.outputs:
-            X[:, j] = rec.outputs[s][k]
+        if readings[s] is not None:
+            X[:, j] = readings[s][k]
         elif kind in ("velocity", "angular_velocity") and len(position) == 1:
-            y = rec.outputs[position[0]]
+            y = readings[position[0]]
             lo, hi = np.maximum(k - 2, 0), np.minimum(k + 2, rec.n - 1)
             X[:, j] = (y[hi] - y[lo]) / ((hi - lo) * rec.ts)
     lo = np.array([0.0 if kd == "level" else -np.inf for kd in model.states.values()])

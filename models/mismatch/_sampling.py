@@ -104,6 +104,7 @@ def _nominal_scales(
     return Scales(
         y_min={o: float(np.nanmin(y)) for o, y in measured.items()},
         y_max={o: float(np.nanmax(y)) for o, y in measured.items()},
+        y_std={o: float(np.nanstd(y)) for o, y in measured.items()},
         input_gain=input_gain,
         ts=rec.ts,
         h=rec.ts / n_sub,

@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from pdmkit.errors import ModelError
+from pdmkit.models._xp import is_torch
 from pdmkit.models.ode._modelfile_child import (
     _STAGES,
     MODEL_TIMEOUT,
@@ -48,6 +49,7 @@ from pdmkit.models.ode._modelfile_child import (
     _first_rows,
     _where,
 )
+from pdmkit.models.ode._per_sample import per_sample
 
 __all__ = ["KINDS", "MODEL_TIMEOUT", "OdeModel", "load_model_file", "load_model_source"]
 
@@ -119,25 +121,86 @@ def _finite_float(where: str, label: str, value: Any) -> float:
     return v
 
 
-def _check_outputs(where: str, outputs: Any, states: Mapping[str, str]) -> list[str]:
-    """OUTPUTS as a list: distinct names of states."""
-    if isinstance(outputs, str) or not isinstance(outputs, Sequence):
+def _check_outputs(
+    where: str, outputs: Any, states: Mapping[str, str], has_fn: bool
+) -> tuple[list[str], dict[str, str]]:
+    """OUTPUTS: distinct names with a kind each; states unless ``outputs()`` is defined.
+
+    A list names measured states (their kinds are the states'); a dict maps output name
+    -> kind. Without an ``outputs(t, x, u, p)`` function every output must be a state.
+    """
+    if isinstance(outputs, Mapping):
+        names = list(outputs)
+        _check_names(where, "OUTPUTS", names)
+        kinds = dict(_check_kinds(where, "OUTPUTS", outputs, allow_empty=True))
+    elif isinstance(outputs, str) or not isinstance(outputs, Sequence):
         raise ModelError(
             f"{where}: OUTPUTS must be a list of state names, e.g. "
-            f'["{next(iter(states))}"]; got {outputs!r}.'
+            f'["{next(iter(states))}"], or a dict of output name -> kind with a function '
+            f"outputs(t, x, u, p); got {outputs!r}."
         )
-    outputs = list(outputs)
-    if not outputs:
-        raise ModelError(f"{where}: OUTPUTS is empty; list the measured states.")
-    for o in outputs:
-        if o not in states:
+    else:
+        names = list(outputs)
+        _check_names(where, "OUTPUTS", names)
+        if len(set(names)) != len(names):
+            raise ModelError(f"{where}: OUTPUTS lists a name twice: {names}.")
+        kinds = {o: states.get(o, "other") for o in names}
+    if not names:
+        raise ModelError(f"{where}: OUTPUTS is empty; list the measured quantities.")
+    if not has_fn:
+        for o in names:
+            if o not in states:
+                raise ModelError(
+                    f"{where}: OUTPUTS names {o!r}, which is not in STATES "
+                    f"({', '.join(states)}); an output that is not a state needs an "
+                    f"equation: define outputs(t, x, u, p) returning {{{o!r}: ...}}."
+                )
+    return names, kinds
+
+
+def _check_limits(
+    where: str, limits: Any, states: Mapping[str, str]
+) -> dict[str, tuple[float, float, str | None]]:
+    """LIMITS as state -> (low, high, velocity state or None): hard stops."""
+    if limits is None:
+        return {}
+    if not isinstance(limits, Mapping):
+        raise ModelError(
+            f"{where}: LIMITS must be a dict of state name -> (low, high) or (low, high, "
+            f'velocity state), e.g. {{"x": (0.0, 0.2, "v")}}; got {type(limits).__name__}.'
+        )
+    out = {}
+    for s, spec in limits.items():
+        if s not in states:
             raise ModelError(
-                f"{where}: OUTPUTS names {o!r}, which is not in STATES "
-                f"({', '.join(states)}); outputs must be measured states."
+                f"{where}: LIMITS names {s!r}, which is not in STATES "
+                f"({', '.join(states)})."
             )
-    if len(set(outputs)) != len(outputs):
-        raise ModelError(f"{where}: OUTPUTS lists a state twice: {outputs}.")
-    return outputs
+        if (
+            isinstance(spec, str)
+            or not isinstance(spec, Sequence)
+            or len(spec) not in (2, 3)
+        ):
+            raise ModelError(
+                f"{where}: LIMITS[{s!r}] must be (low, high) or (low, high, velocity "
+                f"state); got {spec!r}."
+            )
+        lo = -math.inf if spec[0] is None else float(spec[0])
+        hi = math.inf if spec[1] is None else float(spec[1])
+        if math.isnan(lo) or math.isnan(hi) or not lo < hi:
+            raise ModelError(
+                f"{where}: LIMITS[{s!r}] needs low < high (None for no bound); got "
+                f"({spec[0]!r}, {spec[1]!r})."
+            )
+        vel = spec[2] if len(spec) == 3 else None
+        if vel is not None and (vel not in states or vel == s):
+            raise ModelError(
+                f"{where}: LIMITS[{s!r}] names velocity {vel!r}, which is not another "
+                f"state ({', '.join(states)}); it is the state set to 0 when the stop is "
+                "hit."
+            )
+        out[s] = (lo, hi, vel)
+    return out
 
 
 def _check_free(where: str, free: Any, params: Mapping[str, float]) -> list[str]:
@@ -171,20 +234,30 @@ def _check_initial(where: str, initial: Any, states: Mapping[str, str]) -> dict[
     return {k: _finite_float(where, f"INITIAL[{k!r}]", initial.get(k, 0.0)) for k in states}
 
 
-def _check_rhs(where: str, rhs: Any) -> None:
-    """``rhs`` must be callable with four arguments ``(t, x, u, p)``."""
-    if not callable(rhs):
+def _check_fn(where: str, what: str, fn: Any) -> None:
+    """``rhs`` / ``outputs`` must be callable with four arguments ``(t, x, u, p)``."""
+    if not callable(fn):
         raise ModelError(
-            f"{where}: rhs must be a function rhs(t, x, u, p); got {type(rhs).__name__}."
+            f"{where}: {what} must be a function {what}(t, x, u, p); got "
+            f"{type(fn).__name__}."
         )
     try:
-        n_args = len(inspect.signature(rhs).parameters)
+        n_args = len(inspect.signature(fn).parameters)
     except (TypeError, ValueError):
         n_args = 4
     if n_args != 4:
         raise ModelError(
-            f"{where}: rhs must take four arguments (t, x, u, p); it takes {n_args}."
+            f"{where}: {what} must take four arguments (t, x, u, p); it takes {n_args}."
         )
+
+
+#: what rhs / outputs may use, said in errors
+_CONTRACT_HINT = (
+    "rhs and outputs may use arithmetic, abs, ** and numpy's element-wise functions "
+    "(np.sqrt, np.exp, np.where, np.minimum, np.clip) on the dict values, or be written "
+    "for plain numbers (math.sqrt, max/min, if/elif), which pdmkit then calls once per "
+    "sample (docs/mismatch.md, 'The model file')."
+)
 
 
 class OdeModel:
@@ -246,6 +319,8 @@ class OdeModel:
         initial: Mapping[str, float] | None = None,
         name: str = "model",
         origin: str | None = None,
+        output_fn: Callable | None = None,
+        limits: Mapping[str, Sequence] | None = None,
     ) -> None:
         where = _where(origin)
         self.origin = origin
@@ -258,7 +333,13 @@ class OdeModel:
                 f"{where}: {sorted(clash)} declared both in STATES and in INPUTS; rename "
                 "one."
             )
-        self.outputs = _check_outputs(where, outputs, self.states)
+        self.outputs, self.output_kinds = _check_outputs(
+            where, outputs, self.states, output_fn is not None
+        )
+        if output_fn is not None:
+            _check_fn(where, "outputs", output_fn)
+        self.output_fn = output_fn
+        self.limits = _check_limits(where, limits, self.states)
         if not isinstance(params, Mapping):
             raise ModelError(
                 f"{where}: PARAMS must be a dict of name -> nominal value; got "
@@ -270,8 +351,11 @@ class OdeModel:
         }
         self.free = _check_free(where, free, self.params)
         self.initial = _check_initial(where, initial, self.states)
-        _check_rhs(where, rhs)
+        _check_fn(where, "rhs", rhs)
         self.rhs = rhs
+        #: "batched" (rhs takes numpy arrays) or "per-sample" (rhs written for scalars,
+        #: called once per member: :mod:`pdmkit.models.ode._per_sample`); set by check()
+        self.evaluation = "per-sample" if getattr(rhs, "per_sample", False) else "batched"
 
     # ------------------------------------------------------------------ access
     @property
@@ -319,6 +403,8 @@ class OdeModel:
             initial=self.initial,
             name=self.name,
             origin=self.origin,
+            output_fn=self.output_fn,
+            limits=self.limits,
         )
 
     # ------------------------------------------------------------------ evaluation
@@ -365,8 +451,7 @@ class OdeModel:
         except Exception as exc:
             raise ModelError(
                 f"{where}: rhs raised {type(exc).__name__}: {exc}"
-                f"{_user_frame(exc, self.origin)}. rhs may use only arithmetic, abs and "
-                "** on the dict values (they can be numpy arrays or torch tensors)."
+                f"{_user_frame(exc, self.origin)}. {_CONTRACT_HINT}"
             ) from exc
         if not isinstance(out, Mapping):
             raise ModelError(
@@ -438,6 +523,8 @@ class OdeModel:
         xb = {k: np.full(n, v) for k, v in self.initial.items()}
         ub = {k: np.zeros(n) for k in self.inputs}
         pb = {k: np.full(n, v) for k, v in self.params.items()}
+        rows = _first_rows(data) if data is not None else []
+        self._choose_evaluation(rows)
         db = self.derivatives(xb, ub, pb, 0.0)
         for k, v in db.items():
             shape = np.shape(v)
@@ -447,8 +534,238 @@ class OdeModel:
                     f"{k!r}; it must work element-wise (shape ({n},))."
                 )
         if data is not None:
-            self._check_first_samples(_first_rows(data))
+            self._check_first_samples(rows)
+        if self.output_fn is not None:
+            self._check_outputs_fn(rows)
         return self
+
+    # ------------------------------------------------------------------ batches
+    def _probe_batch(self, rows: list[dict[str, float]]) -> tuple[dict, dict, dict]:
+        """A small batch of distinct members for the element-wise checks.
+
+        The initial state, nudged a little per member, with the data's first input
+        samples.
+        """
+        used = [r for r in rows if all(k in r for k in self.inputs)] or [{}]
+        n = max(3, len(used))
+        nudge = 1.0 + 1e-3 * np.arange(n)
+        xb = {k: v * nudge + 1e-9 * np.arange(n) for k, v in self.initial.items()}
+        ub = {
+            k: np.array([used[i % len(used)].get(k, 0.0) for i in range(n)])
+            for k in self.inputs
+        }
+        pb = {k: np.full(n, v) for k, v in self.params.items()}
+        return xb, ub, pb
+
+    def _choose_evaluation(self, rows: list[dict[str, float]]) -> None:
+        """Batched when ``rhs`` takes numpy arrays element-wise, else per sample.
+
+        A function written for plain numbers (``math.sqrt``, ``if`` on a state,
+        ``max``) raises on arrays: it is then called once per member
+        (:func:`~pdmkit.models.ode._per_sample.per_sample`). A batched ``rhs`` whose
+        result differs from the per-member one mixes members (``np.sum`` over the
+        batch, indexing): an error names the state.
+        """
+        fns = [("rhs", self.rhs)]
+        if self.output_fn is not None:
+            fns.append(("outputs", self.output_fn))
+        xb, ub, pb = self._probe_batch(rows)
+        where = _where(self.origin)
+        for what, fn in fns:
+            if getattr(fn, "per_sample", False):
+                continue
+            one = per_sample(fn, where, what)
+            try:
+                with np.errstate(all="ignore"):
+                    batched = fn(0.0, dict(xb), dict(ub), dict(pb))
+            except (TypeError, ValueError, ArithmeticError):
+                batched = None  # written for numbers: per sample
+            except ModelError:
+                raise
+            except Exception:
+                continue  # a real error: the checks below report it with its line
+            if batched is not None:
+                self._compare_elementwise(what, batched, one, xb, ub, pb)
+                continue
+            if what == "rhs":
+                self.rhs = one
+            else:
+                self.output_fn = one
+            self.evaluation = "per-sample"
+
+    def _compare_elementwise(self, what, batched, one, xb, ub, pb) -> None:
+        """Raise when a batched function's values differ from its per-member values."""
+        if not isinstance(batched, Mapping):
+            return
+        try:
+            with np.errstate(all="ignore"):
+                alone = one(0.0, dict(xb), dict(ub), dict(pb))
+        except Exception:
+            return  # the scalar checks report it
+        n = len(next(iter(xb.values()), [0, 0, 0]))
+        for k, v in batched.items():
+            if k not in alone or is_torch(v):
+                continue
+            try:
+                a = np.broadcast_to(np.asarray(v, dtype=float), (n,))
+            except (TypeError, ValueError):
+                continue  # the shape checks report it
+            b = np.asarray(alone[k], dtype=float)
+            same = np.isclose(a, b, rtol=1e-9, atol=1e-300) | (np.isnan(a) & np.isnan(b))
+            if not np.all(same):
+                i = int(np.flatnonzero(~same)[0])
+                raise ModelError(
+                    f"{_where(self.origin)}: {what} gives {k!r} = {a[i]:.6g} for member "
+                    f"{i} of a batch but {b[i]:.6g} for that member alone: it mixes the "
+                    "members of a batch (np.sum, np.mean, len or indexing over the "
+                    "values); write it element-wise."
+                )
+
+    # ------------------------------------------------------------------ outputs
+    def output_values(
+        self,
+        x: Mapping[str, Any],
+        u: Mapping[str, Any] | None = None,
+        p: Mapping[str, Any] | None = None,
+        t: Any = 0.0,
+    ) -> dict[str, Any]:
+        """The outputs (sensor readings) at states ``x``: ``outputs(t, x, u, p)``.
+
+        Without an ``outputs`` function the outputs are the measured states.
+
+        Examples
+        --------
+        >>> from pdmkit.models.ode._modelfile import OdeModel
+        >>> m = OdeModel({"h": "level"}, {"q": "flow"}, {"h_mm": "level"}, {"a": 2.0},
+        ...              lambda t, x, u, p: {"h": u["q"] - p["a"] * x["h"]},
+        ...              output_fn=lambda t, x, u, p: {"h_mm": 1000.0 * x["h"]})
+        >>> m.output_values({"h": 0.25}, {"q": 0.0})
+        {'h_mm': 250.0}
+        """
+        if self.output_fn is None:
+            return {o: x[o] for o in self.outputs}
+        u = {k: 0.0 for k in self.inputs} if u is None else u
+        p = self.params if p is None else p
+        where = _where(self.origin)
+        try:
+            out = self.output_fn(t, x, u, p)
+        except ModelError:
+            raise
+        except Exception as exc:
+            raise ModelError(
+                f"{where}: outputs raised {type(exc).__name__}: {exc}"
+                f"{_user_frame(exc, self.origin)}. {_CONTRACT_HINT}"
+            ) from exc
+        if not isinstance(out, Mapping):
+            raise ModelError(
+                f"{where}: outputs must return a dict of output name -> value; it "
+                f"returned {type(out).__name__}."
+            )
+        missing = [k for k in self.outputs if k not in out]
+        extra = [k for k in out if k not in self.outputs]
+        if missing or extra:
+            raise ModelError(
+                f"{where}: outputs returned the wrong keys (missing {missing}; unknown "
+                f"{extra}); it must return one value per name of OUTPUTS: {self.outputs}."
+            )
+        return {k: out[k] for k in self.outputs}
+
+    def output_states(self) -> dict[str, tuple[str, float, float]]:
+        """Outputs that read one state alone, affinely: ``{output: (state, gain, offset)}``.
+
+        ``y = gain * x[state] + offset`` with no other state or input involved (a
+        position sensor in mm reading a state in m). Such outputs give the state's
+        starting guesses and scales; the others (a flow computed from pressures) do not.
+
+        Examples
+        --------
+        >>> from pdmkit.models.ode._modelfile import OdeModel
+        >>> m = OdeModel({"x": "position", "v": "velocity"}, {}, {"x_mm": "position"},
+        ...              {}, lambda t, x, u, p: {"x": x["v"], "v": -x["x"]},
+        ...              output_fn=lambda t, x, u, p: {"x_mm": 1e3 * x["x"] + 5.0})
+        >>> m.output_states()
+        {'x_mm': ('x', 1000.0, 5.0)}
+        """
+        if self.output_fn is None:
+            return {o: (o, 1.0, 0.0) for o in self.outputs}
+        cached = getattr(self, "_output_states", None)
+        if cached is not None:
+            return cached
+        rng = np.random.default_rng(0)
+        n = 4
+        x = {
+            k: v + (abs(v) + 1.0) * 0.1 * rng.standard_normal(n)
+            for k, v in self.initial.items()
+        }
+        u = {k: rng.uniform(0.0, 1.0, n) for k in self.inputs}
+        p = {k: np.full(n, v) for k, v in self.params.items()}
+        out: dict[str, tuple[str, float, float]] = {}
+        with np.errstate(all="ignore"):
+            try:
+                base = self.output_values(x, u, p)
+            except ModelError:
+                base = {}
+            for o, y0 in base.items():
+                y0 = np.broadcast_to(np.asarray(y0, dtype=float), (n,))
+                moved = []
+                for s in [*self.states, *self.inputs]:
+                    xs, us = dict(x), dict(u)
+                    d = 1e-3 * (np.abs(x[s]) + 1.0) if s in x else 0.1 + 0.0 * u[s]
+                    if s in x:
+                        xs[s] = x[s] + d
+                    else:
+                        us[s] = u[s] + d
+                    try:
+                        y1 = np.asarray(self.output_values(xs, us, p)[o], dtype=float)
+                    except ModelError:
+                        moved = []
+                        break
+                    g = (np.broadcast_to(y1, (n,)) - y0) / d
+                    if np.any(np.abs(g) > 1e-12 * (np.abs(y0) + 1.0) / d):
+                        moved.append((s, g))
+                if len(moved) == 1 and moved[0][0] in x:
+                    s, g = moved[0]
+                    gain = float(np.median(g))
+                    off = y0 - gain * x[s]
+                    scale = abs(gain) * float(np.max(np.abs(x[s]))) + 1e-12
+                    if (
+                        np.allclose(g, gain, rtol=1e-5)
+                        and np.ptp(off) <= 1e-6 * scale
+                        and gain != 0.0
+                    ):
+                        out[o] = (s, gain, float(np.median(off)))
+        self._output_states = out
+        return out
+
+    def _check_outputs_fn(self, rows: list[dict[str, float]]) -> None:
+        """``outputs`` at the initial state: finite numbers, element-wise on a batch."""
+        where = _where(self.origin)
+        y = self.output_values(dict(self.initial), None, dict(self.params), 0.0)
+        for k, v in y.items():
+            try:
+                val = float(np.asarray(v, dtype=float))
+            except (TypeError, ValueError):
+                raise ModelError(
+                    f"{where}: outputs returned a non-scalar value for {k!r} at the "
+                    f"initial state with scalar inputs: {v!r}."
+                ) from None
+            if not math.isfinite(val):
+                raise ModelError(
+                    f"{where}: output {k!r} is {val} at the initial state "
+                    f"{self.initial} with all inputs 0; check divisions and ** of "
+                    "negative numbers, or set INITIAL."
+                )
+        xb, ub, pb = self._probe_batch(rows)
+        n = len(next(iter(pb.values()), np.zeros(3))) if pb else 3
+        with np.errstate(all="ignore"):
+            yb = self.output_values(xb, ub, pb, 0.0)
+        for k, v in yb.items():
+            shape = np.shape(v)
+            if shape not in ((), (n,)):
+                raise ModelError(
+                    f"{where}: with arrays of {n} members, outputs returned shape "
+                    f"{shape} for {k!r}; it must work element-wise (shape ({n},))."
+                )
 
     def _check_first_samples(self, rows: list[dict[str, float]]) -> None:
         """``rhs`` at the initial state with the data's first input samples, batched."""
@@ -505,6 +822,12 @@ def _model_from_namespace(
             }[key]
             raise ModelError(f"{where}: missing {key}; define it, e.g. `{hint}`.")
     rhs = ns["rhs"]
+    out_fn = ns.get("outputs")
+    if out_fn is not None and not callable(out_fn):
+        raise ModelError(
+            f"{where}: outputs must be a function outputs(t, x, u, p) returning a dict "
+            f"of output name -> value (the names of OUTPUTS); got {type(out_fn).__name__}."
+        )
     return OdeModel(
         ns["STATES"],
         ns.get("INPUTS", {}),
@@ -515,6 +838,8 @@ def _model_from_namespace(
         initial=ns.get("INITIAL"),
         name=name,
         origin=origin,
+        output_fn=None if out_fn is None else _exit_guard(out_fn, origin),
+        limits=ns.get("LIMITS"),
     ).check(data)
 
 

@@ -187,7 +187,7 @@ def _main():
     _thread.start_new_thread(_watch_parent, ())
     sys.path[:] = job["path"]
     origin = job["origin"]
-    stage, plan = "import", None
+    stage, plan, fn_name = "import", None, "rhs"
     _say("stage", stage)
     try:
         ns = {"__name__": "pdmkit_user_model", "__file__": origin}
@@ -197,8 +197,11 @@ def _main():
             rhs, x0, p, names, calls, used = plan
             stage = "rhs"
             _say("stage", stage)
-            for t, u in calls:
-                rhs(t, dict(x0), u, dict(p))
+            out = ns.get("outputs")
+            fns = [rhs] + ([out] if callable(out) and _n_args(out) == 4 else [])
+            for fn_name, f in zip(("rhs", "outputs"), fns):
+                for t, u in calls:
+                    f(t, dict(x0), u, dict(p))
             np = sys.modules.get("numpy")
             if np is not None:  # numpy is loaded anyway: pdmkit's batches too
                 stage = "arrays"
@@ -207,9 +210,18 @@ def _main():
                 if used:
                     u = {k: np.array([r[k] for r in used]) for k in names}
                     batches.append((len(used), used[0].get("time", 0.0), u))
-                for n, t, u in batches:
-                    xb = {k: np.full(n, v) for k, v in x0.items()}
-                    rhs(t, xb, u, {k: np.full(n, v) for k, v in p.items()})
+                for fn_name, f in zip(("rhs", "outputs"), fns):
+                    for n, t, u in batches:
+                        xb = {k: np.full(n, v) for k, v in x0.items()}
+                        pb = {k: np.full(n, v) for k, v in p.items()}
+                        try:
+                            f(t, xb, u, pb)
+                        except (TypeError, ValueError, ArithmeticError):
+                            # written for numbers: pdmkit calls it once per member
+                            for i in range(n):
+                                f(t, {k: float(v[i]) for k, v in xb.items()},
+                                  {k: float(v[i]) for k, v in u.items()},
+                                  {k: float(v[i]) for k, v in pb.items()})
     except SystemExit as exc:
         code = exc.code
         said = None if code is None or isinstance(code, int) else _text(code)
@@ -217,7 +229,7 @@ def _main():
         _say("exit", {"stage": stage, "code": said if said is not None else status,
                       "frame": _frame(exc, origin)})
     except BaseException as exc:
-        _say("raised", {"stage": stage, "type": type(exc).__name__,
+        _say("raised", {"stage": stage, "fn": fn_name, "type": type(exc).__name__,
                         "message": _text(exc), "frame": _frame(exc, origin)})
     else:
         _say("ok", {"called_rhs": plan is not None})
@@ -392,7 +404,9 @@ def _raise_reported_failure(where: str, what: str, kind: str, info: Any) -> None
                 f"{frame}."
             )
         raise ModelError(
-            f"{where}: rhs raised {info['type']}: {info['message']}{frame} while "
-            f"{what}. rhs may use only arithmetic, abs and ** on the dict values (they "
-            "can be numpy arrays or torch tensors)."
+            f"{where}: {info.get('fn', 'rhs')} raised {info['type']}: "
+            f"{info['message']}{frame} "
+            f"while {what}. rhs and outputs may use arithmetic, numpy's element-wise "
+            "functions, or math / if / max on plain numbers (docs/mismatch.md, 'The model "
+            "file')."
         )

@@ -167,10 +167,15 @@ def integrate_batch(
     P = {k: (v if isinstance(v, float | int) else xp.asarray(v)) for k, v in params.items()}
     # states are kept as lists of (B,) arrays: no stacking inside the RK4 stages
     Xl = [X[:, j] for j in range(nx)]
-    Zl = _initial_extra_states(effects, theta, extra, states, Xl, Useq, inputs, B, xp)
+    Zl = _initial_extra_states(
+        effects, theta, extra, states, Xl, Useq, inputs, B, xp, (model, P, float(t[0]))
+    )
     f = _augmented_rhs(model, effects, theta, M, where, extra, P, B, len(Zl), xp)
-    rec_x, rec_z = _rk4_records(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold)
-    Yt, Xt = _batch_outputs(model, effects, theta, where, extra, rec_x, rec_z, t_out, xp)
+    stops = _stops(model, xp)
+    rec_x, rec_z = _rk4_records(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold, stops)
+    Yt, Xt = _batch_outputs(
+        model, effects, theta, where, extra, rec_x, rec_z, t_out, xp, (Useq, P, origin)
+    )
     if segments is not None:  # rows of pieces back to one row per member
         Yt = Yt.reshape(B // K, K * N, Yt.shape[2])
         Xt = Xt.reshape(B // K, K * N, nx)
@@ -294,13 +299,30 @@ def _extra_state_columns(effects) -> list[tuple[int, int]]:
     return extra
 
 
-def _initial_extra_states(effects, theta, extra, states, Xl, Useq, inputs, B, xp) -> list:
+def _with_outputs(model, effects, extra, P):
+    """``f(t, x, u) -> x`` with the outputs' values added, where sensors need them.
+
+    A sensor effect with a state of its own (a lag) follows its output; when the
+    output is computed by ``outputs(t, x, u, p)`` its value is added to the states.
+    """
+    needs = model.output_fn is not None and any(
+        effects[i].candidate.attach == "output" for i, _ in extra
+    )
+    if not needs:
+        return lambda t, x, u: x
+    return lambda t, x, u: {**x, **model.output_values(x, u, P, t)}
+
+
+def _initial_extra_states(effects, theta, extra, states, Xl, Useq, inputs, B, xp, mp):
     """The effects' own states at the start, ``(B,)`` each (hysteresis, lags)."""
     Zl: list = []
     if extra:
-        x0d = dict(zip(states, Xl, strict=True))
+        model, P, t0 = mp
         Uk = Useq[:, 0, :] if inputs else None
         u0d = {n: Uk[:, j] for j, n in enumerate(inputs)} if inputs else {}
+        x0d = _with_outputs(model, effects, extra, P)(
+            t0, dict(zip(states, Xl, strict=True)), u0d
+        )
         for i, _o in extra:
             e = effects[i]
             Zl += [
@@ -339,6 +361,7 @@ def _augmented_rhs(model, effects, theta, M, where, extra, P, B, nz, xp):
     deriv = [i for i, e in enumerate(effects) if e.candidate.attach in DERIVATIVE_ATTACH]
     block, th_block = _derivative_blocks(effects, theta, M, deriv, xp)
     overrides = [(i, o) for i, o in extra if effects[i].candidate.input_override]
+    seen = _with_outputs(model, effects, extra, P)
 
     def f(tt, Xl, Zl, u_raw):
         x = dict(zip(states, Xl, strict=True))
@@ -386,17 +409,49 @@ def _augmented_rhs(model, effects, theta, M, where, extra, P, B, nz, xp):
         if not nz:
             return DX, ()
         DZ = []
+        xo = seen(tt, x, u)
         for i, o in extra:
             e = effects[i]
             zz = Zl[o : o + e.candidate.n_extra]
-            DZ += e.candidate.extra_derivs(xp, e, theta[i], x, u_raw, zz)
+            DZ += e.candidate.extra_derivs(xp, e, theta[i], xo, u_raw, zz)
         return DX, DZ
 
     return f
 
 
-def _rk4_records(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold) -> tuple[list, list]:
+def _stops(model, xp):
+    """``stop(Xl) -> Xl``: the model's hard stops (``LIMITS``) applied after a step.
+
+    A limited state is clipped to its range; its velocity state, when named, is set to
+    zero where it would carry the state further out (a perfectly inelastic stop).
+    None without limits.
+    """
+    if not model.limits:
+        return None
+    idx = {s: j for j, s in enumerate(model.state_names)}
+    spec = [
+        (idx[s], lo, hi, None if v is None else idx[v])
+        for s, (lo, hi, v) in model.limits.items()
+    ]
+
+    def stop(Xl):
+        Xl = list(Xl)
+        for j, lo, hi, jv in spec:
+            x = Xl[j]
+            if jv is not None:
+                v = Xl[jv]
+                out = ((x >= hi) & (v > 0)) | ((x <= lo) & (v < 0))
+                Xl[jv] = xp.where(out, 0.0 * v, v)
+            Xl[j] = xp.clip(x, lo, hi)
+        return Xl
+
+    return stop
+
+
+def _rk4_records(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold, stop=None):
     """Classical RK4, ``n_sub`` steps per sample; the states at every sample.
+
+    ``stop`` (the model's hard stops, :func:`_stops`) is applied after every step.
 
     Returns the lists of ``X`` (and ``Z``, empty without own states) per sample.
     """
@@ -436,6 +491,8 @@ def _rk4_records(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold) -> tuple[list, l
                 x + h6 * (a + 2.0 * (b + c) + d)
                 for x, a, b, c, d in zip(Xl, k1, k2, k3, k4, strict=True)
             ]
+            if stop is not None:
+                Xl = stop(Xl)
             if nz:
                 Zl = [
                     z + h6 * (a + 2.0 * (b + c) + d)
@@ -444,16 +501,21 @@ def _rk4_records(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold) -> tuple[list, l
     return rec_x, rec_z
 
 
-def _batch_outputs(model, effects, theta, where, extra, rec_x, rec_z, t_out, xp):
-    """Stack the records to ``(B, N, ...)`` and apply the output effects (sensors).
+def _batch_outputs(model, effects, theta, where, extra, rec_x, rec_z, t_out, xp, given):
+    """Stack the records to ``(B, N, ...)``, evaluate the outputs, apply sensor effects.
 
+    ``given = (Useq (B, N, nu), params, origin)`` feeds the model's ``outputs``
+    function, when it has one (otherwise the outputs are measured states).
     Returns ``(Y (B, N, n_out), X (B, N, nx))``.
     """
     states = model.state_names
     Xt = xp.stack([xp.stack(xs, 1) for xs in rec_x], 1)  # (B, N, nx)
     Zt = xp.stack([xp.stack(zs, 1) for zs in rec_z], 1) if rec_z else None  # (B, N, m)
     outs = model.outputs
-    Y = {o: Xt[:, :, states.index(o)] for o in outs}
+    if model.output_fn is None:
+        Y = {o: Xt[:, :, states.index(o)] for o in outs}
+    else:
+        Y = _output_equations(model, effects, where, extra, Xt, Zt, t_out, xp, given)
     zoff = dict(extra)
     for i, e in enumerate(effects):
         c = e.candidate
@@ -464,6 +526,36 @@ def _batch_outputs(model, effects, theta, where, extra, rec_x, rec_z, t_out, xp)
                 i, c.output(xp, e, theta[i], t_out, Y[e.target], zz), Y[e.target]
             )
     return xp.stack([Y[o] for o in outs], 2), Xt
+
+
+def _output_equations(model, effects, where, extra, Xt, Zt, t_out, xp, given) -> dict:
+    """The model's ``outputs(t, x, u, p)`` along the records, ``(B, N)`` each.
+
+    The inputs are those the states saw: after input transforms (a dead time) and
+    with an actuator lag's own state in place of its command.
+    """
+    Useq, P, origin = given
+    B, N = int(Xt.shape[0]), int(Xt.shape[1])
+    x = {s: Xt[:, :, j] for j, s in enumerate(model.state_names)}
+    u = (
+        {n: Useq[:, :, j] for j, n in enumerate(model.input_names)}
+        if Useq is not None
+        else {}
+    )
+    for i, o in extra:
+        e = effects[i]
+        if e.candidate.input_override:
+            u[e.target] = where(i, Zt[:, :, o], u[e.target])
+    p = {
+        k: (
+            v
+            if isinstance(v, float | int) or len(getattr(v, "shape", ())) == 0
+            else v.reshape(B, 1)
+        )
+        for k, v in P.items()
+    }
+    y = model.output_values(x, u, p, t_out + origin)
+    return {o: xp.bcast(xp.asarray(v) * 1.0, (B, N)) for o, v in y.items()}
 
 
 # ---------------------------------------------------------------------------- public

@@ -99,14 +99,17 @@ def test_rhs_exception_shows_the_offending_line(tmp_path):
         load_model_file(path)
 
 
-def test_rhs_that_fails_on_arrays_is_rejected(tmp_path):
+def test_rhs_written_for_numbers_is_evaluated_per_sample(tmp_path):
+    # math.sin takes one number: pdmkit calls it once per member instead of refusing it
     text = (
         GOOD.replace("import", "")
         .replace("def rhs(t, x, u, p):", "import math\ndef rhs(t, x, u, p):")
         .replace('x["v"], "v"', 'math.sin(x["v"]), "v"')
     )
-    with pytest.raises(ModelError, match="rhs raised TypeError"):
-        load_model_file(write(tmp_path, text))
+    model = load_model_file(write(tmp_path, text))
+    assert model.evaluation == "per-sample"
+    d = model.derivatives({"x": np.array([0.1, 0.2]), "v": np.array([0.3, -0.4])})
+    np.testing.assert_allclose(d["x"], np.sin([0.3, -0.4]), rtol=1e-15)
 
 
 def test_missing_and_wrong_suffix_files(tmp_path):
