@@ -31,7 +31,19 @@ def _cmd_mismatch(args: argparse.Namespace) -> int:
         model_timeout=args.model_timeout,
         input_hold=args.input_hold,
         max_seconds=args.max_seconds,
+        reference_path=args.reference,
     )
+    if args.reference is not None:
+        changed = summary["changed_parameters"]
+        said = (
+            ", ".join(
+                f"{c['parameter']} {c['reference']:.4g} -> {c['value']:.4g}"
+                for c in changed
+            )
+            or "no free parameter moved significantly"
+        )
+        say(f"diagnosis: {summary['verdict']} ({said}). See {args.out}/report.html")
+        return 0
     verdict = summary["verdict"]
     fit = summary["fit"]
     target = f" on {verdict['target']}" if verdict["target"] else ""
@@ -159,6 +171,14 @@ def _add_mismatch_parser(sub: argparse._SubParsersAction) -> None:
         "--validation",
         type=Path,
         help="second recording for validation (default: the last third of DATA)",
+    )
+    p.add_argument(
+        "--reference",
+        type=Path,
+        metavar="HEALTHY",
+        help="diagnosis by mismatch: fit the model's free parameters on this healthy "
+        "recording, then report which must change to explain DATA "
+        "(changed_parameters in the JSON)",
     )
     p.add_argument(
         "--effects", help="comma-separated candidate effect ids to try (default: all)"

@@ -19,7 +19,12 @@ from pdmkit._outputs import OutputRun, to_jsonable
 from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError
 from pdmkit.experiments._report import Report
-from pdmkit.models.mismatch import MismatchResult, discover_mismatch
+from pdmkit.models.mismatch import (
+    ChangeResult,
+    MismatchResult,
+    diagnose_change,
+    discover_mismatch,
+)
 from pdmkit.models.ode import MODEL_TIMEOUT, load_model_file
 
 __all__ = ["build_mismatch_report", "mismatch_summary", "run_mismatch"]
@@ -256,6 +261,7 @@ def run_mismatch(
     model_timeout: float | None = MODEL_TIMEOUT,
     input_hold: str = "auto",
     max_seconds: float | None = None,
+    reference_path: str | os.PathLike | None = None,
 ) -> dict:
     """Explain the mismatch between a model file and a recording; write JSON and HTML.
 
@@ -291,6 +297,13 @@ def run_mismatch(
     max_seconds : float, optional
         Time budget of the discovery: when it runs out the best verdict so far is
         reported, marked so (see :func:`pdmkit.models.mismatch.discover_mismatch`).
+    reference_path : path, optional
+        Diagnosis by mismatch: a recording of the machine in its reference (healthy)
+        condition. The model's free parameters are fitted on it, then pdmkit finds
+        which must move to explain ``data`` and writes them as
+        ``changed_parameters`` (see :func:`pdmkit.models.mismatch.diagnose_change`);
+        ``validation_path``, ``effects``, ``input_hold`` and ``max_seconds`` do not
+        apply.
 
     Returns
     -------
@@ -319,6 +332,10 @@ def run_mismatch(
     >>> summary["verdict"]["effect"], sorted(p.name for p in (folder / "out").iterdir())
     ('none', ['.pdmkit', 'candidates.csv', 'report.html', 'summary.json'])
     """
+    if reference_path is not None:
+        return _run_diagnosis(
+            model_path, data_path, reference_path, out_dir, json_path, model_timeout
+        )
     inputs = [model_path, data_path, validation_path]
     with OutputRun(out_dir, "mismatch", inputs=inputs, json_path=json_path) as run:
         result, summary, title = _discover(
@@ -359,3 +376,110 @@ def _discover(
     )
     title = f"Mismatch discovery: {Path(model_path).name} vs {Path(data_path).name}"
     return result, summary, title
+
+
+# --------------------------------------------------------------------------- diagnosis
+def _diagnosis_figure(result: ChangeResult, j: int, output: str):
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 1, figsize=(10, 3.5))
+    t = result.fits["time"]
+    ax.plot(t, result.fits["measured"][:, j], color="k", lw=0.8, label="measured")
+    ax.plot(
+        t, result.fits["reference"][:, j], color="C0", lw=1.0, label="reference parameters"
+    )
+    ax.plot(
+        t,
+        result.fits["refitted"][:, j],
+        color="C3",
+        lw=1.0,
+        label="changed parameters refitted",
+    )
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(output)
+    ax.legend(loc="best", fontsize="small")
+    return fig
+
+
+def _diagnosis_text(summary: dict) -> str:
+    fit = summary["fit"]
+    head = (
+        f"RMSE on the recording with the reference parameters "
+        f"{fit['rmse_reference_params']:.4g}, with every free parameter refitted "
+        f"{fit['rmse_refitted']:.4g} (the reference fit on its own recording: "
+        f"{fit['rmse_reference']:.4g})."
+    )
+    if summary["verdict"] == "no change":
+        return f"Verdict: no change. No free parameter must move significantly. {head}"
+    parts = [
+        f"{c['parameter']} {c['reference']:.4g} -> {c['value']:.4g} "
+        f"(95 % interval {c['interval'][0]:.4g} to {c['interval'][1]:.4g}; explains "
+        f"{100 * c['share']:.0f} % of the mismatch alone)"
+        for c in summary["changed_parameters"]
+    ]
+    return f"Verdict: changed. {'; '.join(parts)}. {head}"
+
+
+def _run_diagnosis(model_path, data_path, reference_path, out_dir, json_path, timeout):
+    inputs = [model_path, data_path, reference_path]
+    with OutputRun(out_dir, "mismatch", inputs=inputs, json_path=json_path) as run:
+        reference = _read(reference_path, "reference")
+        data = _read(data_path, "data")
+        model = load_model_file(model_path, data=reference, model_timeout=timeout)
+        result = diagnose_change(model, data, reference)
+        d = result.to_dict()
+        summary = to_jsonable(
+            {
+                "mode": "diagnosis",
+                "verdict": d["verdict"],
+                "changed_parameters": d["changed_parameters"],
+                "parameters": d["parameters"],
+                "fit": {
+                    k: d[k]
+                    for k in (
+                        "rmse_reference_params",
+                        "rmse_refitted",
+                        "rmse_reference",
+                        "decimated",
+                        "outputs",
+                    )
+                },
+                "sources": {
+                    "model": os.fspath(model_path),
+                    "data": os.fspath(data_path),
+                    "reference": os.fspath(reference_path),
+                },
+            }
+        )
+        title = (
+            f"Diagnosis by mismatch: {Path(data_path).name} against "
+            f"{Path(reference_path).name}"
+        )
+        rep = Report(title)
+        rep.add_heading("Verdict")
+        rep.add_text(_diagnosis_text(summary))
+        rep.add_text(
+            f"Model {Path(model_path).name}; its free parameters were fitted on the "
+            "reference recording, then refitted on this one: all together, and each "
+            "alone (the share of the mismatch it explains). A parameter has changed "
+            "when it explains a large share alone and leaves both fits' 95 % intervals."
+        )
+        rep.add_heading("Both fits")
+        for j, o in enumerate(result.outputs):
+            rep.add_figure(
+                _diagnosis_figure(result, j, o),
+                caption=f"{o}: measured (black), the reference parameters (blue), every "
+                "free parameter refitted (red).",
+            )
+        rep.add_heading("Every free parameter")
+        rep.add_table(
+            result.to_pandas(),
+            caption="reference: fitted on the reference recording; value: refitted "
+            "alone on this one, with its 95 % interval (low, high); share: the part of "
+            "the mismatch it explains alone.",
+        )
+        run.add_csv("parameters.csv", result.to_pandas(), index=False)
+        run.add_report("report.html", rep)
+        run.add_json("summary.json", summary)
+        run.commit()
+    return summary

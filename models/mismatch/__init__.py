@@ -60,6 +60,7 @@ from pdmkit.models.mismatch._locate import (
     residual_windows,
 )
 from pdmkit.models.mismatch._recording import Recording, make_recording
+from pdmkit.models.mismatch._reference import ChangeResult, diagnose_change
 from pdmkit.models.mismatch._sampling import choose_decimation, choose_pieces, decimate
 from pdmkit.models.mismatch._sparse import (
     SparseTerms,
@@ -72,6 +73,7 @@ from pdmkit.models.mismatch._sparse import (
 __all__ = [
     "CANDIDATE_IDS",
     "Candidate",
+    "ChangeResult",
     "ConcealedCase",
     "Effect",
     "FitResult",
@@ -87,6 +89,7 @@ __all__ = [
     "choose_input_hold",
     "choose_pieces",
     "decimate",
+    "diagnose_change",
     "discover_mismatch",
     "dm_test",
     "example_result",

@@ -1,0 +1,378 @@
+"""Diagnosis by mismatch: which parameters must move to explain a faulty recording.
+
+A model fitted on a healthy *reference* recording is the machine as it was. Given a
+recording of the machine now, :func:`diagnose_change` asks which of the model's free
+parameters must change to follow it (a throttle closed further: that path's valve
+coefficient drops; a damper set harder: its damping rises), and whether any must.
+
+The method, for a model with free parameters ``theta``:
+
+1. Fit ``theta`` and the initial state on the reference (simulation error,
+   Levenberg-Marquardt); its covariance from the Jacobian, inflated for the
+   residual's autocorrelation (an AR(1) factor ``(1 + rho) / (1 - rho)``: the residual
+   of a real recording is never white, and an interval from white-noise theory would
+   call every wiggle a change).
+2. On the new recording: the reference parameters with only the initial state
+   refitted (cost ``C0``); every free parameter refitted (``C1``); and each free
+   parameter refitted *alone* (``C_j``): ``1 - C_j / C0`` is the share of the mismatch
+   that moving parameter ``j`` alone explains.
+3. A parameter has changed when moving it alone explains at least ``min_share`` of the
+   mismatch and its refitted value lies outside the combined interval of both fits.
+   The whole recording has changed only when refitting all parameters lowers the RMSE
+   by at least ``min_gain``; otherwise the verdict is "no change". Changed
+   parameters are listed by the share they explain, most first.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from pdmkit.errors import ModelError
+from pdmkit.models.mismatch._fit import _initial_values, measured_scales
+from pdmkit.models.mismatch._fit_problem import _lm, _make_jobs, _Problem
+from pdmkit.models.mismatch._recording import Recording, make_recording
+from pdmkit.models.mismatch._sampling import _choose_n_sub, choose_decimation, decimate
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from pdmkit.models.ode import OdeModel
+
+__all__ = ["ChangeResult", "diagnose_change"]
+
+#: two-sided normal quantile of the parameter intervals (95 %)
+_Z = 1.959963984540054
+
+
+@dataclasses.dataclass
+class ChangeResult:
+    """What moved between a reference recording and a new one.
+
+    Attributes
+    ----------
+    verdict : str
+        ``"changed"`` or ``"no change"``.
+    changed_parameters : list of dict
+        ``{"parameter", "reference", "value", "interval", "share"}``, most significant
+        first: the reference fit's value, the value refitted alone on the new
+        recording, its 95 % interval, the share of the mismatch it explains alone.
+    parameters : list of dict
+        The same for every free parameter (changed or not), with ``"changed"``.
+    rmse_reference_params : float
+        RMSE on the new recording with the reference parameters (initial state refitted).
+    rmse_refitted : float
+        RMSE on the new recording with every free parameter refitted.
+    rmse_reference : float
+        RMSE of the reference fit on its own recording.
+    decimated : int
+        Samples merged into one before fitting.
+    outputs : list of str
+        The fitted outputs (RMSE in their units when there is one, weighted otherwise).
+    fits : dict
+        Simulated outputs ``(N, n_out)`` on the new recording: ``"reference"`` (the
+        reference parameters) and ``"refitted"``; ``"time"`` and ``"measured"``.
+    """
+
+    verdict: str
+    changed_parameters: list[dict]
+    parameters: list[dict]
+    rmse_reference_params: float
+    rmse_refitted: float
+    rmse_reference: float
+    decimated: int
+    outputs: list[str]
+    fits: dict[str, np.ndarray] = dataclasses.field(repr=False, default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON-ready summary (without the simulated traces)."""
+        return {
+            "verdict": self.verdict,
+            "changed_parameters": self.changed_parameters,
+            "parameters": self.parameters,
+            "rmse_reference_params": self.rmse_reference_params,
+            "rmse_refitted": self.rmse_refitted,
+            "rmse_reference": self.rmse_reference,
+            "decimated": self.decimated,
+            "outputs": self.outputs,
+        }
+
+    def to_pandas(self) -> pd.DataFrame:
+        """One row per free parameter: reference, refitted value, interval, share."""
+        import pandas as pd
+
+        rows = [
+            {
+                **{k: v for k, v in p.items() if k != "interval"},
+                "low": p["interval"][0],
+                "high": p["interval"][1],
+            }
+            for p in self.parameters
+        ]
+        return pd.DataFrame(rows)
+
+    def plot(self, ax=None):
+        """The first output measured, with the reference and the refitted parameters."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(8, 3))
+        t = self.fits["time"]
+        ax.plot(t, self.fits["measured"][:, 0], "k", lw=1, label="measured")
+        ax.plot(t, self.fits["reference"][:, 0], lw=1, label="reference parameters")
+        ax.plot(t, self.fits["refitted"][:, 0], lw=1, label="refitted")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel(self.outputs[0])
+        ax.legend(loc="best", fontsize=8)
+        return ax
+
+
+def _model_with(model: OdeModel, free: Sequence[str], params: dict[str, float]):
+    """A copy of ``model`` with other free parameters and nominal values."""
+    from pdmkit.models.ode import OdeModel
+
+    outputs = model.output_kinds if model.output_fn is not None else model.outputs
+    return OdeModel(
+        model.states,
+        model.inputs,
+        outputs,
+        {**model.params, **params},
+        model.rhs,
+        free=list(free),
+        initial=model.initial,
+        name=model.name,
+        origin=model.origin,
+        output_fn=model.output_fn,
+        limits=model.limits,
+    )
+
+
+@dataclasses.dataclass
+class _Fit:
+    values: dict[str, float]
+    cost: float
+    rmse: float
+    y: np.ndarray
+    cov: np.ndarray | None  # of the free parameters in the optimiser's space
+    names: list[str]
+    log: np.ndarray
+
+
+def _covariance(job, problem: _Problem) -> np.ndarray | None:
+    """Covariance of the job's parameters (optimiser space), the initial state profiled.
+
+    A finite-difference Jacobian at the fitted point (one batch: the point, each
+    parameter and each initial state nudged); ``s^2 (J^T J)^-1`` with the initial
+    state eliminated (Schur complement), inflated by the AR(1) factor of the residual.
+    """
+    n = job.layout.n
+    if n == 0:
+        return None
+    vals = job.values()
+    x0 = np.asarray(job.x0, dtype=float)
+    rows = [(job, vals, x0)]
+    steps = []
+    for name, log in zip(job.layout.names, job.layout.log, strict=True):
+        v = dict(vals)
+        h = 1e-6 if log else 1e-6 * max(abs(vals[name]), 1e-12)
+        v[name] = vals[name] * math.exp(h) if log else vals[name] + h
+        rows.append((job, v, x0))
+        steps.append(h)
+    nx = x0.shape[1]
+    for j in range(nx):
+        x1 = x0.copy()
+        h = 1e-6 * max(float(job.x0_scale[j]), 1e-12)
+        x1[:, j] += h
+        rows.append((job, vals, x1))
+        steps.append(h)
+    R = problem.residuals(problem.simulate(rows))  # (1 + n + nx, m)
+    r = R[0]
+    J = ((R[1:] - r[None, :]) / np.asarray(steps)[:, None]).T  # (m, n + nx)
+    ok = np.isfinite(r) & np.all(np.isfinite(J), axis=1)
+    if ok.sum() <= n + nx + 2:
+        return None
+    r, J = r[ok], J[ok]
+    Jp, Jx = J[:, :n], J[:, n:]
+    A = Jp.T @ Jp
+    if job.fit_x0:
+        G = Jx.T @ Jx + 1e-12 * np.trace(Jx.T @ Jx) * np.eye(nx)
+        A = A - Jp.T @ Jx @ np.linalg.solve(G, Jx.T @ Jp)
+    s2 = float(r @ r) / max(r.size - n - nx, 1)
+    rho = float(np.clip(np.corrcoef(r[:-1], r[1:])[0, 1], 0.0, 0.999))
+    if not math.isfinite(rho):
+        rho = 0.0
+    return np.linalg.pinv(A) * s2 * (1 + rho) / (1 - rho)
+
+
+def _fit(model, rec: Recording, start: dict[str, float], max_iter: int) -> _Fit:
+    """Fit the model's free parameters and initial state on ``rec`` from ``start``."""
+    y = rec.y(model)
+    w = 1.0 / np.maximum(np.std(y, axis=0), 1e-12)
+    n_sub = _choose_n_sub(model, rec, start)
+    problem = _Problem(model, rec, rec.n, w, n_sub)
+    jobs = _make_jobs(model, (), None, [{}], start, measured_scales(model, rec))
+    _lm(problem, jobs, max_iter, budgeted=False)
+    job = jobs[0]
+    vals = job.values()
+    Y = problem.simulate([(job, vals, job.x0)], n=rec.n)[0]
+    err = (Y - y) if y.shape[1] == 1 else (Y - y) * w
+    return _Fit(
+        values=vals,
+        cost=float(job.cost),
+        rmse=float(np.sqrt(np.mean(err**2))),
+        y=Y,
+        cov=_covariance(job, problem),
+        names=list(job.layout.names),
+        log=np.asarray(job.layout.log, dtype=bool),
+    )
+
+
+def _interval(fit: _Fit, name: str, value: float) -> tuple[float, float, float]:
+    """``(low, high, sd)`` of a parameter, sd in the optimiser's space."""
+    if fit.cov is None or f"p:{name}" not in fit.names:
+        return (math.nan, math.nan, math.nan)
+    i = fit.names.index(f"p:{name}")
+    sd = math.sqrt(max(float(fit.cov[i, i]), 0.0))
+    if fit.log[i]:
+        return (value * math.exp(-_Z * sd), value * math.exp(_Z * sd), sd)
+    return (value - _Z * sd, value + _Z * sd, sd)
+
+
+def diagnose_change(
+    model: OdeModel,
+    data: Any,
+    reference: Any,
+    *,
+    min_gain: float = 0.2,
+    min_share: float = 0.2,
+    max_iter: int = 60,
+    decimation: int | None = None,
+) -> ChangeResult:
+    r"""Which free parameters must move from a healthy reference to explain ``data``.
+
+    Parameters
+    ----------
+    model : OdeModel
+        The model; its ``FREE`` parameters are the ones that may change.
+    data : DataFrame, mapping or Recording
+        The recording to diagnose (``time``, inputs, outputs).
+    reference : DataFrame, mapping or Recording
+        A recording of the machine in its reference (healthy) condition.
+    min_gain : float, default 0.2
+        Relative RMSE gain that refitting every free parameter on ``data`` must make
+        over the reference parameters for anything to count as changed.
+    min_share : float, default 0.2
+        Share of the mismatch a parameter must explain alone to be listed as changed.
+    max_iter : int, default 60
+        Levenberg-Marquardt iterations per fit.
+    decimation : int, optional
+        Samples merged into one before fitting (default: chosen from the model's
+        fastest mode and the inputs, as in :func:`discover_mismatch`).
+
+    Returns
+    -------
+    ChangeResult
+
+    Examples
+    --------
+    A tank whose outlet was throttled: its outflow coefficient ``a`` dropped by 30 %.
+
+    >>> import numpy as np
+    >>> from pdmkit.models.ode import load_model_source, simulate_ode
+    >>> tank = load_model_source(
+    ...     'import numpy as np\nSTATES = {"h": "level"}\nINPUTS = {"q": "flow"}\n'
+    ...     'OUTPUTS = ["h"]\nPARAMS = {"a": 0.5, "A": 2.0}\nFREE = ["a", "A"]\n'
+    ...     'INITIAL = {"h": 0.5}\n'
+    ...     'def rhs(t, x, u, p):\n'
+    ...     '    return {"h": (u["q"] - p["a"] * np.sqrt(np.abs(x["h"]))) / p["A"]}\n')
+    >>> t = np.arange(400) * 0.5
+    >>> q = np.where((t // 40) % 2 == 0, 0.6, 0.2)
+    >>> rng = np.random.default_rng(0)
+    >>> def record(a):
+    ...     h = simulate_ode(tank, t, {"q": q}, params={"a": a}, n_sub=2).outputs["h"][0]
+    ...     return {"time": t, "q": q, "h": h + rng.normal(0, 0.002, t.size)}
+    >>> res = diagnose_change(tank, record(0.35), record(0.5))
+    >>> res.verdict, res.changed_parameters[0]["parameter"]
+    ('changed', 'a')
+    >>> round(res.changed_parameters[0]["value"], 2)
+    0.35
+    >>> diagnose_change(tank, record(0.5), record(0.5)).verdict
+    'no change'
+    """
+    if not model.free:
+        raise ModelError(
+            f"{model.name}: diagnosis by mismatch needs free parameters (FREE in the "
+            "model file): the parameters that may have changed."
+        )
+    rec_ref = (
+        reference
+        if isinstance(reference, Recording)
+        else make_recording(model, reference, "reference")
+    )
+    rec = data if isinstance(data, Recording) else make_recording(model, data, "data")
+    if decimation is None:
+        decimation = choose_decimation(model, rec_ref, _initial_values(model, rec_ref), 1)
+    if decimation > 1:
+        rec_ref, rec = decimate(rec_ref, decimation), decimate(rec, decimation)
+    ref = _fit(model, rec_ref, _initial_values(model, rec_ref), max_iter)
+    ref_params = {k[2:]: v for k, v in ref.values.items() if k.startswith("p:")}
+    start = {**_initial_values(model, rec), **{f"p:{k}": v for k, v in ref_params.items()}}
+    frozen = _model_with(model, [], ref_params)
+    same = _fit(frozen, rec, start, max_iter)
+    full = _fit(_model_with(model, model.free, ref_params), rec, start, max_iter)
+    rows = []
+    for name in model.free:
+        alone = _fit(_model_with(model, [name], ref_params), rec, start, max_iter)
+        share = 1.0 - alone.cost / same.cost if same.cost > 0 else 0.0
+        value = alone.values[f"p:{name}"]
+        r_lo, r_hi, r_sd = _interval(ref, name, ref_params[name])
+        lo, hi, sd = _interval(alone, name, value)
+        log = bool(ref.log[ref.names.index(f"p:{name}")])
+        if log and value * ref_params[name] > 0:
+            dist = abs(math.log(value / ref_params[name]))
+        else:
+            dist = abs(value - ref_params[name])
+        sd_both = math.hypot(r_sd, sd)
+        outside = bool(math.isfinite(sd_both) and dist > _Z * sd_both)
+        rows.append(
+            {
+                "parameter": name,
+                "reference": ref_params[name],
+                "value": value,
+                "interval": [lo, hi],
+                "reference_interval": [r_lo, r_hi],
+                "share": share,
+                "changed": False,
+                "_outside": outside,
+            }
+        )
+    gain = 1.0 - full.rmse / same.rmse if same.rmse > 0 else 0.0
+    for r in rows:
+        r["changed"] = bool(gain >= min_gain and r["share"] >= min_share and r["_outside"])
+        del r["_outside"]
+    rows.sort(key=lambda r: -r["share"])
+    changed = [
+        {k: r[k] for k in ("parameter", "reference", "value", "interval", "share")}
+        for r in rows
+        if r["changed"]
+    ]
+    return ChangeResult(
+        verdict="changed" if changed else "no change",
+        changed_parameters=changed,
+        parameters=rows,
+        rmse_reference_params=same.rmse,
+        rmse_refitted=full.rmse,
+        rmse_reference=ref.rmse,
+        decimated=int(decimation),
+        outputs=list(model.outputs),
+        fits={
+            "time": rec.time,
+            "measured": rec.y(model),
+            "reference": same.y,
+            "refitted": full.y,
+        },
+    )
