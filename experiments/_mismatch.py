@@ -74,8 +74,9 @@ def _verdict_text(summary: dict) -> str:
             f"Verdict: none. {v['physics']} Validation RMSE of the re-fitted nominal "
             f"model: {r0:.4g}."
         )
+    on = f" on {v['target']}" if v.get("target") else ""
     text = (
-        f"Verdict: {v['effect']} on {v['target']}. {v['physics']} Validation RMSE "
+        f"Verdict: {v['effect']}{on}. {v['physics']} Validation RMSE "
         f"{r0:.4g} (nominal, re-fitted) -> {r1:.4g} (augmented), "
         f"{100 * (1 - r1 / r0):.1f} % lower."
     )
@@ -133,7 +134,13 @@ def _how_fitted(fit: dict) -> str:
     """What pdmkit did to the recording before fitting, in a sentence."""
     said = [
         f"Inputs between samples: {'held' if fit.get('input_hold') == 'zoh' else 'linear'}"
-        f" ({fit.get('input_hold')}); {fit.get('n_sub')} RK4 steps per sample."
+        f" ({fit.get('input_hold')}); "
+        + (
+            "stiff model: integrated by ROS2 (linearly implicit), steps halved where "
+            "its error estimate asks."
+            if fit.get("integrator") == "ros2"
+            else f"{fit.get('n_sub')} RK4 steps per sample."
+        )
     ]
     if (fit.get("decimated") or 1) > 1:
         said.append(

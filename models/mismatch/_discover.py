@@ -62,6 +62,7 @@ from pdmkit.models.mismatch._sampling import (
     _choose_n_sub,
     _nominal_scales,
     choose_decimation,
+    choose_integrator,
     choose_pieces,
     decimate,
 )
@@ -362,8 +363,11 @@ class _Setup:
     pieces: tuple | None
 
 
-def _prepare(model, data, validation, *, data_name, validation_name, input_hold) -> _Setup:
-    """Recordings, input hold, decimation, training part, weights and pieces."""
+def _prepare(model, data, validation, *, data_name, validation_name, input_hold):
+    """The model as fitted (its integrator chosen) and the :class:`_Setup`.
+
+    The setup: recordings, input hold, decimation, training part, weights and pieces.
+    """
     rec = data if isinstance(data, Recording) else make_recording(model, data, data_name)
     rec_val = None
     if validation is not None:
@@ -386,7 +390,9 @@ def _prepare(model, data, validation, *, data_name, validation_name, input_hold)
     rec = dataclasses.replace(rec, hold=hold)
     if rec_val is not None:
         rec_val = dataclasses.replace(rec_val, hold=hold)
-    # an oversampled record is decimated first (the model and the inputs say how far)
+    # a stiff model is integrated with ROS2; an oversampled record is decimated first
+    # (the model and the inputs say how far)
+    model = choose_integrator(model, rec, _initial_values(model, rec))
     factor = choose_decimation(model, rec, _initial_values(model, rec), 1)
     if factor > 1:
         rec = decimate(rec, factor)
@@ -401,7 +407,7 @@ def _prepare(model, data, validation, *, data_name, validation_name, input_hold)
     pieces = choose_pieces(model, rec, n_fit, values0, n_sub)
     if pieces is not None and rec_val is None:  # validate on the tail, restarted
         rec_val = part(rec, n_fit)
-    return _Setup(
+    return model, _Setup(
         rec, rec_val, hold, factor, n_fit, y_all, w, values0, n_sub, x_scale, pieces
     )
 
@@ -637,7 +643,7 @@ def _single_effects(f: _Fits, s: _Setup, nominal, ranked, kept, n_sub_of, o: _Op
 def _discover(model, data, validation, stages: _Stages, o: _Options) -> MismatchResult:
     """:func:`discover_mismatch`'s steps (arguments checked there, budget set)."""
     t = {"start": stages.start}
-    s = _prepare(
+    model, s = _prepare(
         model,
         data,
         validation,

@@ -26,7 +26,11 @@ from pdmkit.models.mismatch._fit_problem import (
     _Problem,
 )
 from pdmkit.models.mismatch._recording import Recording, make_recording, state_reading
-from pdmkit.models.mismatch._sampling import _choose_n_sub, _nominal_scales
+from pdmkit.models.mismatch._sampling import (
+    _choose_n_sub,
+    _nominal_scales,
+    choose_integrator,
+)
 
 if TYPE_CHECKING:
     from pdmkit.models.ode import OdeModel
@@ -171,6 +175,7 @@ def fit_model(
     values = _initial_values(model, rec)
     if start:
         values.update(start)
+    model = choose_integrator(model, rec, values)
     if n_sub is None:
         n_sub = _choose_n_sub(model, rec, values)
     if effects and scales is None:

@@ -36,7 +36,12 @@ from pdmkit.errors import ModelError
 from pdmkit.models.mismatch._fit import _initial_values, measured_scales
 from pdmkit.models.mismatch._fit_problem import _lm, _make_jobs, _Problem
 from pdmkit.models.mismatch._recording import Recording, make_recording
-from pdmkit.models.mismatch._sampling import _choose_n_sub, choose_decimation, decimate
+from pdmkit.models.mismatch._sampling import (
+    _choose_n_sub,
+    choose_decimation,
+    choose_integrator,
+    decimate,
+)
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -133,22 +138,7 @@ class ChangeResult:
 
 def _model_with(model: OdeModel, free: Sequence[str], params: dict[str, float]):
     """A copy of ``model`` with other free parameters and nominal values."""
-    from pdmkit.models.ode import OdeModel
-
-    outputs = model.output_kinds if model.output_fn is not None else model.outputs
-    return OdeModel(
-        model.states,
-        model.inputs,
-        outputs,
-        {**model.params, **params},
-        model.rhs,
-        free=list(free),
-        initial=model.initial,
-        name=model.name,
-        origin=model.origin,
-        output_fn=model.output_fn,
-        limits=model.limits,
-    )
+    return model.replace(free=list(free), params={**model.params, **params})
 
 
 @dataclasses.dataclass
@@ -314,6 +304,7 @@ def diagnose_change(
         else make_recording(model, reference, "reference")
     )
     rec = data if isinstance(data, Recording) else make_recording(model, data, "data")
+    model = choose_integrator(model, rec_ref, _initial_values(model, rec_ref))
     if decimation is None:
         decimation = choose_decimation(model, rec_ref, _initial_values(model, rec_ref), 1)
     if decimation > 1:

@@ -22,7 +22,14 @@ from pdmkit.models.ode import integrate_batch, stable_substeps, state_jacobians
 
 _NP = NumpyNamespace()
 
-__all__ = ["choose_decimation", "choose_pieces", "decimate", "simulate_states"]
+__all__ = [
+    "choose_decimation",
+    "choose_integrator",
+    "choose_pieces",
+    "decimate",
+    "simulate_outputs",
+    "simulate_states",
+]
 
 
 # ---------------------------------------------------------------------------- scales
@@ -137,6 +144,8 @@ def _choose_n_sub(
     The mode is taken along the record's first samples, or along given states
     ``(X, index)``.
     """
+    if model.integrator == "ros2":  # stable at any step; its error control refines
+        return 1
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
     if along is None:
         head = part(rec, 0, _PREFIX)
@@ -154,6 +163,46 @@ def _choose_n_sub(
             model, P, X, rec.ts, {k: v[index] for k, v in rec.inputs.items()}
         )
     return int(min(max(need, 1), 32))
+
+
+#: RK4 steps per sample beyond which a model counts as stiff (integrated with ROS2)
+STIFF_SUBSTEPS = 8
+
+
+def choose_integrator(model, rec: Recording, values: Mapping[str, float]):
+    r"""The model to fit: integrated with ROS2 when it is stiff at the record's step.
+
+    Stiff: explicit RK4 would need more than :data:`STIFF_SUBSTEPS` steps per sample
+    along the record's first samples (or diverges at 16), as a pneumatic chamber's
+    pressure near equilibrium or an end stop does. A model whose ``integrator`` is not
+    ``"auto"`` is returned as it is.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models.ode import load_model_source
+    >>> from pdmkit.models.mismatch import make_recording
+    >>> fast = load_model_source('STATES = {"y": "other"}\nOUTPUTS = ["y"]\n'
+    ...     'PARAMS = {"k": 5000.0}\nINITIAL = {"y": 1.0}\n'
+    ...     'def rhs(t, x, u, p):\n    return {"y": -p["k"] * x["y"]}\n')
+    >>> t = np.arange(100) * 0.01
+    >>> rec = make_recording(fast, {"time": t, "y": np.exp(-5000 * t)})
+    >>> choose_integrator(fast, rec, {"p:k": 5000.0, "x0:y": 1.0}).integrator
+    'ros2'
+    """
+    if model.integrator != "auto":
+        return model
+    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    head = part(rec, 0, _PREFIX)
+    for n_sub in (1, 4, 16):
+        X = simulate_states(model.with_integrator("rk4"), head, values, n_sub)
+        if np.all(np.isfinite(X)):
+            break
+    else:
+        return model.with_integrator("ros2")
+    with np.errstate(all="ignore"):
+        need = stable_substeps(model, P, X, rec.ts, {k: v for k, v in head.inputs.items()})
+    return model.with_integrator("ros2" if need > STIFF_SUBSTEPS else "rk4")
 
 
 #: the step after decimation still resolves the model's fastest mode this many times
@@ -189,6 +238,8 @@ def choose_decimation(
     >>> choose_decimation(msd, rec, values, 1)
     10
     """
+    if model.integrator == "ros2":
+        return _stiff_decimation(model, rec, values)
     head = part(rec, 0, min(rec.n, _PREFIX))
     X = simulate_states(model, head, values, n_sub)
     if not np.all(np.isfinite(X)):
@@ -201,7 +252,54 @@ def choose_decimation(
     if not fast or max(fast) <= 0:
         return 1
     d = int(1.0 / (DECIMATE_SAMPLES_PER_TIME_CONSTANT * max(fast) * rec.ts))
-    d = min(d, DECIMATE_MAX, rec.n // DECIMATE_MIN_SAMPLES)
+    return _input_decimation(rec, min(d, DECIMATE_MAX, rec.n // DECIMATE_MIN_SAMPLES))
+
+
+#: a stiff model's decimated simulation may differ from the full-rate one by this
+#: share of each output's spread (at the kept samples)
+DECIMATE_STIFF_TOLERANCE = 0.01
+
+
+def _stiff_decimation(model, rec: Recording, values: Mapping[str, float]) -> int:
+    """The decimation of a stiff model's record, checked by simulation.
+
+    The largest factor that changes the simulated outputs by less than
+    :data:`DECIMATE_STIFF_TOLERANCE` of their spread.
+
+    A stiff model's fastest modes (a chamber's pressure settling in microseconds)
+    need not be resolved: the stiff integrator damps them. What must hold is the
+    simulation the fit sees, so the factor is checked by simulating the whole record
+    at full rate and decimated (the inputs' bandwidth bounds it too).
+    """
+    d_max = _input_decimation(rec, min(DECIMATE_MAX, rec.n // DECIMATE_MIN_SAMPLES))
+    if d_max < 2:
+        return 1
+    full = simulate_outputs(model, rec, values)
+    spread = np.nanstd(rec.y(model), axis=0) + 1e-300
+    if not np.all(np.isfinite(full)):
+        return 1
+    for d in range(d_max, 1, -1):
+        y = simulate_outputs(model, decimate(rec, d), values)
+        n = y.shape[0]
+        err = np.max(np.abs(y - full[: n * d : d]), axis=0) / spread
+        if np.all(np.isfinite(err)) and np.all(err <= DECIMATE_STIFF_TOLERANCE):
+            return d
+    return 1
+
+
+def simulate_outputs(model, rec: Recording, values: Mapping[str, float]) -> np.ndarray:
+    """Outputs ``(N, n_out)`` of ``model`` with ``values`` along ``rec``'s inputs."""
+    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    X0 = np.array([[values[f"x0:{s}"] for s in model.states]])
+    with np.errstate(all="ignore"):
+        Y, _ = integrate_batch(
+            model, [], [], [], rec.time, rec.inputs, P, X0, 1, _NP, False, hold=rec.hold
+        )
+    return Y[0]
+
+
+def _input_decimation(rec: Recording, d: int) -> int:
+    """``d`` lowered until the inputs keep their power below half the new Nyquist."""
     for u in rec.inputs.values():
         if d < 2:
             break

@@ -43,6 +43,11 @@ _UNEXPLAINED_PHYSICS = (
     "sparse equation) explains it significantly: the missing physics is not a named "
     "effect. See best_partial and lead_equation for what comes closest."
 )
+_UNEXPLAINED_NO_SPARSE = (
+    "Something systematic is left in the residual, but no effect of the library "
+    "explains it significantly (no data-driven equation was tried: that stage did not "
+    "run). See best_partial for what comes closest."
+)
 
 
 @dataclasses.dataclass
@@ -395,7 +400,9 @@ def _no_effect(model, rec, base, singles, sparse_scored, beaten) -> dict:
     verdict = {
         "effect": "unexplained",
         "target": None,
-        "physics": _UNEXPLAINED_PHYSICS if beaten is None else _PARTIAL_PHYSICS,
+        "physics": _PARTIAL_PHYSICS
+        if beaten is not None
+        else (_UNEXPLAINED_PHYSICS if sparse_scored else _UNEXPLAINED_NO_SPARSE),
         "params": {},
     }
     if lead is not None:
@@ -550,6 +557,9 @@ def _fit_summary(model, s, problem, nominal, base, final) -> dict:
         ),
         "validation": "separate recording" if s.rec_val is not None else "last third",
         "n_sub": problem.n_sub,
+        "integrator": problem.model.integrator
+        if problem.model.integrator != "auto"
+        else "rk4",
         "decimated": s.factor,
         "pieces": (
             {"n": problem.n_pieces, "samples": int(problem.length)}

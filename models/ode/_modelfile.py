@@ -53,6 +53,9 @@ from pdmkit.models.ode._per_sample import per_sample
 
 __all__ = ["KINDS", "MODEL_TIMEOUT", "OdeModel", "load_model_file", "load_model_source"]
 
+#: How a model may be integrated (``INTEGRATOR`` in a model file).
+INTEGRATORS = ("auto", "rk4", "ros2")
+
 #: The physical kinds a state or input may declare.
 KINDS = (
     "position",
@@ -321,6 +324,7 @@ class OdeModel:
         origin: str | None = None,
         output_fn: Callable | None = None,
         limits: Mapping[str, Sequence] | None = None,
+        integrator: str = "auto",
     ) -> None:
         where = _where(origin)
         self.origin = origin
@@ -340,6 +344,14 @@ class OdeModel:
             _check_fn(where, "outputs", output_fn)
         self.output_fn = output_fn
         self.limits = _check_limits(where, limits, self.states)
+        if integrator not in INTEGRATORS:
+            raise ModelError(
+                f"{where}: INTEGRATOR must be one of {', '.join(INTEGRATORS)}; got "
+                f"{integrator!r}."
+            )
+        #: "rk4" (explicit), "ros2" (stiff: linearly implicit), or "auto": the fits
+        #: choose from the model's fastest mode (simulate_ode takes rk4)
+        self.integrator = integrator
         if not isinstance(params, Mapping):
             raise ModelError(
                 f"{where}: PARAMS must be a dict of name -> nominal value; got "
@@ -393,19 +405,55 @@ class OdeModel:
                     f"{_where(self.origin)}: with_params got unknown parameter {k!r}; "
                     f"known: {', '.join(self.params)}."
                 )
-        return OdeModel(
-            self.states,
-            self.inputs,
-            self.outputs,
-            {**self.params, **values},
-            self.rhs,
-            free=self.free,
-            initial=self.initial,
-            name=self.name,
-            origin=self.origin,
-            output_fn=self.output_fn,
-            limits=self.limits,
-        )
+        return self.replace(params={**self.params, **values})
+
+    def with_integrator(self, integrator: str) -> OdeModel:
+        """A copy integrated with ``integrator`` (``"rk4"``, ``"ros2"`` or ``"auto"``).
+
+        Examples
+        --------
+        >>> from pdmkit.models.ode._modelfile import OdeModel
+        >>> m = OdeModel({"h": "level"}, {}, ["h"], {}, lambda t, x, u, p: {"h": 0.0})
+        >>> m.integrator, m.with_integrator("ros2").integrator
+        ('auto', 'ros2')
+        """
+        return self.replace(integrator=integrator)
+
+    def replace(self, **changes: Any) -> OdeModel:
+        """A copy with some constructor arguments changed (``params``, ``free``, ...).
+
+        The copy keeps how ``rhs`` is evaluated (batched or per sample).
+
+        Examples
+        --------
+        >>> from pdmkit.models.ode._modelfile import OdeModel
+        >>> m = OdeModel({"h": "level"}, {}, ["h"], {"a": 1.0, "b": 2.0},
+        ...              lambda t, x, u, p: {"h": 0}, free=["a"])
+        >>> m.replace(free=["b"]).free
+        ['b']
+        """
+        args = {
+            "states": self.states,
+            "inputs": self.inputs,
+            "outputs": self.output_kinds if self.output_fn is not None else self.outputs,
+            "params": self.params,
+            "rhs": self.rhs,
+            "free": self.free,
+            "initial": self.initial,
+            "name": self.name,
+            "origin": self.origin,
+            "output_fn": self.output_fn,
+            "limits": self.limits,
+            "integrator": self.integrator,
+        }
+        unknown = [k for k in changes if k not in args]
+        if unknown:
+            raise ModelError(f"OdeModel.replace: unknown arguments {unknown}.")
+        args.update(changes)
+        copy = OdeModel(**args)
+        if copy.rhs is self.rhs:
+            copy.evaluation = self.evaluation
+        return copy
 
     # ------------------------------------------------------------------ evaluation
     def derivatives(
@@ -733,7 +781,11 @@ class OdeModel:
                         and np.ptp(off) <= 1e-6 * scale
                         and gain != 0.0
                     ):
-                        out[o] = (s, gain, float(np.median(off)))
+                        # the finite differences' rounding off (12 digits are plenty
+                        # for guesses and scales)
+                        off0 = float(np.median(off))
+                        off0 = 0.0 if abs(off0) <= 1e-9 * scale else off0
+                        out[o] = (s, float(f"{gain:.12g}"), float(f"{off0:.12g}"))
         self._output_states = out
         return out
 
@@ -840,6 +892,7 @@ def _model_from_namespace(
         origin=origin,
         output_fn=None if out_fn is None else _exit_guard(out_fn, origin),
         limits=ns.get("LIMITS"),
+        integrator=ns.get("INTEGRATOR", "auto"),
     ).check(data)
 
 

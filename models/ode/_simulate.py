@@ -91,8 +91,14 @@ def integrate_batch(
     hold: str = "zoh",
     segments: tuple[np.ndarray, int] | None = None,
     t_origin: float | None = None,
+    method: str | None = None,
 ) -> tuple[Any, Any | None]:
     """Integrate a batch; return ``(y (B, N, n_out), x (B, N, nx) or None)``.
+
+    ``method`` is ``"rk4"`` (classical Runge-Kutta, explicit) or ``"ros2"`` (a
+    linearly implicit, L-stable second-order Rosenbrock-W method for stiff models:
+    chamber pressures, end stops, switching valves; numpy only), ``n_sub`` steps per
+    sample interval either way; default the model's ``integrator`` (``"auto"``: rk4).
 
     ``t_origin`` is the time from which time-dependent sensor effects (a drift) count
     (default ``t[0]``; the start of the training record when ``t`` is a later part).
@@ -144,6 +150,12 @@ def integrate_batch(
         raise ModelError(f"internal: x0 has shape {tuple(X.shape)}, expected {want}.")
     if segments is not None and xp.name != "numpy":
         raise ModelError("internal: segmented simulation runs in numpy only.")
+    if method is None:
+        method = "ros2" if model.integrator == "ros2" else "rk4"
+    if method not in ("rk4", "ros2"):
+        raise ModelError(f"integration method must be 'rk4' or 'ros2'; got {method!r}.")
+    if method == "ros2" and xp.name != "numpy":
+        raise ModelError("the stiff integrator (ros2) runs in numpy only.")
     ts = float(t[1] - t[0])
     h = ts / n_sub
     M = _row_masks(masks, xp)
@@ -172,7 +184,8 @@ def integrate_batch(
     )
     f = _augmented_rhs(model, effects, theta, M, where, extra, P, B, len(Zl), xp)
     stops = _stops(model, xp)
-    rec_x, rec_z = _rk4_records(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold, stops)
+    step = _rk4_records if method == "rk4" else _ros2_records
+    rec_x, rec_z = step(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold, stops)
     Yt, Xt = _batch_outputs(
         model, effects, theta, where, extra, rec_x, rec_z, t_out, xp, (Useq, P, origin)
     )
@@ -501,6 +514,130 @@ def _rk4_records(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold, stop=None):
     return rec_x, rec_z
 
 
+#: gamma of ROS2 (Verwer, Spee, Blom & Hundsdorfer, SIAM J. Sci. Comput. 20, 1999)
+_ROS2_GAMMA = 1.0 + 1.0 / math.sqrt(2.0)
+
+
+def _fd_jacobian(f, tt, Y, nx, u, F0):
+    """Batched forward-difference Jacobian ``(B, n, n)`` of ``f`` at the rows of ``Y``.
+
+    ``Y`` is a list of ``(B,)`` arrays (states, then effect states); ``F0`` the value
+    of ``f`` there. Each column costs one batched evaluation.
+    """
+    n = len(Y)
+    B = Y[0].shape[0]
+    J = np.empty((B, n, n))
+    for j in range(n):
+        y = Y[j]
+        d = 1e-7 * np.maximum(np.abs(y), 1e-6 * (np.max(np.abs(y)) + 1e-12))
+        d = np.where(d > 0, d, 1e-12)
+        Y2 = list(Y)
+        Y2[j] = y + d
+        dx, dz = f(tt, Y2[:nx], Y2[nx:], u)
+        F = np.stack([np.broadcast_to(v, (B,)) for v in (*dx, *dz)], 1)
+        J[:, :, j] = (F - F0) / d[:, None]
+    return np.where(np.isfinite(J), J, 0.0)
+
+
+#: ROS2's local error tolerance (relative; absolute: this times the state's scale)
+ROS2_RTOL = 1e-3
+#: a sample interval's step is halved at most this many times (1/64 of its first size)
+ROS2_MAX_HALVINGS = 6
+
+
+#: accepted steps a finite-difference Jacobian is reused for (ROS2 keeps its order
+#: with any matrix; a rejected step always takes a fresh one)
+ROS2_JACOBIAN_AGE = 4
+
+
+def _stack_rows(dx, dz, B):
+    return np.stack([np.broadcast_to(v, (B,)) for v in (*dx, *dz)], 1)
+
+
+def _ros2_step(f, t0, Y, nx, h, u0, u1, J):
+    """One ROS2 step of size ``h`` with Jacobian ``J`` (None: a fresh one).
+
+    Returns the new rows, the local error estimate and the Jacobian used.
+    """
+    B = Y[0].shape[0]
+    F0 = _stack_rows(*f(t0, Y[:nx], Y[nx:], u0), B)
+    if J is None:
+        J = _fd_jacobian(f, t0, Y, nx, u0, F0)
+    n = len(Y)
+    Minv = np.linalg.inv(np.eye(n)[None] - (_ROS2_GAMMA * h) * J)
+    k1 = np.einsum("bij,bj->bi", Minv, F0)
+    Y1 = [y + h * k1[:, j] for j, y in enumerate(Y)]
+    F1 = _stack_rows(*f(t0 + h, Y1[:nx], Y1[nx:], u1), B)
+    k2 = np.einsum("bij,bj->bi", Minv, F1 - 2.0 * k1)
+    new = [y + h * (1.5 * k1[:, j] + 0.5 * k2[:, j]) for j, y in enumerate(Y)]
+    # against the embedded linearly implicit Euler step, filtered through
+    # (I - g h J)^-1 as Shampine filters stiff error estimates: stiff modes damped
+    # by both solutions do not count as error
+    err = np.einsum("bij,bj->bi", Minv, 0.5 * h * (k1 + k2))
+    return new, err, J
+
+
+def _ros2_records(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold, stop=None):
+    """ROS2, a Rosenbrock-W method: L-stable, second order for any Jacobian.
+
+    ``(I - g h J) k1 = f(y)``, ``(I - g h J) k2 = f(y + h k1) - 2 k1``,
+    ``y += h (3 k1 + k2) / 2`` with ``g = 1 + 1/sqrt(2)`` and ``J`` a finite-difference
+    Jacobian (reused for :data:`ROS2_JACOBIAN_AGE` steps). Stiff modes (a chamber's
+    pressure near equilibrium, an end stop) are damped instead of limiting the step,
+    so a sample interval takes one or two steps where explicit RK4 needs dozens.
+    Where the embedded first-order solution differs from the step by more than
+    :data:`ROS2_RTOL` (a valve switching, a stop reached), the step is halved for the
+    whole batch (rows stay in lockstep, so the finite differences of a fit see the
+    same steps) and grows back once steps pass. Returns what :func:`_rk4_records`
+    returns.
+    """
+    if hold not in ("zoh", "foh"):
+        raise ModelError(f"input hold must be 'zoh' or 'foh'; got {hold!r}.")
+    foh = hold == "foh" and bool(inputs)
+    nx, nz = len(Xl), len(Zl)
+    rec_x, rec_z = [], []
+    B = max([int(np.size(y)) for y in (*Xl, *Zl)] + [1])
+    Y = [np.broadcast_to(np.asarray(y, dtype=float), (B,)).copy() for y in (*Xl, *Zl)]
+    scale = np.array([np.max(np.abs(y)) for y in Y]) + 1e-300
+    units = n_sub * 2**ROS2_MAX_HALVINGS  # a sample interval in the finest steps
+    unit = h / 2**ROS2_MAX_HALVINGS
+    level, J, age, calm = 0, None, 0, 0
+    for k in range(N):
+        rec_x.append(Y[:nx])
+        if nz:
+            rec_z.append(Y[nx:])
+        if k == N - 1:
+            break
+        uk = {n: Useq[:, k, j] for j, n in enumerate(inputs)} if inputs else {}
+        du = {n: Useq[:, k + 1, j] - uk[n] for j, n in enumerate(inputs)} if foh else {}
+        done = 0
+        while done < units:
+            step = min(2 ** (ROS2_MAX_HALVINGS - level), units - done)
+            hh = step * unit
+            t0 = float(t[k]) + done * unit
+            if foh:
+                u0 = {n: uk[n] + done / units * du[n] for n in uk}
+                u1 = {n: uk[n] + (done + step) / units * du[n] for n in uk}
+            else:
+                u0 = u1 = uk
+            new, err, J = _ros2_step(
+                f, t0, Y, nx, hh, u0, u1, J if age < ROS2_JACOBIAN_AGE else None
+            )
+            age = age + 1 if age < ROS2_JACOBIAN_AGE else 1
+            tol = ROS2_RTOL * (np.abs(np.stack(Y, 1)) + 1e-3 * scale[None, :])
+            bad = ~np.isfinite(err) | (np.abs(err) > tol)
+            if np.any(bad) and level < ROS2_MAX_HALVINGS:
+                level, J, age, calm = level + 1, None, 0, 0
+                continue
+            Y = new if stop is None else stop(new[:nx]) + new[nx:]
+            scale = np.maximum(scale, [np.max(np.abs(y)) for y in Y])
+            done += step
+            calm += 1
+            if calm >= 4 and level > 0:  # four steps passed: try twice as long again
+                level, calm = level - 1, 0
+    return rec_x, rec_z
+
+
 def _batch_outputs(model, effects, theta, where, extra, rec_x, rec_z, t_out, xp, given):
     """Stack the records to ``(B, N, ...)``, evaluate the outputs, apply sensor effects.
 
@@ -612,6 +749,7 @@ def simulate_ode(
     effect_params: Mapping[str, Any] | None = None,
     n_sub: int = 1,
     hold: str = "zoh",
+    method: str | None = None,
 ) -> ResponseData:
     """Simulate an :class:`OdeModel` (optionally with candidate effects) for a batch.
 
@@ -639,7 +777,14 @@ def simulate_ode(
     effect_params : dict, optional
         Their parameters, keyed ``"<effect key>.<param>"`` (see ``Effect.qualified``).
     n_sub : int
-        RK4 steps per sample interval.
+        Integration steps per sample interval.
+    hold : {"zoh", "foh"}
+        Inputs held between samples, or straight lines.
+    method : {"rk4", "ros2"}, optional
+        Classical Runge-Kutta (explicit; numpy or torch), or ROS2, a linearly implicit
+        Rosenbrock-W method for stiff models (numpy only): stable at any step, second
+        order, a finite-difference Jacobian per step. Default: the model's
+        ``integrator`` (rk4 when ``"auto"``).
 
     Returns
     -------
@@ -705,7 +850,19 @@ def simulate_ode(
     }
     masks = [None] * len(effects)
     Y, Xt = integrate_batch(
-        model, effects, theta, masks, t, U, P, X0, int(n_sub), xp, True, hold
+        model,
+        effects,
+        theta,
+        masks,
+        t,
+        U,
+        P,
+        X0,
+        int(n_sub),
+        xp,
+        True,
+        hold,
+        method=method,
     )
     states = {s: Xt[:, :, j] for j, s in enumerate(model.state_names)}
     outputs = {o: Y[:, :, j] for j, o in enumerate(model.outputs)}
