@@ -26,7 +26,11 @@ from pdmkit.models._optim import (
     levenberg_marquardt,
 )
 from pdmkit.models._xp import TorchNamespace, get_namespace
-from pdmkit.models.pneumatic._integrate import _THETA, imex_step, simulate_piston
+from pdmkit.models.pneumatic._integrate import (
+    event_step,
+    simulate_piston,
+    step_coefficients,
+)
 from pdmkit.models.pneumatic._sensors import P_STD, T_STD
 from pdmkit.models.pneumatic._twin import PneumaticParams, _command, _resolve
 
@@ -52,16 +56,13 @@ def _run_windows(params, y0, u_table, n_samples: int, n_sub: int, h: float, xp):
 
     The same IMEX step as :func:`pdmkit.models.pneumatic._integrate._integrate` (exact spool
     update, flows at the mid-step spool, explicit pressures, linearly implicit
-    trapezoidal mechanics); ``u_table`` (n_steps, n) holds the delayed command. Returns
+    trapezoidal mechanics, sub-steps at contact events: ``event_step``); ``u_table``
+    (n_steps, n) holds the delayed command. Returns
     position, velocity, supply pressure (at the samples) and the valve mass flow into A
     (mean over each sample interval; 0 at the first sample), each (n, n_samples).
     """
     r = _resolve(params, xp)
-    th_h = _THETA * h
-    r.imp = th_h * r.inv_m
-    t_v = xp.asarray(r.t_v)
-    decay = xp.exp(-h / t_v)
-    half = xp.exp(-0.5 * h / t_v)
+    coefs = step_coefficients(r, h, xp)
     x, v, pa, pb, pr, s = (y0[:, i] for i in range(6))
     u_all = xp.asarray(u_table)
     zero = 0.0 * x
@@ -71,8 +72,8 @@ def _run_windows(params, y0, u_table, n_samples: int, n_sub: int, h: float, xp):
     for _ in range(1, n_samples):
         s_ma = zero
         for _j in range(n_sub):
-            (x, v, pa, pb, pr, s), d = imex_step(
-                0.0, (x, v, pa, pb, pr, s), u_all[step], r, h, (th_h, half, decay), xp
+            (x, v, pa, pb, pr, s), d = event_step(
+                0.0, (x, v, pa, pb, pr, s), u_all[step], r, h, coefs, xp
             )
             s_ma = s_ma + d.m_a
             step += 1

@@ -278,3 +278,31 @@ def test_upper_stop_sits_lower_in_a_share_of_codes_and_the_switch_stays():
     assert 0.1900 < peak[1] < 0.1925
     on = r.outputs["ProximitySensor_upper"]
     assert on[0].max() == 1.0 and on[1].max() == 0.0
+
+
+def test_the_machine_re_identified_from_the_rigs_recordings():
+    """``identified="recordings"`` (issue 29, item 7): within 2 mm of the rig's lever."""
+    from pathlib import Path
+
+    from pdmkit.ensembles._pneumatic import SEED_TEST_CYCLE
+    from pdmkit.ensembles._pneumatic_rig import (
+        SEED_RIG_RECORDED_PARAMS,
+        seed_rig_machine,
+    )
+    from pdmkit.models import PneumaticParams, simulate_piston
+
+    m = seed_rig_machine({}, 2, identified="recordings")
+    for key, value in SEED_RIG_RECORDED_PARAMS.items():
+        assert np.all(m[key] == value), key
+    assert seed_rig_machine({}, 1)["c_b_out"][0] == SEED_RIG_PARAMS["c_b_out"]
+    with pytest.raises(DataError, match="identified"):
+        seed_rig_machine({}, 1, identified="thesis")
+    data = Path("/work/shared/data/pneumatic_rig/data11_1_1.csv")
+    if not data.exists():
+        pytest.skip("the rig's recordings are not on this machine")
+    rig = pd.read_csv(data, usecols=["LeverPosition"])["LeverPosition"].to_numpy()
+    cols = {"mass_load": 6.25, "p_supply": 1.01325e5 + 6e5, **SEED_TEST_CYCLE}
+    cols["cycle_start"] = 0.999  # the recorded command's rising edge
+    p = PneumaticParams(**seed_rig_machine(cols, 1, identified="recordings"))
+    x = simulate_piston(p, t_end=10.0, sensors=False).states["position"][0]
+    assert np.sqrt(np.mean((x - rig) ** 2)) < 2e-3
