@@ -106,28 +106,29 @@ def _spectrum_figure(result: MismatchResult):
     return fig
 
 
-def _validation_figure(result: MismatchResult, output: str):
+def _trace_figure(t, lines, output: str):
+    """Measured and simulated traces of one output: ``lines`` of ``(y, colour, label)``."""
     import matplotlib.pyplot as plt
 
-    s = result.signals
-    j = result.outputs.index(output)
     fig, ax = plt.subplots(1, 1, figsize=(10, 3.5))
-    ax.plot(s["val_time"], s["val_measured"][:, j], color="k", lw=0.8, label="measured")
-    ax.plot(
-        s["val_time"], s["val_nominal"][:, j], color="C0", lw=1.0, label="nominal model"
-    )
-    if s.get("val_augmented") is not None:
-        ax.plot(
-            s["val_time"],
-            s["val_augmented"][:, j],
-            color="C3",
-            lw=1.0,
-            label="augmented model",
-        )
+    for y, colour, label in lines:
+        ax.plot(t, y, color=colour, lw=0.8 if colour == "k" else 1.0, label=label)
     ax.set_xlabel("time [s]")
     ax.set_ylabel(output)
     ax.legend(loc="best", fontsize="small")
     return fig
+
+
+def _validation_figure(result: MismatchResult, output: str):
+    s = result.signals
+    j = result.outputs.index(output)
+    lines = [
+        (s["val_measured"][:, j], "k", "measured"),
+        (s["val_nominal"][:, j], "C0", "nominal model"),
+    ]
+    if s.get("val_augmented") is not None:
+        lines.append((s["val_augmented"][:, j], "C3", "augmented model"))
+    return _trace_figure(s["val_time"], lines, output)
 
 
 def _how_fitted(fit: dict) -> str:
@@ -387,25 +388,13 @@ def _discover(
 
 # --------------------------------------------------------------------------- diagnosis
 def _diagnosis_figure(result: ChangeResult, j: int, output: str):
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(1, 1, figsize=(10, 3.5))
-    t = result.fits["time"]
-    ax.plot(t, result.fits["measured"][:, j], color="k", lw=0.8, label="measured")
-    ax.plot(
-        t, result.fits["reference"][:, j], color="C0", lw=1.0, label="reference parameters"
-    )
-    ax.plot(
-        t,
-        result.fits["refitted"][:, j],
-        color="C3",
-        lw=1.0,
-        label="changed parameters refitted",
-    )
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel(output)
-    ax.legend(loc="best", fontsize="small")
-    return fig
+    f = result.fits
+    lines = [
+        (f["measured"][:, j], "k", "measured"),
+        (f["reference"][:, j], "C0", "reference parameters"),
+        (f["refitted"][:, j], "C3", "changed parameters refitted"),
+    ]
+    return _trace_figure(f["time"], lines, output)
 
 
 def _diagnosis_text(summary: dict) -> str:

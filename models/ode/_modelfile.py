@@ -491,34 +491,42 @@ class OdeModel:
         """
         u = {k: 0.0 for k in self.inputs} if u is None else u
         p = self.params if p is None else p
+        return self._call_checked("rhs", self.rhs, list(self.states), (t, x, u, p))
+
+    def _call_checked(self, what: str, fn: Callable, keys: list[str], args: tuple) -> dict:
+        """``fn(*args)`` with its exceptions, return type and keys explained.
+
+        ``what`` is ``"rhs"`` (one derivative per state) or ``"outputs"`` (one value per
+        name of OUTPUTS).
+        """
         where = _where(self.origin)
         try:
-            out = self.rhs(t, x, u, p)
+            out = fn(*args)
         except ModelError:
             raise  # already explained (e.g. the model called exit)
         except Exception as exc:
             raise ModelError(
-                f"{where}: rhs raised {type(exc).__name__}: {exc}"
+                f"{where}: {what} raised {type(exc).__name__}: {exc}"
                 f"{_user_frame(exc, self.origin)}. {_CONTRACT_HINT}"
             ) from exc
+        item = "derivative" if what == "rhs" else "value"
         if not isinstance(out, Mapping):
             raise ModelError(
-                f"{where}: rhs must return a dict of state name -> derivative; it "
-                f"returned {type(out).__name__}."
+                f"{where}: {what} must return a dict of name -> {item}; it returned "
+                f"{type(out).__name__}."
             )
-        missing = [k for k in self.states if k not in out]
-        extra = [k for k in out if k not in self.states]
+        missing = [k for k in keys if k not in out]
+        extra = [k for k in out if k not in keys]
         if missing or extra:
-            parts = []
-            if missing:
-                parts.append(f"missing {missing}")
-            if extra:
-                parts.append(f"unknown {extra}")
-            raise ModelError(
-                f"{where}: rhs returned the wrong keys ({'; '.join(parts)}); it must "
-                f"return exactly one derivative per state: {list(self.states)}."
+            parts = ([f"missing {missing}"] if missing else []) + (
+                [f"unknown {extra}"] if extra else []
             )
-        return {k: out[k] for k in self.states}
+            per = "state" if what == "rhs" else "name of OUTPUTS"
+            raise ModelError(
+                f"{where}: {what} returned the wrong keys ({'; '.join(parts)}); it must "
+                f"return exactly one {item} per {per}: {keys}."
+            )
+        return {k: out[k] for k in keys}
 
     def check(self, data: Any = None) -> OdeModel:
         """Evaluate the model at its initial state (inputs 0) and on a small batch.
@@ -694,29 +702,7 @@ class OdeModel:
             return {o: x[o] for o in self.outputs}
         u = {k: 0.0 for k in self.inputs} if u is None else u
         p = self.params if p is None else p
-        where = _where(self.origin)
-        try:
-            out = self.output_fn(t, x, u, p)
-        except ModelError:
-            raise
-        except Exception as exc:
-            raise ModelError(
-                f"{where}: outputs raised {type(exc).__name__}: {exc}"
-                f"{_user_frame(exc, self.origin)}. {_CONTRACT_HINT}"
-            ) from exc
-        if not isinstance(out, Mapping):
-            raise ModelError(
-                f"{where}: outputs must return a dict of output name -> value; it "
-                f"returned {type(out).__name__}."
-            )
-        missing = [k for k in self.outputs if k not in out]
-        extra = [k for k in out if k not in self.outputs]
-        if missing or extra:
-            raise ModelError(
-                f"{where}: outputs returned the wrong keys (missing {missing}; unknown "
-                f"{extra}); it must return one value per name of OUTPUTS: {self.outputs}."
-            )
-        return {k: out[k] for k in self.outputs}
+        return self._call_checked("outputs", self.output_fn, self.outputs, (t, x, u, p))
 
     def output_states(self) -> dict[str, tuple[str, float, float]]:
         """Outputs that read one state alone, affinely: ``{output: (state, gain, offset)}``.
