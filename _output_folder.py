@@ -36,7 +36,7 @@ OUTPUTS: dict[str, tuple[str, ...]] = {
     "sensors": ("report.html", "summary.json"),
     "rul": ("predictions.parquet", "model.pdmkit", "report.html", "summary.json"),
     "identify": ("report.html", "summary.json"),
-    "mismatch": ("candidates.csv", "parameters.csv", "report.html", "summary.json"),
+    "mismatch": ("candidates.csv", "report.html", "summary.json"),
     "demo": (
         "features.parquet",
         "rul/predictions.parquet",

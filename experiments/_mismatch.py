@@ -474,7 +474,8 @@ def _run_diagnosis(model_path, data_path, reference_path, out_dir, json_path, ti
             "alone on this one, with its 95 % interval (low, high); share: the part of "
             "the mismatch it explains alone.",
         )
-        run.add_csv("parameters.csv", result.to_pandas(), index=False)
+        # the candidates of a diagnosis: every free parameter, changed or not
+        run.add_csv("candidates.csv", result.to_pandas(), index=False)
         run.add_report("report.html", rep)
         run.add_json("summary.json", summary)
         run.commit()
