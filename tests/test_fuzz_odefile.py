@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from pdmkit.errors import ModelError
 from pdmkit.models import OdeModel
-from pdmkit.models.ode._modelfile import load_model_file
+from pdmkit.models.ode import load_model_file
 
 FUZZ = settings(
     max_examples=60,

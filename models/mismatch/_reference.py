@@ -81,6 +81,24 @@ class ChangeResult:
     fits : dict
         Simulated outputs ``(N, n_out)`` on the new recording: ``"reference"`` (the
         reference parameters) and ``"refitted"``; ``"time"`` and ``"measured"``.
+
+    Examples
+    --------
+    :func:`diagnose_change` returns one; its table has a row per free parameter:
+
+    >>> res = ChangeResult(
+    ...     verdict="changed",
+    ...     changed_parameters=[],
+    ...     parameters=[
+    ...         {"parameter": "a", "reference": 0.5, "value": 0.35,
+    ...          "interval": (0.34, 0.36), "share": 0.98, "changed": True},
+    ...     ],
+    ...     rmse_reference_params=0.03, rmse_refitted=0.002, rmse_reference=0.002,
+    ...     decimated=1, outputs=["h"],
+    ... )
+    >>> res.to_pandas()[["parameter", "reference", "value", "low", "high"]]
+      parameter  reference  value   low  high
+    0         a        0.5   0.35  0.34  0.36
     """
 
     verdict: str

@@ -23,13 +23,9 @@ Examples
 """
 
 from pdmkit.models.ode._linearize import LinearModel, linearize
-from pdmkit.models.ode._modelfile import (
-    KINDS,
-    MODEL_TIMEOUT,
-    OdeModel,
-    load_model_file,
-    load_model_source,
-)
+from pdmkit.models.ode._modelfile import KINDS, OdeModel
+from pdmkit.models.ode._modelfile_child import MODEL_TIMEOUT
+from pdmkit.models.ode._modelfile_load import load_model_file, load_model_source
 from pdmkit.models.ode._response import ResponseData
 from pdmkit.models.ode._showcases import SHOWCASE_NAMES, showcase_model, showcase_source
 from pdmkit.models.ode._simulate import (

@@ -10,7 +10,8 @@ from __future__ import annotations
 from importlib import resources
 
 from pdmkit.errors import ModelError
-from pdmkit.models.ode._modelfile import OdeModel, load_model_source
+from pdmkit.models.ode._modelfile import OdeModel
+from pdmkit.models.ode._modelfile_load import load_model_source
 
 __all__ = ["SHOWCASE_NAMES", "showcase_model", "showcase_source"]
 

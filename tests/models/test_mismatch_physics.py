@@ -20,8 +20,7 @@ from pdmkit.models.mismatch._cases import generate_concealed_case
 from pdmkit.models.mismatch._discover import choose_input_hold, discover_mismatch
 from pdmkit.models.mismatch._recording import make_recording
 from pdmkit.models.mismatch._verdict import _signatures
-from pdmkit.models.ode import showcase_model
-from pdmkit.models.ode._modelfile import OdeModel, load_model_file
+from pdmkit.models.ode import OdeModel, load_model_file, showcase_model
 from pdmkit.models.ode._simulate import simulate_ode
 
 LINEAR_MSD = """

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pdmkit.errors import ModelError
-from pdmkit.models.ode._modelfile import KINDS, OdeModel, load_model_file
+from pdmkit.models.ode import KINDS, OdeModel, load_model_file
 
 GOOD = """
 STATES = {"x": "position", "v": "velocity"}
