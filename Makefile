@@ -19,7 +19,7 @@ demo: $(STAMP)
 	$(BIN)/pdmkit demo --out results/demo
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto --dist loadfile
 
 lint: $(STAMP)
 	$(BIN)/ruff check . && $(BIN)/ruff format --check .

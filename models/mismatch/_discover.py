@@ -61,9 +61,9 @@ from pdmkit.models.mismatch._sampling import (
     PIECES_FROM,
     _choose_n_sub,
     _nominal_scales,
-    choose_decimation,
-    choose_integrator,
     choose_pieces,
+    choose_sampling,
+    converged_n_sub,
     decimate,
 )
 from pdmkit.models.mismatch._select import (
@@ -361,6 +361,7 @@ class _Setup:
     n_sub: int
     x_scale: dict
     pieces: tuple | None
+    step_checked: bool = False  # n_sub chosen by simulation agreement, not the fastest mode
 
 
 def _prepare(model, data, validation, *, data_name, validation_name, input_hold):
@@ -392,8 +393,8 @@ def _prepare(model, data, validation, *, data_name, validation_name, input_hold)
         rec_val = dataclasses.replace(rec_val, hold=hold)
     # a stiff model is integrated with ROS2; an oversampled record is decimated first
     # (the model and the inputs say how far)
-    model = choose_integrator(model, rec, _initial_values(model, rec))
-    factor = choose_decimation(model, rec, _initial_values(model, rec), 1)
+    sampling = choose_sampling(model, rec, _initial_values(model, rec))
+    model, factor = sampling.model, sampling.factor
     if factor > 1:
         rec = decimate(rec, factor)
         rec_val = decimate(rec_val, factor) if rec_val is not None else None
@@ -401,14 +402,25 @@ def _prepare(model, data, validation, *, data_name, validation_name, input_hold)
     y_all = rec.y(model)
     w = 1.0 / np.maximum(np.std(y_all[:n_fit], axis=0), 1e-12)
     values0 = _initial_values(model, rec)
-    n_sub = _choose_n_sub(model, rec, values0)
+    n_sub = sampling.n_sub
     x_scale = measured_scales(model, rec)
     # a long record is fitted in pieces, each from its own fitted initial state
     pieces = choose_pieces(model, rec, n_fit, values0, n_sub)
     if pieces is not None and rec_val is None:  # validate on the tail, restarted
         rec_val = part(rec, n_fit)
     return model, _Setup(
-        rec, rec_val, hold, factor, n_fit, y_all, w, values0, n_sub, x_scale, pieces
+        rec,
+        rec_val,
+        hold,
+        factor,
+        n_fit,
+        y_all,
+        w,
+        values0,
+        n_sub,
+        x_scale,
+        pieces,
+        sampling.checked,
     )
 
 
@@ -417,8 +429,11 @@ def _fit_nominal(model, s: _Setup, data_name: str) -> tuple[_Problem, _Job]:
     problem = _Problem(model, s.rec, s.n_fit, s.w, s.n_sub, *(s.pieces or (None, None)))
     nom = _make_jobs(model, (), None, [{}], s.values0, s.x_scale, tag="nominal")
     _lm(problem, nom, 80)
-    along = (problem.states(nom[0].values(), nom[0].x0), problem.sample_index())
-    n_sub2 = _choose_n_sub(model, s.rec, nom[0].values(), along)
+    if s.step_checked:  # recheck the simulated step at the fitted parameters
+        n_sub2 = converged_n_sub(model, s.rec, nom[0].values(), s.n_sub)
+    else:
+        along = (problem.states(nom[0].values(), nom[0].x0), problem.sample_index())
+        n_sub2 = _choose_n_sub(model, s.rec, nom[0].values(), along)
     if any(k in ("velocity", "angular_velocity") for k in model.states.values()):
         # friction switches sign at zero speed: at least two RK4 steps per sample keep
         # the smoothed stick-slip close to the real one (Coulomb is otherwise mistaken

@@ -38,8 +38,8 @@ from pdmkit.models.mismatch._fit_problem import _lm, _make_jobs, _Problem
 from pdmkit.models.mismatch._recording import Recording, make_recording
 from pdmkit.models.mismatch._sampling import (
     _choose_n_sub,
-    choose_decimation,
-    choose_integrator,
+    choose_sampling,
+    converged_n_sub,
     decimate,
 )
 
@@ -216,11 +216,17 @@ def _covariance(job, problem: _Problem) -> np.ndarray | None:
     return np.linalg.pinv(A) * s2 * (1 + rho) / (1 - rho)
 
 
-def _fit(model, rec: Recording, start: dict[str, float], max_iter: int) -> _Fit:
-    """Fit the model's free parameters and initial state on ``rec`` from ``start``."""
+def _fit(
+    model, rec: Recording, start: dict[str, float], max_iter: int, n_sub: int | None
+) -> _Fit:
+    """Fit the model's free parameters and initial state on ``rec`` from ``start``.
+
+    ``n_sub``: RK4 steps per sample (None: from the model's fastest mode).
+    """
     y = rec.y(model)
     w = 1.0 / np.maximum(np.std(y, axis=0), 1e-12)
-    n_sub = _choose_n_sub(model, rec, start)
+    if n_sub is None:
+        n_sub = _choose_n_sub(model, rec, start)
     problem = _Problem(model, rec, rec.n, w, n_sub)
     jobs = _make_jobs(model, (), None, [{}], start, measured_scales(model, rec))
     _lm(problem, jobs, max_iter, budgeted=False)
@@ -322,20 +328,28 @@ def diagnose_change(
         else make_recording(model, reference, "reference")
     )
     rec = data if isinstance(data, Recording) else make_recording(model, data, "data")
-    model = choose_integrator(model, rec_ref, _initial_values(model, rec_ref))
+    sampling = choose_sampling(model, rec_ref, _initial_values(model, rec_ref))
+    model = sampling.model
     if decimation is None:
-        decimation = choose_decimation(model, rec_ref, _initial_values(model, rec_ref), 1)
+        decimation = sampling.factor
+    # a step checked by simulation holds for every fit; otherwise each fit takes its own
+    n_sub = sampling.n_sub if sampling.checked and decimation == sampling.factor else None
     if decimation > 1:
         rec_ref, rec = decimate(rec_ref, decimation), decimate(rec, decimation)
-    ref = _fit(model, rec_ref, _initial_values(model, rec_ref), max_iter)
+    ref = _fit(model, rec_ref, _initial_values(model, rec_ref), max_iter, n_sub)
+    if n_sub is not None:  # the checked step, rechecked at the fitted values
+        n_checked = converged_n_sub(model, rec_ref, ref.values, n_sub)
+        if n_checked > n_sub:
+            n_sub = n_checked
+            ref = _fit(model, rec_ref, ref.values, max_iter, n_sub)
     ref_params = {k[2:]: v for k, v in ref.values.items() if k.startswith("p:")}
     start = {**_initial_values(model, rec), **{f"p:{k}": v for k, v in ref_params.items()}}
     frozen = _model_with(model, [], ref_params)
-    same = _fit(frozen, rec, start, max_iter)
-    full = _fit(_model_with(model, model.free, ref_params), rec, start, max_iter)
+    same = _fit(frozen, rec, start, max_iter, n_sub)
+    full = _fit(_model_with(model, model.free, ref_params), rec, start, max_iter, n_sub)
     rows = []
     for name in model.free:
-        alone = _fit(_model_with(model, [name], ref_params), rec, start, max_iter)
+        alone = _fit(_model_with(model, [name], ref_params), rec, start, max_iter, n_sub)
         share = 1.0 - alone.cost / same.cost if same.cost > 0 else 0.0
         value = alone.values[f"p:{name}"]
         r_lo, r_hi, r_sd = _interval(ref, name, ref_params[name])

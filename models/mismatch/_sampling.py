@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -23,9 +24,12 @@ from pdmkit.models.ode import integrate_batch, stable_substeps, state_jacobians
 _NP = NumpyNamespace()
 
 __all__ = [
+    "Sampling",
     "choose_decimation",
     "choose_integrator",
     "choose_pieces",
+    "choose_sampling",
+    "converged_n_sub",
     "decimate",
     "simulate_outputs",
     "simulate_states",
@@ -133,6 +137,20 @@ def _nominal_scales(
 _PREFIX = 4000
 
 
+def _head_states(model, rec: Recording, values: Mapping[str, float]):
+    """RK4 states along the record's first samples, with 1, 4 or 16 steps per sample.
+
+    Returns ``(head, X)``, ``X`` None when even 16 steps per sample diverge.
+    """
+    head = part(rec, 0, min(rec.n, _PREFIX))
+    rk4 = model.with_integrator("rk4")
+    for n_sub in (1, 4, 16):
+        X = simulate_states(rk4, head, values, n_sub)
+        if np.all(np.isfinite(X)):
+            return head, X
+    return head, None
+
+
 def _choose_n_sub(
     model,
     rec: Recording,
@@ -148,12 +166,8 @@ def _choose_n_sub(
         return 1
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
     if along is None:
-        head = part(rec, 0, _PREFIX)
-        for n_sub in (1, 4, 16):
-            X = simulate_states(model, head, values, n_sub)
-            if np.all(np.isfinite(X)):
-                break
-        else:
+        head, X = _head_states(model, rec, values)
+        if X is None:
             return 16
         index = np.arange(head.n)
     else:
@@ -169,13 +183,19 @@ def _choose_n_sub(
 STIFF_SUBSTEPS = 8
 
 
-def choose_integrator(model, rec: Recording, values: Mapping[str, float]):
+def choose_integrator(
+    model,
+    rec: Recording,
+    values: Mapping[str, float],
+    along: tuple[np.ndarray, np.ndarray] | None = None,
+):
     r"""The model to fit: integrated with ROS2 when it is stiff at the record's step.
 
     Stiff: explicit RK4 would need more than :data:`STIFF_SUBSTEPS` steps per sample
     along the record's first samples (or diverges at 16), as a pneumatic chamber's
     pressure near equilibrium or an end stop does. A model whose ``integrator`` is not
-    ``"auto"`` is returned as it is.
+    ``"auto"`` is returned as it is. ``along``: RK4 states ``(X, index)`` already
+    simulated at the record's samples ``index``.
 
     Examples
     --------
@@ -192,16 +212,7 @@ def choose_integrator(model, rec: Recording, values: Mapping[str, float]):
     """
     if model.integrator != "auto":
         return model
-    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
-    head = part(rec, 0, _PREFIX)
-    for n_sub in (1, 4, 16):
-        X = simulate_states(model.with_integrator("rk4"), head, values, n_sub)
-        if np.all(np.isfinite(X)):
-            break
-    else:
-        return model.with_integrator("ros2")
-    with np.errstate(all="ignore"):
-        need = stable_substeps(model, P, X, rec.ts, {k: v for k, v in head.inputs.items()})
+    need = _choose_n_sub(model.with_integrator("rk4"), rec, values, along)
     return model.with_integrator("ros2" if need > STIFF_SUBSTEPS else "rk4")
 
 
@@ -214,7 +225,11 @@ DECIMATE_MAX, DECIMATE_MIN_SAMPLES = 10, 1000
 
 
 def choose_decimation(
-    model, rec: Recording, values: Mapping[str, float], n_sub: int
+    model,
+    rec: Recording,
+    values: Mapping[str, float],
+    n_sub: int,
+    along: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> int:
     """How many samples of an oversampled record to merge into one (1: none).
 
@@ -223,7 +238,8 @@ def choose_decimation(
     :data:`DECIMATE_SAMPLES_PER_TIME_CONSTANT` times, the inputs must keep
     :data:`DECIMATE_KEEP_POWER` of their variance below half the new Nyquist
     frequency, at most :data:`DECIMATE_MAX`, and :data:`DECIMATE_MIN_SAMPLES` samples
-    must remain (see :func:`decimate`).
+    must remain (see :func:`decimate`). ``along``: states ``(X, index)`` already
+    simulated at the record's samples ``index``.
 
     Examples
     --------
@@ -240,14 +256,18 @@ def choose_decimation(
     """
     if model.integrator == "ros2":
         return _stiff_decimation(model, rec, values)
-    head = part(rec, 0, min(rec.n, _PREFIX))
-    X = simulate_states(model, head, values, n_sub)
+    if along is None:
+        head = part(rec, 0, min(rec.n, _PREFIX))
+        X, index = simulate_states(model, head, values, n_sub), np.arange(head.n)
+    else:
+        X, index = along
     if not np.all(np.isfinite(X)):
         return 1
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    inputs = {k: v[index] for k, v in rec.inputs.items()}
     fast = [
         float(np.max(np.abs(np.linalg.eigvals(J))))
-        for J in state_jacobians(model, P, X, head.inputs, 12)
+        for J in state_jacobians(model, P, X, inputs, 12)
     ]
     if not fast or max(fast) <= 0:
         return 1
@@ -287,15 +307,132 @@ def _stiff_decimation(model, rec: Recording, values: Mapping[str, float]) -> int
     return 1
 
 
-def simulate_outputs(model, rec: Recording, values: Mapping[str, float]) -> np.ndarray:
+def simulate_outputs(
+    model, rec: Recording, values: Mapping[str, float], n_sub: int = 1
+) -> np.ndarray:
     """Outputs ``(N, n_out)`` of ``model`` with ``values`` along ``rec``'s inputs."""
     P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
     X0 = np.array([[values[f"x0:{s}"] for s in model.states]])
     with np.errstate(all="ignore"):
         Y, _ = integrate_batch(
-            model, [], [], [], rec.time, rec.inputs, P, X0, 1, _NP, False, hold=rec.hold
+            model, [], [], [], rec.time, rec.inputs, P, X0, n_sub, _NP, False, hold=rec.hold
         )
     return Y[0]
+
+
+@dataclasses.dataclass(frozen=True)
+class Sampling:
+    """How a record is simulated in a fit: integrator, decimation, steps per sample.
+
+    ``checked``: chosen by simulation agreement (:func:`_checked_step`) rather than by
+    the model's fastest mode; later refinements of ``n_sub`` are then checked the same
+    way (:func:`converged_n_sub`).
+    """
+
+    model: Any
+    factor: int
+    n_sub: int
+    checked: bool = False
+
+
+def choose_sampling(model, rec: Recording, values: Mapping[str, float]) -> Sampling:
+    """The integrator, decimation and RK4 steps per sample a fit of ``rec`` runs with.
+
+    First by the model's fastest mode (:func:`choose_integrator`,
+    :func:`choose_decimation`, RK4 steps for stability). That rule is cautious: a mode
+    that is fast only for a moment (a chamber's pressure as a valve opens, a laminar
+    region near equal pressures) sets the step for the whole record. When it leaves an
+    RK4 fit at more than :data:`CHECK_COST` right-hand-side calls per recorded sample,
+    a cheaper step is sought by simulation (:func:`_checked_step`) and taken when it
+    agrees with one twice as fine.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pdmkit.models.ode import showcase_model
+    >>> from pdmkit.models.mismatch import make_recording
+    >>> msd = showcase_model("mass_spring_damper")
+    >>> t = np.arange(4000) * 1e-3
+    >>> rec = make_recording(msd, {"time": t, "F": 20 * np.sin(2 * np.pi * t), "x": 0 * t})
+    >>> values = {"p:" + k: v for k, v in msd.params.items()} | {"x0:x": 0.0, "x0:v": 0.0}
+    >>> s = choose_sampling(msd, rec, values)
+    >>> s.model.integrator, s.factor, s.n_sub
+    ('rk4', 2, 1)
+    """
+    head, X = _head_states(model, rec, values)  # simulated once for every rule
+    along = None if X is None else (X, np.arange(head.n))
+    model = choose_integrator(model, rec, values, along)
+    factor = choose_decimation(model, rec, values, 1, along)
+    if model.integrator == "ros2":
+        return Sampling(model, factor, 1)
+    if X is None:
+        n_sub = 16
+    else:
+        slower = dataclasses.replace(rec, ts=rec.ts * factor)  # the decimated step
+        n_sub = _choose_n_sub(model, slower, values, along)
+    cost = 4.0 * n_sub / factor
+    if cost > CHECK_COST:
+        found = _checked_step(model, rec, values, cost)
+        if found is not None:
+            return Sampling(model, *found, checked=True)
+    return Sampling(model, factor, n_sub)
+
+
+#: RK4 right-hand-side calls per recorded sample above which a cheaper step is sought
+CHECK_COST = 4.0
+#: two simulations agree when they differ by at most this share of each output's spread
+CHECK_TOLERANCE = 0.01
+
+
+def _agree(a: np.ndarray, b: np.ndarray, spread: np.ndarray) -> bool:
+    """``a`` and ``b`` (samples x outputs) finite and within the tolerance."""
+    m = min(a.shape[0], b.shape[0])
+    err = np.max(np.abs(a[:m] - b[:m]), axis=0) / spread
+    return bool(np.all(np.isfinite(err)) and np.all(err <= CHECK_TOLERANCE))
+
+
+def _checked_step(
+    model, rec: Recording, values: Mapping[str, float], cost: float
+) -> tuple[int, int] | None:
+    """``(factor, n_sub)`` at most half the ``cost``, checked by simulation, or None.
+
+    For even factors from the largest the inputs allow, and 1, 2, 4... RK4 steps per
+    sample: the whole record simulated at that step must agree (within
+    :data:`CHECK_TOLERANCE` of each output's spread) with the record decimated half as
+    far and simulated with half the step. The first that agrees is the cheapest.
+    """
+    d_max = _input_decimation(rec, min(DECIMATE_MAX, rec.n // DECIMATE_MIN_SAMPLES))
+    spread = np.nanstd(rec.y(model), axis=0) + 1e-300
+    for d in range(d_max - d_max % 2, 1, -2):
+        coarse_rec, fine_rec = decimate(rec, d), decimate(rec, d // 2)
+        n = 1
+        while 4.0 * n / d <= cost / 2:
+            coarse = simulate_outputs(model, coarse_rec, values, n)
+            if np.all(np.isfinite(coarse)):
+                fine = simulate_outputs(model, fine_rec, values, n)
+                if _agree(coarse, fine[::2], spread):
+                    return d, n
+            n *= 2
+    return None
+
+
+def converged_n_sub(model, rec: Recording, values: Mapping[str, float], n_sub: int) -> int:
+    """The fewest RK4 steps per sample, from ``n_sub``, that halving the step confirms.
+
+    Used when the parameters have moved (after a fit) to recheck a step that was
+    chosen by simulation (:class:`Sampling` ``checked``); at most 32.
+    """
+    spread = np.nanstd(rec.y(model), axis=0) + 1e-300
+    n = max(int(n_sub), 1)
+    while n < 32:
+        if _agree(
+            simulate_outputs(model, rec, values, n),
+            simulate_outputs(model, rec, values, 2 * n),
+            spread,
+        ):
+            return n
+        n *= 2
+    return 32
 
 
 def _input_decimation(rec: Recording, d: int) -> int:

@@ -127,7 +127,15 @@ def test_linear_degradation_meets_the_issue_target_on_the_default_leak_runs(tmp_
     # least 80 % of test units, on the default air-leak runs (20 training / 40 test
     # units, seed 0; about 45 s, most of it simulating the twin). The reading held:
     # every last-half prediction within 10 % of the unit's life (docs/rul.md).
-    summary = run_rul("pneumatic-leak", "linear-degradation", tmp_path, n_trajectories=0)
+    # the three models share one simulated fleet (the cache)
+    cache = {"cache_dir": tmp_path / "cache"}
+    summary = run_rul(
+        "pneumatic-leak",
+        "linear-degradation",
+        tmp_path / "linear",
+        n_trajectories=0,
+        dataset_options=cache,
+    )
     assert summary["simulation"]["walk_shape"] == 16.0
     assert summary["n_units"] == 40
     assert summary["within_10pct"]["of_life"] >= 0.8
@@ -138,6 +146,6 @@ def test_linear_degradation_meets_the_issue_target_on_the_default_leak_runs(tmp_
             model,
             tmp_path / model,
             n_trajectories=0,
-            dataset_options={"cache_dir": tmp_path / "cache"},
+            dataset_options=cache,
         )
         assert other["n_units"] == 40 and np.isfinite(other["rmse"])

@@ -1,0 +1,68 @@
+"""The step a fit simulates with, chosen by simulation agreement (issue 29, item 3).
+
+The source rig's model (examples/pneumatic_rig/model_numpy.py, written from the thesis by
+an engineer who did not read pdmkit) has a chamber mode that is fast only for a moment,
+as a valve opens: the fastest-mode rule asks for several RK4 steps per 1 ms sample of
+the whole record. ``choose_sampling`` finds a far cheaper step, and what it chooses must
+agree with scipy's Radau at tight tolerances (an integrator pdmkit does not share).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from pdmkit.models.mismatch import make_recording
+from pdmkit.models.mismatch._fit import _initial_values
+from pdmkit.models.mismatch._sampling import (
+    _choose_n_sub,
+    choose_sampling,
+    converged_n_sub,
+    decimate,
+    simulate_outputs,
+)
+from pdmkit.models.ode import load_model_file
+
+RIG = Path(__file__).resolve().parents[2] / "examples" / "pneumatic_rig"
+
+
+def _radau_position(model, t, program):
+    """The lever position by Radau (rtol 1e-8), the valve commands held per sample."""
+    names = list(model.states)
+    p = dict(model.params)
+
+    def f(tt, y):
+        k = min(int(tt / (t[1] - t[0]) + 1e-9), t.size - 1)
+        u = {name: float(v[k]) for name, v in program.items()}
+        d = model.rhs(tt, dict(zip(names, y, strict=True)), u, p)
+        return [float(d[s]) for s in names]
+
+    y0 = [model.initial[s] for s in names]
+    sol = solve_ivp(
+        f, (t[0], t[-1]), y0, method="Radau", t_eval=t, rtol=1e-8, atol=1e-10, max_step=1e-3
+    )
+    assert sol.success, sol.message
+    return sol.y[names.index("x")]
+
+
+def test_rig_step_is_checked_against_radau():
+    model = load_model_file(RIG / "model_position.py")  # the lever position alone
+    t = np.arange(4000) * 1e-3  # 4 s at 1 kHz: an up stroke and a down stroke
+    work = ((t >= 0.05) & (t < 2.0)).astype(float)
+    program = {"outValveHP": 1.0 - work, "outValveWP": work}
+    x = _radau_position(model, t, program)
+    data = {"time": t, **program, "LeverPosition": x}
+    rec = make_recording(model, data)
+    values = _initial_values(model, rec)
+    s = choose_sampling(model, rec, values)
+    eigen = _choose_n_sub(model.with_integrator("rk4"), rec, values)
+    assert s.checked and s.model.integrator == "rk4"
+    # at least twice cheaper than the fastest-mode rule (RK4 calls per recorded sample)
+    assert 4 * s.n_sub / s.factor <= 4 * eigen / 2
+    y = simulate_outputs(s.model, decimate(rec, s.factor), values, s.n_sub)
+    err = np.abs(y[:, 0] - x[: y.shape[0] * s.factor : s.factor])
+    assert err.max() <= 0.02 * np.std(x), (err.max(), np.std(x))
+    # the step stays converged at its own parameters
+    assert converged_n_sub(s.model, decimate(rec, s.factor), values, s.n_sub) == s.n_sub
