@@ -256,6 +256,29 @@ def _interval(fit: _Fit, name: str, value: float) -> tuple[float, float, float]:
     return (value - _Z * sd, value + _Z * sd, sd)
 
 
+def _reference_fit(model, rec_ref: Recording, rec: Recording, decimation, max_iter):
+    """The sampling both recordings are fitted with, and the reference's fit.
+
+    Returns ``(model, rec_ref, rec, decimation, n_sub, fit)``; ``n_sub`` None lets each
+    later fit choose its step, unless the step was checked by simulation (it then holds
+    for every fit, rechecked at the reference's fitted values).
+    """
+    sampling = choose_sampling(model, rec_ref, _initial_values(model, rec_ref))
+    model = sampling.model
+    if decimation is None:
+        decimation = sampling.factor
+    n_sub = sampling.n_sub if sampling.checked and decimation == sampling.factor else None
+    if decimation > 1:
+        rec_ref, rec = decimate(rec_ref, decimation), decimate(rec, decimation)
+    ref = _fit(model, rec_ref, _initial_values(model, rec_ref), max_iter, n_sub)
+    if n_sub is not None:
+        n_checked = converged_n_sub(model, rec_ref, ref.values, n_sub)
+        if n_checked > n_sub:
+            n_sub = n_checked
+            ref = _fit(model, rec_ref, ref.values, max_iter, n_sub)
+    return model, rec_ref, rec, decimation, n_sub, ref
+
+
 def diagnose_change(
     model: OdeModel,
     data: Any,
@@ -328,20 +351,9 @@ def diagnose_change(
         else make_recording(model, reference, "reference")
     )
     rec = data if isinstance(data, Recording) else make_recording(model, data, "data")
-    sampling = choose_sampling(model, rec_ref, _initial_values(model, rec_ref))
-    model = sampling.model
-    if decimation is None:
-        decimation = sampling.factor
-    # a step checked by simulation holds for every fit; otherwise each fit takes its own
-    n_sub = sampling.n_sub if sampling.checked and decimation == sampling.factor else None
-    if decimation > 1:
-        rec_ref, rec = decimate(rec_ref, decimation), decimate(rec, decimation)
-    ref = _fit(model, rec_ref, _initial_values(model, rec_ref), max_iter, n_sub)
-    if n_sub is not None:  # the checked step, rechecked at the fitted values
-        n_checked = converged_n_sub(model, rec_ref, ref.values, n_sub)
-        if n_checked > n_sub:
-            n_sub = n_checked
-            ref = _fit(model, rec_ref, ref.values, max_iter, n_sub)
+    model, rec_ref, rec, decimation, n_sub, ref = _reference_fit(
+        model, rec_ref, rec, decimation, max_iter
+    )
     ref_params = {k[2:]: v for k, v in ref.values.items() if k.startswith("p:")}
     start = {**_initial_values(model, rec), **{f"p:{k}": v for k, v in ref_params.items()}}
     frozen = _model_with(model, [], ref_params)

@@ -134,6 +134,10 @@ def test_mismatch_cli_names_the_hidden_friction(tmp_path, capsys):
         "mismatch",
         paths["model"],
         paths["data"],
+        # the command's plumbing is the point: discovery among a few rival effects
+        # (the whole library is tested in tests/models)
+        "--effects",
+        "coulomb_friction,stribeck_friction,bias_force,cubic_stiffness",
         "--out",
         out,
         "--json",

@@ -142,16 +142,9 @@ def test_real_cascaded_tanks_overflow_on_upper_tank(require_data):
     est = pd.DataFrame({"time": t, "u": d["uEst"], "h2": d["yEst"]})
     val = pd.DataFrame({"time": t, "u": d["uVal"], "h2": d["yVal"]})
     model = showcase_model("cascaded_tanks")
-    # one effect alone is only part of the story here: a sparse equation beats the
-    # upper-tank overflow by a third without a white residual either, so the honest
-    # single-effect verdict is `unexplained` with the overflow as the best partial
-    single = discover_mismatch(model, est, val, pairs=False)
-    assert single.verdict["effect"] in ("overflow", "unexplained")
-    if single.verdict["effect"] == "unexplained":
-        partial = single.verdict["best_partial"]
-        assert (partial["effect"], partial["target"]) == ("overflow", "h1")
-        assert partial["improvement"] >= 0.15 and single.verdict["lead_equation"]
-    # with more effects allowed (the default) the overflow is named among them
+    # one effect alone is only part of the story here (a sparse equation beats the
+    # upper-tank overflow alone by a third); with more effects allowed (the default)
+    # the overflow is named among them
     res = discover_mismatch(model, est, val)
     named = [(res.verdict["effect"], res.verdict["target"], res.verdict["params"])]
     named += [(a["effect"], a["target"], a["params"]) for a in res.verdict.get("also", [])]

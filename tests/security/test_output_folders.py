@@ -168,7 +168,14 @@ COMMANDS = ["identify", "mismatch", "rul", "features", "classify", "sensors", "r
 @pytest.mark.parametrize(
     "command", [*COMMANDS, pytest.param("demo", marks=pytest.mark.slow)]
 )
-def test_user_files_stay_and_pdmkit_files_are_replaced(command, tmp_path):
+def test_user_files_stay_and_pdmkit_files_are_replaced(command, tmp_path, monkeypatch):
+    if command == "demo":  # the files are the point here: the demo's discovery on a budget
+        import functools
+
+        from pdmkit.experiments import _demo
+
+        budgeted = functools.partial(_demo.demo_mismatch_cases, max_seconds=5.0)
+        monkeypatch.setattr(_demo, "demo_mismatch_cases", budgeted)
     out = tmp_path / "out"
     argv = _command(command, out, out)  # the inputs live in OUT too
     argv += ["--json", str(tmp_path / "summary-copy.json")]
