@@ -19,7 +19,7 @@ demo: $(STAMP)
 	$(BIN)/pdmkit demo --out results/demo
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -n auto --dist loadfile --durations=25
+	$(BIN)/python -m pytest -q -n auto --dist worksteal --durations=25
 
 lint: $(STAMP)
 	$(BIN)/ruff check . && $(BIN)/ruff format --check .

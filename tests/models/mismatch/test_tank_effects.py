@@ -128,3 +128,13 @@ def test_cascaded_tanks_example_names_overflow_and_the_sensor_ceiling(require_da
     )
     cap = next(a for a in [v, *v.get("also", [])] if a["effect"] == "overflow")
     assert sim.states["h1"][0].max() >= 0.97 * cap["params"]["cap"]
+    # literature: Torricelli without overflow about 0.64 V validation RMSE
+    assert 0.6 < res.fit["rmse_nominal"] < 0.7
+    # the two located windows with most residual energy hold the episodes where the
+    # lower-tank sensor reads its 10 V ceiling (the rig's overflow episodes), and the
+    # fitted upper tank sits at its cap there
+    y, h1 = col("yEst"), sim.states["h1"][0]
+    for w in res.located[:2]:
+        inside = (t >= w["start"]) & (t < w["end"])
+        assert y[inside].max() >= 9.9
+        assert h1[inside].max() >= 0.97 * cap["params"]["cap"]
