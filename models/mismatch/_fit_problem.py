@@ -229,27 +229,14 @@ class _Problem:
         """The same problem with another number of RK4 steps per sample."""
         return dataclasses.replace(self, n_sub=n_sub)
 
-    def simulate(
-        self,
-        rows: Sequence[tuple],
-        n: int | None = None,
-        states: bool = False,
-        refine: bool = True,
-    ):
+    def simulate(self, rows: Sequence[tuple], n: int | None = None, states: bool = False):
         """Outputs for rows of ``(job, values, x0)`` (the states with ``states``).
 
         Without ``n``: the fitted pieces, ``(B, K * L, n_out)``, ``x0`` of each row
         ``(K, nx)``. With ``n``: the first ``n`` samples simulated whole from the first
         piece's initial state ``x0[0]``, ``(B, n, n_out)``.
-
-        With ``refine``, RK4 rows that come out non-finite are simulated once more with
-        :data:`REFINE_FACTOR` times the steps (at most :data:`REFINE_MAX` per sample): a
-        parameter moving towards a stiffer model (a harder damper) leaves RK4's
-        stability region long before the model itself diverges, and a fit that read
-        that as a diverged trial would be fenced in by the integrator, not the data.
         """
         model = self.model
-        n_asked = n
         B = len(rows)
         union: list[Effect] = []
         for job, *_ in rows:
@@ -309,19 +296,7 @@ class _Problem:
                 segments=segments,
                 t_origin=self.rec.t_origin,
             )
-        out = X if states else Y
-        finer = min(REFINE_FACTOR * self.n_sub, REFINE_MAX)
-        if refine and model.integrator == "rk4" and finer > self.n_sub:
-            bad = ~np.all(np.isfinite(out.reshape(B, -1)), axis=1)
-            if bad.any():  # RK4 unstable there: those jobs again with a finer step
-                # every row of such a job, so that its finite differences compare
-                # simulations with the same step
-                jobs = {id(rows[i][0]) for i in np.flatnonzero(bad)}
-                idx = [i for i, (job, *_) in enumerate(rows) if id(job) in jobs]
-                out[idx] = self.with_step(finer).simulate(
-                    [rows[i] for i in idx], n_asked, states, refine=False
-                )
-        return out
+        return X if states else Y
 
     def residuals(self, Y: np.ndarray) -> np.ndarray:
         """Weighted residuals ``(B, K * L * n_out)`` (simulated minus measured)."""
@@ -408,11 +383,6 @@ def _fd_jacobians(R: np.ndarray, r0: int, job: _Job, steps, dx):
 
 #: ``time.perf_counter()`` after which budgeted fits stop where they are (a discovery's
 #: ``max_seconds``); each job keeps its best point so far
-#: RK4 rows that diverge are simulated again with this many times the steps ...
-REFINE_FACTOR = 4
-#: ... up to this many per sample
-REFINE_MAX = 32
-
 DEADLINE: contextvars.ContextVar[float] = contextvars.ContextVar(
     "deadline", default=math.inf
 )
