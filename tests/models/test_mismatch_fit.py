@@ -85,3 +85,35 @@ def test_effect_parameters_recovered(rng):
     assert fit.values["overflow@h1->h2.into"] == pytest.approx(0.5, abs=0.1)
     assert fit.params()["b"] == pytest.approx(0.002, rel=0.02)
     assert fit.rmse_fit < 0.2 * nominal.rmse_fit
+
+
+def test_rough_residual_columns_get_the_large_finite_difference_step():
+    """A fixed-step simulation of a switching law (the rig's end-stop dampers) is a
+    staircase in the parameter that moves the switching instant: flat between
+    jumps, so a 1e-6 step sees no slope (the rig's nominal fit stopped at b_up = 3.3
+    N s/m, 7.2 mm validation; with the large step 1.1e4 and 2.1 mm). The first
+    Jacobian compares both steps per column and keeps the large one where they
+    disagree."""
+    from types import SimpleNamespace
+
+    from pdmkit.models.mismatch import _fit_problem as fp
+
+    rng = np.random.default_rng(3)
+    a, b = rng.normal(size=50), rng.normal(size=50)
+    tread = 1e-3  # the staircase's width in the parameter
+
+    def residual(theta):  # smooth in theta[0], a staircase in theta[1]
+        return a * np.sin(theta[0]) + b * tread * np.floor(theta[1] / tread)
+
+    theta = np.array([0.3, 0.5004])
+    layout = SimpleNamespace(n=2, scale=np.ones(2), hi=np.full(2, np.inf))
+    job = SimpleNamespace(layout=layout, fd_rel=None)
+    steps = np.stack([fp._fd_steps(job, theta), fp._fd_steps(job, theta, fp.FD_LARGE)])
+    rows = [residual(theta)]
+    for step in steps:
+        rows += [residual(theta + np.eye(2)[i] * step[i]) for i in range(2)]
+    J = fp._fd_columns(np.array(rows), 0, job, steps)
+    assert list(job.fd_rel) == [fp.FD_SMALL, fp.FD_LARGE]
+    np.testing.assert_allclose(J[:, 0], a * np.cos(0.3), rtol=1e-4)  # the small step
+    np.testing.assert_allclose(J[:, 1], b, rtol=0.2)  # the staircase's mean slope
+    assert np.allclose(fp._fd_steps(job, theta), [1e-6, 1e-2])  # kept for the fit
