@@ -32,7 +32,8 @@ __all__ = [
 OUTPUTS: dict[str, tuple[str, ...]] = {
     "features": ("features.parquet", "errors.parquet", "report.html", "summary.json"),
     "rank": ("ranking.parquet", "report.html", "summary.json"),
-    "classify": ("report.html", "summary.json"),
+    "classify": ("model.pdmkit", "report.html", "summary.json"),
+    "predict": ("predictions.csv", "recordings.csv", "report.html", "summary.json"),
     "sensors": ("report.html", "summary.json"),
     "rul": ("predictions.parquet", "model.pdmkit", "report.html", "summary.json"),
     "identify": ("report.html", "summary.json"),

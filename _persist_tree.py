@@ -42,6 +42,7 @@ TORCH_CLASSES = (
 
 #: The pdmkit classes a model file may rebuild, by exact ``module.qualname``.
 PDMKIT_CLASSES = (
+    "pdmkit.experiments._deploy.FaultClassifier",
     "pdmkit.features._ranking.FeatureRanking",
     "pdmkit.features._selection.SelectTopRanked",
     "pdmkit.rul._base.Unit",

@@ -1,8 +1,10 @@
 """Member files (one recording per file) as an :class:`Ensemble`: :func:`read_members`.
 
 Each file is read by the reader of its format (:func:`read_table`, :func:`read_mat`,
-:func:`read_npz`), its sampling rate taken from the file or its time column, its
-conditions from its name or a table; a bad file is reported, the others read on.
+:func:`read_npz`), its sampling rate taken from the file, its time column or an ``fs``
+condition, its conditions from its name or a table; a bad file is reported, the others
+read on. The members are then brought to one rate (``resample=``) and cut into frames
+(``frame=``), see ``_member_labels.py``.
 """
 
 from __future__ import annotations
@@ -17,13 +19,22 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pdmkit._checks import parse_timestamps
+from pdmkit._checks import check_fs, parse_timestamps
 from pdmkit._config import max_bytes
 from pdmkit._progress import progress as _progress_bar
 from pdmkit.ensembles._ensemble import Ensemble
 from pdmkit.ensembles._limits import _too_big
 from pdmkit.ensembles._matlab_numpy import read_mat, read_npz
-from pdmkit.ensembles._member_labels import _NameConditions
+from pdmkit.ensembles._member_labels import (
+    _FRAME_WORDS,
+    _at_one_rate,
+    _condition_rate,
+    _frame_specs,
+    _in_samples,
+    _long_enough,
+    _NameConditions,
+    _resampled,
+)
 from pdmkit.ensembles._table_files import (
     _COMPRESSED,
     _CSV,
@@ -366,6 +377,9 @@ def read_members(
     time: str | None = None,
     label_from_name: Any = None,
     labels: Any = None,
+    resample: float | None = None,
+    frame: int | str | None = None,
+    hop: int | str | None = None,
     on_error: str = "raise",
     return_errors: bool = False,
     progress: bool | None = None,
@@ -399,18 +413,47 @@ def read_members(
       (``x.csv/``) is that member's error; other sub-folders are not read, and a
       DataWarning names them.
 
+    Each member's sampling rate is the one its file states (time column, ``fs``
+    variable), else its ``fs`` condition (a column ``fs`` of ``labels`` or a named group
+    ``(?P<fs>...)`` of ``label_from_name``, in Hz: ``48000``, ``48k``, ``48 kHz``),
+    else ``fs``. An ``fs`` condition overrides nothing the file states: a different
+    rate is an error naming the file and both. It is taken as the rate, not kept as a
+    condition (the ensemble states the rate, as it does a file's ``fs`` variable).
+
+    Files at different rates are never read at one rate. Without ``resample``, every
+    member must have ``fs`` (when given) or the most common rate: otherwise a DataError
+    names the files and their rates. With ``resample``, every member is resampled to
+    that rate (``scipy.signal.resample_poly`` by ``up / down``, the ratio of the rates
+    as a fraction of integers of at most 10000; its anti-aliasing filter is scipy's
+    default, a Kaiser-windowed FIR low-pass, beta 5, cut off at the lower of the two
+    Nyquist frequencies, so content above ``resample / 2`` is removed); a member of
+    ``n`` samples gets ``ceil(n * up / down)``, and the condition ``fs_original`` keeps
+    the rate it was recorded at.
+
+    With ``frame``, each member is then cut into frames (:meth:`Ensemble.frames`):
+    ``frame`` samples long, ``hop`` apart (default ``frame``: no overlap), ``floor((n -
+    frame) / hop) + 1`` frames from a member of ``n`` samples, trailing samples
+    dropped. Lengths are samples (``2048``, ``"2048"``) or durations (``"0.1s"``,
+    ``"100ms"``), turned into samples at the members' (common) rate and rounded to the
+    nearest sample. A frame's id is ``"<member>/f<k:04d>"``; its conditions are its
+    member's plus ``source_member`` (the member id: frames of one recording belong
+    together, e.g. on one side of a train/test split) and ``frame`` (``k``).
+
     With ``on_error="skip"`` a file that cannot be read or fails a check, a member
-    lacking a signal named in ``signals``, a signal with NaN or inf samples, or a
-    sampling rate that differs from ``fs`` (default: the most common rate of the files)
-    leaves that member out and adds a row to the errors table (with the reason); the
-    other members are read as if the bad file were not there.
+    lacking a signal named in ``signals``, a signal with NaN or inf samples, a sampling
+    rate that differs from ``fs`` (default: the most common rate of the files) when
+    there is no ``resample``, or a member shorter than one frame leaves that member out
+    and adds a row to the errors table (with the reason); the other members are read as
+    if the bad file were not there.
 
     Parameters
     ----------
     files : path, glob pattern or sequence of them
         Member files; a directory stands for all the files in it.
     fs : float, optional
-        Expected sampling rate in Hz (required when no file states its own).
+        Sampling rate in Hz of the files that state none (no time column, ``fs``
+        variable or ``fs`` condition); without ``resample`` also the rate every member
+        must have. Required when no file states its own.
     signals : sequence of str, optional
         Signals every member must have (default: all found; a member lacking one gets
         None there).
@@ -426,10 +469,18 @@ def read_members(
     labels : path or DataFrame, optional
         A table (CSV / Parquet, read by :func:`read_table`) with a column ``file``
         (or ``member``, ``name``, ``filename``, ``path``) naming each member file
-        (``a.csv``) or member id (``a``), and condition columns beside it. A member
-        file the table does not list is an error naming it; rows naming no file read
-        give a DataWarning. A condition given twice with different values (in the
-        file, by its name, in the table) is an error.
+        (``a.csv``) or member id (``a``), and condition columns beside it (a column
+        ``fs``: each file's sampling rate). A member file the table does not list is
+        an error naming it; rows naming no file read give a DataWarning. A condition
+        given twice with different values (in the file, by its name, in the table) is
+        an error.
+    resample : float, optional
+        Resample every member to this rate in Hz (see above).
+    frame : int or str, optional
+        Cut every member into frames of this length: samples, or ``"0.1s"`` /
+        ``"100ms"``.
+    hop : int or str, optional
+        The distance between frame starts (samples or a duration); needs ``frame``.
     on_error : {"raise", "skip"}, default "raise"
     return_errors : bool, default False
         Also return the errors table (columns ``member``, ``signal``, ``source``,
@@ -445,7 +496,9 @@ def read_members(
     ------
     pdmkit.errors.DataError
         With ``on_error="raise"``: the first bad file (the message names it and says
-        what was expected and found). Always: no file matched, or no member was left.
+        what was expected and found), or files at different rates without ``resample``
+        (all named, with their rates). Always: no file matched, no member was left, a
+        bad ``frame`` / ``hop`` / ``resample``.
 
     Warns
     -----
@@ -468,7 +521,23 @@ def read_members(
     >>> errors["member"].tolist()
     ['b', 'c']
     >>> print(errors["error"].iloc[0])
-    b.csv is sampled at 100 Hz; expected 50 Hz (fs as given); member skipped
+    b.csv is sampled at 100 Hz; expected 50 Hz (fs as given); pass resample= (--resample
+    HZ) to read it; member skipped
+
+    Files at two rates are an error naming them, unless resampled to one; here in
+    frames of 0.5 s (25 samples at 50 Hz) every 0.2 s: a has 100 samples at 50 Hz
+    (8 frames), b 100 at 100 Hz (50 at 50 Hz: 3 frames):
+
+    >>> read_members([d / "a.csv", d / "b.csv"])
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.DataError: member files at different sampling rates: b.csv is ...
+    >>> ens = read_members([d / "a.csv", d / "b.csv"], resample=50.0, frame="0.5s",
+    ...                    hop="200ms")
+    >>> len(ens), ens.fs["vib"], ens.stack("vib")[0].shape
+    (11, 50.0, (11, 25))
+    >>> ens.conditions.loc["b/f0002", ["source_member", "frame", "fs_original"]].to_dict()
+    {'source_member': 'b', 'frame': 2, 'fs_original': 100.0}
 
     The label from the file names, and a time column named otherwise:
 
@@ -481,6 +550,8 @@ def read_members(
     """
     if on_error not in ("raise", "skip"):
         raise ValueError(f"on_error must be 'raise' or 'skip'; got {on_error!r}")
+    target = None if resample is None else check_fs(resample, "resample (--resample)")
+    lengths = _frame_specs(frame, hop)
     patterns = [files] if isinstance(files, str | os.PathLike) else list(files)
     paths = _member_paths(patterns)
     wanted = (
@@ -503,23 +574,19 @@ def read_members(
         warnings.warn(
             f"{_files_named(where)}: {what} {name!r} {done}", DataWarning, stacklevel=2
         )
-    expected, whose = _expected_rate(read, fs)
-    kept = []
-    for member, path, arrays, rate, conds in read:
-        if rate is not None and abs(rate - expected) > 1e-3 * expected:
-            log.fail(
-                member,
-                None,
-                path,
-                f"{path.name} is sampled at {rate:g} Hz; expected {expected:g} Hz "
-                f"({whose})",
-            )
-            continue
-        kept.append((member, path, arrays, conds))
+    if target is None:
+        kept, rate = _at_one_rate(read, fs, log.on_error, log.fail)
+    else:
+        kept, rate = _resampled(read, fs, target, wanted, log.fail), target
     kept = _without_clashes(kept, log.fail)
-    ens = _members_ensemble(
-        [(m, a, c) for m, _, a, c in kept], wanted, expected, paths, log
-    )
+    if lengths is not None and kept:  # none kept: the error says why, below
+        length, step = (
+            _in_samples(s, rate, w) for s, w in zip(lengths, _FRAME_WORDS, strict=True)
+        )
+        kept = _long_enough(kept, length, rate, wanted, log.fail)
+    ens = _members_ensemble([(m, a, c) for m, _, a, c in kept], wanted, rate, paths, log)
+    if lengths is not None:
+        ens = ens.frames(length, hop=step)
     return (ens, log.table(paths)) if return_errors else ens
 
 
@@ -606,6 +673,7 @@ def _read_member(
         extra = named.conditions(path)
         arrays, rate, conds = _member_arrays(path, notes, time)
         conds = named.merge(path, conds, extra)
+        rate = _condition_rate(path, conds, rate)  # an fs condition: the rate
     except DataError as exc:
         fail(member, None, path, str(exc))
         return None
@@ -644,24 +712,6 @@ def _files_named(where: list[Path]) -> str:
     return f"{len(where)} member files ({', '.join(p.name for p in where[:3])}" + (
         ", ...)" if len(where) > 3 else ")"
     )
-
-
-def _expected_rate(read: list, fs: float | None) -> tuple[float | None, str]:
-    """The rate every member must have and whose it is: ``fs``, or the most common."""
-    rates = [r for _, _, _, r, _ in read if r is not None]
-    expected, whose = fs, "fs as given"
-    if expected is None and rates:
-        values, counts = np.unique(np.round(rates, 6), return_counts=True)
-        expected, whose = (
-            float(values[np.argmax(counts)]),
-            "the most common rate of the files",
-        )
-    if expected is None and read:
-        raise DataError(
-            f"none of the {len(read)} member files states its sampling rate (no time "
-            "column, no fs variable); pass fs="
-        )
-    return expected, whose
 
 
 def _members_ensemble(

@@ -35,6 +35,7 @@ __all__ = [
     "SEED_SENSOR_RECIPES",
     "SELECTIONS",
     "ClassificationResult",
+    "FaultClassifier",
     "Report",
     "RunDirectory",
     "SeedResult",
@@ -60,6 +61,7 @@ __all__ = [
     "run_features",
     "run_identify",
     "run_mismatch",
+    "run_predict",
     "run_rank",
     "run_rul",
     "run_seed_study",
@@ -83,7 +85,9 @@ __all__ = [
 #: command line (``pdmkit.experiments._cli``) starts without loading every workflow
 _LAZY = {
     "TableSource": "_sources",
-    "run_classify": "_table_workflows",
+    "run_classify": "_classify_run",
+    "run_predict": "_classify_run",
+    "FaultClassifier": "_deploy",
     "run_features": "_table_workflows",
     "run_rank": "_table_workflows",
     "run_sensors": "_table_workflows",

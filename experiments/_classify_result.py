@@ -103,10 +103,18 @@ class ClassificationResult:
         Fitted on the training part.
     test_members : pandas.Index
         Member ids of the held-out part; ``y_true`` / ``y_pred`` align with it.
+    train_members : pandas.Index
+        Member ids the pipeline was fitted on (members dropped as a gap are in
+        neither).
     notes : list of str
         What was adjusted on the way (fewer folds, smaller ``top_k``, ...).
     split : str
-        ``"stratified"`` or ``"time"`` (see :func:`classify`).
+        The kind of split made: ``"group"``, ``"random"``, ``"time"``, ``"where"``
+        or ``"table"`` (see :func:`classify`).
+    split_info : dict
+        What the JSON's ``split`` holds: ``kind``, ``by``, group counts, ``measures``.
+    test_groups : numpy.ndarray or None
+        The group (recording) of each held-out member, when members have groups.
     order : str or None
         The column that ordered the members of a time split (None: their order).
 
@@ -143,11 +151,14 @@ class ClassificationResult:
     selection: str | None = None
     top_k: int | None = None
     test_members: pd.Index = field(default_factory=lambda: pd.Index([]))
+    train_members: pd.Index = field(default_factory=lambda: pd.Index([]))
     y_true: np.ndarray = field(default_factory=lambda: np.array([], dtype=object))
     y_pred: np.ndarray = field(default_factory=lambda: np.array([], dtype=object))
     notes: list[str] = field(default_factory=list)
-    split: str = "stratified"
+    split: str = "random"
     order: str | None = None
+    split_info: dict = field(default_factory=dict)
+    test_groups: np.ndarray | None = None
 
     def __repr__(self) -> str:
         cv = (
@@ -225,8 +236,10 @@ class ClassificationResult:
             (rows true, columns predicted), ``n_train``, ``n_test``, ``cv_accuracy``,
             ``cv_accuracy_std``, ``cv_folds``, ``recall`` (class -> recall),
             ``label``, ``selection``, ``top_k``, ``n_input_features``, ``split``
-            (``"stratified"`` or ``"time"``), ``order`` (the time column of a time
-            split), ``notes`` (a time split's first note says where it fell).
+            (:attr:`split_info`: ``kind``, ``by``, ``measures``, ...), ``order``
+            (the time column of a time split), ``groups`` (per held-out group: its
+            class, members, accuracy and most predicted class; absent without
+            groups), ``notes`` (a time split's first note says where it fell).
 
         Examples
         --------
@@ -255,11 +268,62 @@ class ClassificationResult:
                 "labels": [_plain(c) for c in self.labels],
                 "confusion": self.confusion.tolist(),
                 "recall": {str(_plain(c)): float(self.recall[c]) for c in self.labels},
-                "split": self.split,
+                "split": dict(self.split_info) or {"kind": self.split},
                 "order": self.order,
+                **(
+                    {"groups": self.group_scores().to_dict("records")}
+                    if self.test_groups is not None
+                    else {}
+                ),
                 "notes": list(self.notes),
             }
         )
+
+    def group_scores(self) -> pd.DataFrame:
+        """Accuracy per held-out group (recording): the breakdown behind the number.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per held-out group: ``group``, ``true`` (its class; the most
+            common one when it holds several), ``members``, ``accuracy``,
+            ``predicted`` (the class most of its members were given); worst first.
+
+        Examples
+        --------
+        >>> from pdmkit.experiments import classify
+        >>> import numpy as np, pandas as pd
+        >>> y = np.repeat(["a", "b"], 20)
+        >>> t = pd.DataFrame({"s/F": np.r_[np.arange(20.0), 30 + np.arange(20.0)],
+        ...                   "c": y, "rec": [f"{c}{i // 5}" for i, c in enumerate(y)]})
+        >>> res = classify(t, "c", selection=None, model="lda", cv=None, group="rec")
+        >>> res.group_scores()[["group", "members", "accuracy"]].values.tolist()
+        [['a3', 5, 1.0], ['b6', 5, 1.0]]
+        """
+        if self.test_groups is None:
+            raise ValueError("the members had no groups; see classify(group=...)")
+        df = pd.DataFrame(
+            {
+                "group": self.test_groups,
+                "true": [_plain(v) for v in self.y_true],
+                "predicted": [_plain(v) for v in self.y_pred],
+            }
+        )
+        rows = []
+        for g, part in df.groupby("group", sort=True):
+            rows.append(
+                {
+                    "group": str(g),
+                    "true": part["true"].mode().iloc[0],
+                    "members": len(part),
+                    "accuracy": float((part["true"] == part["predicted"]).mean()),
+                    "predicted": part["predicted"].mode().iloc[0],
+                }
+            )
+        out = pd.DataFrame(
+            rows, columns=["group", "true", "members", "accuracy", "predicted"]
+        )
+        return out.sort_values(["accuracy", "group"], kind="stable").reset_index(drop=True)
 
     def predict(self, table: pd.DataFrame) -> pd.Series:
         """Predict the class of each member of a feature table.

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pdmkit.experiments._classify_run import run_classify, run_predict
 from pdmkit.experiments._cli_common import (
     EXIT_SKIPPED,
     add_output_options,
@@ -18,9 +19,8 @@ from pdmkit.experiments._cli_common import (
     positive_int,
     say,
 )
-from pdmkit.experiments._sources import TableSource
+from pdmkit.experiments._sources import TableSource, add_member_options
 from pdmkit.experiments._table_workflows import (
-    run_classify,
     run_features,
     run_rank,
     run_sensors,
@@ -63,6 +63,8 @@ def _cmd_rank(args: argparse.Namespace) -> int:
         order=args.order,
         window=args.window,
         top=args.top,
+        stability_folds=args.stability_folds,
+        group=args.group,
     )
     return 0
 
@@ -78,7 +80,28 @@ def _cmd_classify(args: argparse.Namespace) -> int:
         test_size=args.test_size,
         split=args.split,
         order=args.order,
+        group=args.group,
+        gap=args.gap,
+        test_where=args.test_where,
+        test_table=args.test,
         seed=args.seed,
+    )
+    return 0
+
+
+def _cmd_predict(args: argparse.Namespace) -> int:
+    run_predict(
+        args.model,
+        TableSource(
+            members=args.members,
+            features=args.features,
+            label_from_name=args.label_from_name,
+            labels=args.labels,
+            quiet=args.quiet,
+        ),
+        out_dir=args.out,
+        json_path=args.json,
+        group=args.group,
     )
     return 0
 
@@ -93,6 +116,7 @@ def _cmd_sensors(args: argparse.Namespace) -> int:
         model=args.model,
         top_k=args.top_k,
         seed=args.seed,
+        group=args.group,
     )
     return 0
 
@@ -102,6 +126,7 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     _add_features_parser(sub)
     _add_rank_parser(sub)
     _add_classify_parser(sub)
+    _add_predict_parser(sub)
     _add_sensors_parser(sub)
 
 
@@ -117,11 +142,24 @@ def _add_rank_parser(sub: argparse._SubParsersAction) -> None:
     add_input_options(p)
     p.add_argument(
         "--method",
-        default="kruskal",
-        choices=["kruskal", "anova", "monotonicity", "trendability", "prognosability"],
-        help="kruskal, anova: separate the --label classes; monotonicity, "
-        "trendability, prognosability (Coble & Hines): track degradation over the "
-        "run-to-failure rows of each --unit, ordered by --order/--time",
+        default="fisher",
+        choices=[
+            "fisher",
+            "kruskal",
+            "anova",
+            "auc",
+            "bhattacharyya",
+            "monotonicity",
+            "trendability",
+            "prognosability",
+        ],
+        help="fisher (default; Fisher's discriminant ratio), kruskal, anova, auc "
+        "(one-vs-rest ROC AUC), bhattacharyya: separate the --label classes; "
+        "monotonicity, trendability, prognosability (Coble & Hines): track degradation "
+        "over the run-to-failure rows of each --unit, ordered by --order/--time. The "
+        "default was kruskal: its H, like the AUC of two classes, is the same for every "
+        "indicator that separates the classes completely; fisher and bhattacharyya "
+        "keep growing with the gap between them",
     )
     p.add_argument(
         "--unit",
@@ -143,6 +181,20 @@ def _add_rank_parser(sub: argparse._SubParsersAction) -> None:
         "first; snapshot indicators are noisy",
     )
     p.add_argument("--top", type=int, default=20, help="rows in the summary")
+    p.add_argument(
+        "--stability-folds",
+        type=positive_int,
+        metavar="N",
+        help="class methods: also rank on the training rows of N cross-validation "
+        "folds and report each indicator's mean rank, its spread and how often it is "
+        "in the top 10, and the mean Spearman/Kendall correlation between the folds",
+    )
+    p.add_argument(
+        "--group",
+        metavar="COL",
+        help="with --stability-folds: the column whose rows stay together in one fold "
+        "(e.g. record, the recording that frames were cut from)",
+    )
     p.set_defaults(func=_cmd_rank)
 
 
@@ -157,9 +209,11 @@ def _add_classify_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--selection",
-        default="kruskal",
-        choices=["kruskal", "anova", "pca"],
-        help="how the --top-k indicators are chosen (default kruskal)",
+        default="fisher",
+        choices=["fisher", "kruskal", "anova", "bhattacharyya", "pca"],
+        help="how the --top-k indicators are chosen (default fisher: the Fisher ratio "
+        "keeps telling separated classes apart, where Kruskal-Wallis H saturates and "
+        "picks among tied indicators by accident)",
     )
     p.add_argument(
         "--test-size",
@@ -169,11 +223,41 @@ def _add_classify_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--split",
-        default="stratified",
-        choices=["stratified", "time"],
-        help="stratified: members drawn at random, each class on both sides "
-        "(default); time: train on the earlier members, test on the later ones, "
-        "ordered by --order",
+        default="auto",
+        choices=["auto", "group", "random", "stratified", "time"],
+        help="auto (default): whole recordings held out when members are frames of "
+        "recordings (a source_member column) or --group is given, else random; group: "
+        "hold out whole --group groups, class by class (a class recorded once is split "
+        "in time blocks with a gap); random / stratified: members drawn at random, "
+        "frames of one recording on both sides (says so); time: train on the earlier "
+        "members, test on the later ones, ordered by --order",
+    )
+    p.add_argument(
+        "--group",
+        metavar="COL",
+        help="the condition naming each member's recording, session or unit: its "
+        "members stay on one side of every split (default source_member when framed)",
+    )
+    p.add_argument(
+        "--gap",
+        type=positive_int,
+        default=1,
+        help="members dropped between the training and test block of a class recorded "
+        "once (default 1; at least the overlap of overlapping frames)",
+    )
+    test = p.add_mutually_exclusive_group()
+    test.add_argument(
+        "--test-where",
+        metavar="EXPR",
+        help="test on the members this expression selects, train on the others "
+        '(pandas syntax on the condition columns, e.g. "size == 21")',
+    )
+    test.add_argument(
+        "--test",
+        type=Path,
+        metavar="TABLE",
+        help="a second feature table to test on (same indicators, matched by name); "
+        "its accuracy is test_accuracy in the JSON",
     )
     p.add_argument(
         "--order",
@@ -184,6 +268,48 @@ def _add_classify_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the split and model (0)")
     p.set_defaults(func=_cmd_classify)
+
+
+def _add_predict_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "predict", help="score new recordings with a classifier saved by classify"
+    )
+    p.add_argument(
+        "--model",
+        type=Path,
+        required=True,
+        metavar="FILE",
+        help="model.pdmkit written by pdmkit classify or the designer (read safely: "
+        "nothing in it runs)",
+    )
+    source = p.add_mutually_exclusive_group(required=True)
+    source.add_argument(
+        "--members",
+        nargs="+",
+        metavar="FILE",
+        help="recordings: the model's recipe computes its indicators from them "
+        "(same signals, groups, options, rate and framing)",
+    )
+    source.add_argument(
+        "--features", type=Path, help="a feature table (columns matched by name)"
+    )
+    p.add_argument(
+        "--label-from-name",
+        metavar="REGEX",
+        help="conditions from the --members file names (kept beside the predictions)",
+    )
+    p.add_argument(
+        "--labels", type=Path, metavar="TABLE", help="a table of the files' conditions"
+    )
+    p.add_argument(
+        "--group",
+        metavar="COL",
+        help="the column naming each member's recording for the vote (default "
+        "source_member when framed)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_output_options(p, "predictions")
+    p.set_defaults(func=_cmd_predict)
 
 
 def _add_sensors_parser(sub: argparse._SubParsersAction) -> None:
@@ -203,6 +329,12 @@ def _add_sensors_parser(sub: argparse._SubParsersAction) -> None:
         "--top-k", type=positive_int, default=5, help="indicators kept per sensor"
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the split and model (0)")
+    p.add_argument(
+        "--group",
+        metavar="COL",
+        help="the condition naming each member's recording, session or unit: kept on "
+        "one side of every fold (default source_member when framed)",
+    )
     p.set_defaults(func=_cmd_sensors)
 
 
@@ -226,12 +358,6 @@ def add_input_options(parser: argparse.ArgumentParser, *, features_ok: bool = Tr
         source.add_argument(
             "--features", type=Path, help="feature table (Parquet, CSV or text)"
         )
-    parser.add_argument(
-        "--fs",
-        type=float,
-        metavar="HZ",
-        help="sampling rate of --members files (default: the rate most files state)",
-    )
     parser.add_argument("--label", help="condition column holding the class label")
     parser.add_argument(
         "--groups",
@@ -253,25 +379,13 @@ def add_input_options(parser: argparse.ArgumentParser, *, features_ok: bool = Tr
         help="an indicator-group option (repeat), e.g. ar_order=12, nperseg=2048, "
         "frf_input=Force (a model group's input signal)",
     )
-    parser.add_argument(
-        "--time",
-        metavar="COL",
-        help="the time column (seconds or timestamps) when it is not named time: of "
-        "the --members tables, or of the --features table (rank, classify --split time)",
-    )
-    parser.add_argument(
-        "--label-from-name",
-        metavar="REGEX",
-        help="take each --members file's label from its name: the one group of REGEX "
-        "becomes the condition 'label' (e.g. '^\\d+_([A-Za-z]+)'), named groups "
-        "(?P<fault>...) conditions of their names",
-    )
-    parser.add_argument(
-        "--labels",
-        type=Path,
-        metavar="TABLE",
-        help="CSV/Parquet table of the --members files' conditions: a column file (or "
-        "member) naming each file, the label / condition columns beside it",
+    # --fs, --time, --label-from-name, --labels, --resample, --frame, --hop: shared
+    # with `pdmkit designer`
+    add_member_options(
+        parser,
+        time_help="the time column (seconds or timestamps) when it is not named time: "
+        "of the --members tables, or of the --features table (rank, classify --split "
+        "time)",
     )
     _add_bearing_and_output_options(parser)
 

@@ -37,6 +37,7 @@ from pdmkit.experiments._classify import (
     classify,
     make_classifier,
 )
+from pdmkit.experiments._classify_splits import _cv_groups, group_column
 from pdmkit.experiments._sensor_costs import _resolve_costs
 
 __all__ = ["SensorComparison", "compare_sensors"]
@@ -373,11 +374,12 @@ def compare_sensors(
     *,
     model: str | BaseEstimator = "knn",
     top_k: int = 5,
-    selection: str | None = "kruskal",
+    selection: str | None = "fisher",
     cv: int = 5,
     test_size: float = 0.25,
     random_state: int | None = 0,
     progress: bool | None = None,
+    group: str | None = None,
 ) -> SensorComparison:
     """Classify faults with each sensor's indicators alone and set accuracy against cost.
 
@@ -385,8 +387,9 @@ def compare_sensors(
     it owns are not all NaN; the others are excluded and counted (``n_excluded``). On
     the members kept, the pipeline of :func:`make_classifier` is scored by stratified
     k-fold cross-validation over all of them (``accuracy`` ± ``accuracy_std``:
-    ``StratifiedKFold(cv, shuffle=True, random_state=random_state)``) and by one
-    stratified held-out split as in :func:`classify` (``heldout_accuracy``).
+    ``StratifiedKFold(cv, shuffle=True, random_state=random_state)``; grouped folds
+    when the members have groups, see ``group``) and by one held-out split as in
+    :func:`classify` (``heldout_accuracy``; whole recordings held out when grouped).
 
     Parameters
     ----------
@@ -406,6 +409,10 @@ def compare_sensors(
         Folds; lowered (with a note) when a class has fewer members with the sensor.
     progress : bool, optional
         A progress bar over the sensors; default only when stderr is a terminal.
+    group : str, optional
+        The column naming each member's recording / session / unit (default
+        ``source_member`` when the members are frames): a group's members stay on
+        one side of every fold and split (a class recorded once: time blocks).
 
     Returns
     -------
@@ -455,6 +462,7 @@ def compare_sensors(
     task = _SensorTask(
         table, label, y_full, _feature_columns(table), cost_map, cost_source,
         model, top_k, selection, cv, test_size, random_state,
+        group_column(table, group),
     )  # fmt: skip
     rows, results = [], {}
     bar = progress_bar_over(
@@ -490,6 +498,7 @@ class _SensorTask:
     cv: int
     test_size: float
     random_state: int | None
+    group: str | None = None
 
 
 def _sensor_row(task: _SensorTask, sensor, signals) -> tuple[dict, Any]:
@@ -592,9 +601,19 @@ def _score_sensor(task: _SensorTask, row: dict, y: pd.Series, cols: list, notes:
         random_state=task.random_state,
     )
     _fit_to_size(pipe, len(cols), _smallest_fit_size(y, folds), notes, task.top_k)
+    groups = None
+    if task.group is not None:
+        g = used[task.group].astype(str).to_numpy(dtype=object)
+        groups = _cv_groups(used, y, g, np.arange(len(y)), [], folds)
     if folds:
         scores = _cv_scores(
-            pipe, X, _label_values(y, notes), folds, task.random_state, progress=False
+            pipe,
+            X,
+            _label_values(y, notes),
+            folds,
+            task.random_state,
+            progress=False,
+            groups=groups,
         )
         row["accuracy"] = float(scores.mean())
         row["accuracy_std"] = float(scores.std())
@@ -610,6 +629,7 @@ def _score_sensor(task: _SensorTask, row: dict, y: pd.Series, cols: list, notes:
             test_size=task.test_size,
             cv=None,
             random_state=task.random_state,
+            group=task.group,
         )
     except DataError as exc:
         notes.append(f"no held-out score: {exc}")

@@ -4,7 +4,9 @@
 :func:`run_rank`, :func:`run_classify`, :func:`run_sensors`) read a named dataset, an
 on-disk ensemble, member files or (all but ``features``) a feature table. A
 :class:`TableSource` names one of them with its reading options, spelt as the
-command's flags are; this module turns it into an ensemble or a feature table.
+command's flags are; this module turns it into an ensemble or a feature table. It also
+holds the flags that say how ``--members`` files are read (:func:`add_member_options`),
+shared with ``pdmkit designer``.
 """
 
 from __future__ import annotations
@@ -25,13 +27,20 @@ from pdmkit.experiments._cli_common import input_paths, parse_options
 from pdmkit.experiments._messages import say
 
 __all__ = [
+    "MEMBER_OPTIONS",
     "TableSource",
+    "add_member_options",
     "extraction_input",
     "feature_table",
+    "member_ensemble",
     "order_column",
     "parse_sensors",
     "require_label",
 ]
+
+#: The :class:`TableSource` fields (and flags, ``_`` as ``-``) that say how ``--members``
+#: files are read; they apply to member files only.
+MEMBER_OPTIONS = ("fs", "time", "label_from_name", "labels", "resample", "frame", "hop")
 
 
 @dataclass(frozen=True)
@@ -71,6 +80,12 @@ class TableSource:
         The bearing of the envelope indicators (a name such as ``"6205"``).
     shaft_hz : float or str, optional
         The shaft speed in Hz, or the condition column holding each member's.
+    resample : float, optional
+        Resample every member file to this rate in Hz (``--resample``).
+    frame, hop : int or str, optional
+        Cut every member file into frames of ``frame`` samples (or ``"0.1s"``,
+        ``"100ms"``), ``hop`` apart (``--frame``, ``--hop``); see
+        :func:`pdmkit.ensembles.read_members`.
     quiet : bool, default False
         No progress bars.
 
@@ -80,6 +95,10 @@ class TableSource:
     >>> source = TableSource(members=["runs/"], fs=1000.0, label_from_name=r"^([a-z]+)_")
     >>> source.input_paths()
     ['runs/']
+    >>> TableSource(dataset="cwru", frame="2048")
+    Traceback (most recent call last):
+    ...
+    pdmkit.errors.DataError: --frame applies to --members files ...
     """
 
     dataset: str | None = None
@@ -96,6 +115,9 @@ class TableSource:
     labels: str | os.PathLike | None = None
     bearing: str | None = None
     shaft_hz: float | str | None = None
+    resample: float | None = None
+    frame: int | str | None = None
+    hop: int | str | None = None
     quiet: bool = False
 
     def __post_init__(self) -> None:
@@ -107,6 +129,16 @@ class TableSource:
                 "give exactly one source of members: dataset, ensemble, members or "
                 f"features; got {given or 'none'}"
             )
+        reading = [n for n in ("resample", "frame", "hop") if getattr(self, n) is not None]
+        if reading and not self.members:
+            flags = ", ".join("--" + n for n in reading)
+            raise DataError(
+                f"{flags} applies to --members files (each read, resampled and cut into "
+                f"frames as it comes); the --{given[0]} source is read as it is. Give "
+                "the recordings with --members, or frame them in Python "
+                "(Ensemble.resample, Ensemble.frames)"
+            )
+        # a bad --frame / --hop / --resample: read_members' error, before any reading
 
     @classmethod
     def from_namespace(cls, args: argparse.Namespace) -> TableSource:
@@ -170,8 +202,6 @@ def extraction_input(
         return ensemble, groups, options, label, sensors, profile, None
     groups = _envelope_group(groups, extra, source)
     if members:
-        from pdmkit.ensembles import read_members
-
         written = json_path
         if source.labels is not None and written is not None:
             if Path(written).resolve() == Path(source.labels).resolve():
@@ -180,17 +210,7 @@ def extraction_input(
                     "summary elsewhere"
                 )
 
-        ensemble, errors = read_members(
-            members,
-            fs=source.fs,
-            signals=source.signals,
-            time=source.time,
-            label_from_name=source.label_from_name,
-            labels=source.labels,
-            on_error=on_error,
-            return_errors=True,
-            progress=source.progress,
-        )
+        ensemble, errors = member_ensemble(source, on_error)
         label = source.label
         named = source.label_from_name is not None or source.labels is not None
         if label is None and named and "label" in ensemble.conditions.columns:
@@ -203,6 +223,130 @@ def extraction_input(
 
         url_filesystem(str(source.ensemble))
     return str(source.ensemble), groups, extra, source.label, None, None, None
+
+
+def member_ensemble(source: TableSource, on_error: str = "raise"):
+    """The ensemble of a source's ``--members`` files, and the errors table.
+
+    The files read by :func:`pdmkit.ensembles.read_members` with the source's reading
+    options (``fs``, ``signals``, ``time``, ``label_from_name``, ``labels``,
+    ``resample``, ``frame``, ``hop``): the one way the feature-table commands and
+    ``pdmkit designer`` read member files.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> import numpy as np
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> np.savez(d / "run1_ok.npz", vib=np.zeros(1000))
+    >>> source = TableSource(members=[d], fs=100.0, label_from_name=r"_([a-z]+)",
+    ...                      frame="2s", hop="500")
+    >>> ens, errors = member_ensemble(source)
+    >>> len(ens), ens.conditions["source_member"].unique().tolist(), len(errors)
+    (2, ['run1_ok'], 0)
+    """
+    from pdmkit.ensembles import read_members
+
+    if not source.members:
+        raise DataError("member_ensemble reads --members files; the source names none")
+    return read_members(
+        source.members,
+        fs=source.fs,
+        signals=source.signals,
+        time=source.time,
+        label_from_name=source.label_from_name,
+        labels=source.labels,
+        resample=source.resample,
+        frame=source.frame,
+        hop=source.hop,
+        on_error=on_error,
+        return_errors=True,
+        progress=source.progress,
+    )
+
+
+def _rate_arg(text: str) -> float:
+    """``--resample``: a positive sampling rate in Hz."""
+    try:
+        rate = float(text)
+    except ValueError:
+        rate = math.nan
+    if not (math.isfinite(rate) and rate > 0):
+        raise argparse.ArgumentTypeError(
+            f"expected a positive sampling rate in Hz (e.g. 12000); got {text!r}"
+        )
+    return rate
+
+
+def add_member_options(
+    parser: argparse.ArgumentParser, *, time_help: str | None = None
+) -> None:
+    """Add the flags that say how ``--members`` files are read (:data:`MEMBER_OPTIONS`).
+
+    ``--fs``, ``--time``, ``--label-from-name``, ``--labels``, ``--resample``,
+    ``--frame`` and ``--hop``, as ``pdmkit features / rank / classify / sensors`` and
+    ``pdmkit designer`` spell them; their values are the :class:`TableSource` fields
+    of the same names.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> p = argparse.ArgumentParser()
+    >>> add_member_options(p)
+    >>> args = p.parse_args(["--frame", "0.1s", "--hop", "512", "--resample", "12000"])
+    >>> args.frame, args.hop, args.resample, args.fs
+    ('0.1s', '512', 12000.0, None)
+    """
+    parser.add_argument(
+        "--fs",
+        type=float,
+        metavar="HZ",
+        help="sampling rate of the --members files that state none (no time column, fs "
+        "variable or fs column of --labels); without --resample also the rate every "
+        "file must have (default: the rate most files state)",
+    )
+    parser.add_argument(
+        "--time",
+        metavar="COL",
+        help=time_help
+        or "the time column (seconds or timestamps) of the --members tables when it is "
+        "not named time",
+    )
+    parser.add_argument(
+        "--label-from-name",
+        metavar="REGEX",
+        help="take each --members file's label from its name: the one group of REGEX "
+        "becomes the condition 'label' (e.g. '^\\d+_([A-Za-z]+)'), named groups "
+        "(?P<fault>...) conditions of their names ((?P<fs>...): its sampling rate)",
+    )
+    parser.add_argument(
+        "--labels",
+        type=Path,
+        metavar="TABLE",
+        help="CSV/Parquet table of the --members files' conditions: a column file (or "
+        "member) naming each file, the label / condition columns beside it (a column "
+        "fs: each file's sampling rate in Hz)",
+    )
+    parser.add_argument(
+        "--resample",
+        type=_rate_arg,
+        metavar="HZ",
+        help="resample every --members file to this rate (polyphase, anti-aliased); "
+        "files at different rates are an error without it",
+    )
+    parser.add_argument(
+        "--frame",
+        metavar="LENGTH",
+        help="cut every --members file into frames of LENGTH samples (2048) or seconds "
+        "(0.1s, 100ms; rounded to whole samples); each frame is a member, with the "
+        "conditions source_member (its file) and frame",
+    )
+    parser.add_argument(
+        "--hop",
+        metavar="H",
+        help="distance between frame starts, samples or seconds (default: --frame, no "
+        "overlap); needs --frame",
+    )
 
 
 def _bearing_options(source: TableSource) -> dict:
@@ -306,6 +450,8 @@ def feature_table(source: TableSource, common: bool = True):
     table = extract_ensemble(
         ensemble, groups=groups, progress=source.progress, **batch, **options
     )
+    if not isinstance(ensemble, str):  # the rates the indicators were computed at
+        table.attrs["fs"] = {str(k): float(v) for k, v in ensemble.fs.items()}
     if label is not None and label in table.columns and table[label].isna().any():
         unlabelled = table.index[table[label].isna()]
         warnings.warn(

@@ -29,7 +29,7 @@ from pdmkit.experiments._sources import (
     require_label,
 )
 
-__all__ = ["run_classify", "run_features", "run_rank", "run_sensors"]
+__all__ = ["run_features", "run_rank", "run_sensors"]
 
 PathLike = str | os.PathLike
 
@@ -201,11 +201,13 @@ def run_rank(
     *,
     out_dir: PathLike,
     json_path: PathLike | None = None,
-    method: str = "kruskal",
+    method: str = "fisher",
     unit: str | None = None,
     order: str | None = None,
     window: int | None = None,
     top: int = 20,
+    stability_folds: int | None = None,
+    group: str | None = None,
 ) -> dict:
     """Rank the condition indicators; write ``ranking.parquet`` and a report.
 
@@ -217,9 +219,14 @@ def run_rank(
         Receives ``ranking.parquet``, ``summary.json`` and ``report.html``.
     json_path : path, optional
         Also write the summary here.
-    method : str, default "kruskal"
-        ``kruskal`` or ``anova`` (separate the label's classes), or ``monotonicity``,
-        ``trendability``, ``prognosability`` (track degradation over each unit's rows).
+    method : str, default "fisher"
+        Separate the label's classes: ``fisher`` (Fisher's discriminant ratio),
+        ``kruskal`` (Kruskal-Wallis H), ``anova``, ``auc`` (one-vs-rest ROC AUC) or
+        ``bhattacharyya``; or track degradation over each unit's rows:
+        ``monotonicity``, ``trendability``, ``prognosability``. The default was
+        ``kruskal`` before: H (and the AUC, for two classes) is the same for every
+        indicator that separates the classes completely, Fisher's ratio keeps growing
+        with the gap between them.
     unit : str, optional
         Prognostic methods: the column telling run-to-failure units apart (default
         ``unit`` when the table has one).
@@ -230,6 +237,14 @@ def run_rank(
         Prognostic methods: smooth each unit's path over this many rows first.
     top : int, default 20
         Rows of the ranking in the summary.
+    stability_folds : int, optional
+        Class methods: also rank on the training rows of this many cross-validation
+        folds (:func:`pdmkit.features.ranking_stability`); ``ranking.parquet`` gains
+        ``mean_rank``, ``rank_std`` and ``in_top_k`` (top 10), the summary a
+        ``stability`` entry (mean Spearman and Kendall between the folds).
+    group : str, optional
+        With ``stability_folds``: the column whose rows stay on one side of every
+        split (e.g. the recording that frames were cut from).
 
     Returns
     -------
@@ -247,17 +262,30 @@ def run_rank(
     >>> path = f"{tempfile.mkdtemp()}/table.csv"
     >>> table.to_csv(path, index=False)
     >>> source = TableSource(features=path, label="fault")
-    >>> summary = run_rank(source, out_dir=tempfile.mkdtemp())
+    >>> summary = run_rank(source, out_dir=tempfile.mkdtemp(), stability_folds=3)
     >>> summary["method"], summary["ranking"][0]["feature"]
-    ('kruskal', 'acc/stats/RMS')
+    ('fisher', 'acc/stats/RMS')
+    >>> summary["ranking"][0]["in_top_k"], summary["stability"]["n_splits"]
+    (1.0, 3)
     """
-    from pdmkit.features import rank_features
+    from pdmkit.features import CLASS_METHODS, rank_features, ranking_stability
 
     with OutputRun(
         out_dir, "rank", inputs=source.input_paths(), json_path=json_path
     ) as run:
         table, label, _, features = feature_table(source)
-        if method in ("kruskal", "anova"):
+        if group is not None and stability_folds is None:
+            raise DataError(
+                "--group keeps a group's rows in one fold of --stability-folds N; "
+                "add --stability-folds"
+            )
+        if group is not None and group not in table.columns:
+            conditions = [str(c) for c in table.columns if "/" not in str(c)]
+            raise DataError(
+                f"--group {group!r} is not a column of the feature table; its columns "
+                f"without '/' are {conditions}{did_you_mean(group, conditions)}"
+            )
+        if method in CLASS_METHODS:
             for flag, value in (("unit", unit), ("window", window)):
                 if value is not None:
                     raise DataError(
@@ -268,6 +296,11 @@ def run_rank(
             ranking = _ranking(table, label, method, features)
             described: dict = {"label": label}
         else:
+            if stability_folds is not None:
+                raise DataError(
+                    f"--stability-folds is for the class methods {list(CLASS_METHODS)}, "
+                    f"not --method {method}"
+                )
             unit, order, described = _prognostic_keys(table, source, method, unit, order)
             described["window"] = window
             say(
@@ -283,12 +316,30 @@ def run_rank(
             )
             _clock_columns(table, ranking.to_pandas(), unit, order)
         ranked = ranking.to_pandas()
+        stability = None
+        if stability_folds is not None:
+            stability = ranking_stability(
+                table,
+                table[label],
+                method=method,
+                features=list(ranking.features),
+                groups=None if group is None else table[group],
+                n_splits=stability_folds,
+            )
+            folds = stability.to_pandas()[["feature", "mean_rank", "rank_std", "in_top_k"]]
+            ranked = ranked.merge(folds, on="feature", how="left")
         run.add_parquet("ranking.parquet", ranked)
         summary = {"method": method, **described}
         summary["ranking"] = ranked.head(top).to_dict(orient="records")
         report = Report(f"pdmkit rank ({method})")
         report.add_figure(ranking.plot(k=min(top, 30)), caption="Ranked indicators")
         report.add_table(ranked.head(top), caption=f"Top {top} indicators")
+        if stability is not None:
+            said = ("n_splits", "splitter", "k", "spearman", "kendall")
+            summary["stability"] = {"group": group}
+            summary["stability"].update({a: getattr(stability, a) for a in said})
+            caption = f"Rank on the training rows of each fold: {stability!r}"
+            report.add_figure(stability.plot(k=min(top, 30)), caption=caption)
         finish(run, summary, report)
     return summary
 
@@ -316,106 +367,6 @@ def _prognostic_keys(table, source, method, unit, order) -> tuple:
     return unit, order, {"unit": unit, "time": order, "n_units": int(units), "said": said}
 
 
-def run_classify(
-    source: TableSource,
-    *,
-    out_dir: PathLike,
-    json_path: PathLike | None = None,
-    model: str = "knn",
-    top_k: int = 5,
-    selection: str = "kruskal",
-    test_size: float = 0.25,
-    split: str = "stratified",
-    order: str | None = None,
-    seed: int = 0,
-) -> dict:
-    """Train and score a fault classifier on held-out members; write a report.
-
-    Parameters
-    ----------
-    source : TableSource
-        Members (indicators are extracted) or a feature table, with ``label``.
-    out_dir : path
-        Receives ``summary.json`` and ``report.html``.
-    json_path : path, optional
-        Also write the summary here.
-    model, top_k, selection, test_size : see :func:`classify`
-    split : {"stratified", "time"}, default "stratified"
-        ``time``: train on the earlier members, test on the later ones.
-    order : str, optional
-        ``split="time"``: the column ordering the members in time.
-    seed : int, default 0
-        Seed of the split and the estimator.
-
-    Returns
-    -------
-    dict
-        :meth:`ClassificationResult.summary`: accuracy, the members trained and tested
-        on, the indicators selected, per-class recall.
-
-    Examples
-    --------
-    >>> import tempfile, numpy as np, pandas as pd
-    >>> from pdmkit.experiments import TableSource, run_classify
-    >>> rng = np.random.default_rng(0)
-    >>> fault = np.repeat(["healthy", "worn"], 30)
-    >>> table = pd.DataFrame({"acc/stats/RMS": rng.normal(size=60) + 3 * (fault == "worn"),
-    ...                       "mic/stats/RMS": rng.normal(size=60), "fault": fault})
-    >>> path = f"{tempfile.mkdtemp()}/table.csv"
-    >>> table.to_csv(path, index=False)
-    >>> source = TableSource(features=path, label="fault")
-    >>> summary = run_classify(source, out_dir=tempfile.mkdtemp(), top_k=1)
-    >>> summary["features"], summary["accuracy"] > 0.9
-    (['acc/stats/RMS'], True)
-    """
-    from pdmkit.experiments._classify import classify
-
-    with OutputRun(
-        out_dir, "classify", inputs=source.input_paths(), json_path=json_path
-    ) as run:
-        table, label, _, features = feature_table(source)
-        label = require_label(table, label)
-        if split == "time":
-            order = order_column(table, source, order)
-        elif order is not None:
-            raise DataError("--order orders the members for --split time; give that too")
-        result = classify(
-            table,
-            label,
-            features=features,
-            model=model,
-            top_k=top_k,
-            selection=selection,
-            test_size=test_size,
-            random_state=seed,
-            split=split,
-            order=order,
-            progress=source.progress,
-        )
-        summary = result.summary()
-        split_note = next((n for n in result.notes if n.startswith("time split")), None)
-        if split_note is not None:
-            say(split_note)
-        say(f"held-out accuracy {summary['accuracy']:.4f} ({model}, top {top_k})")
-        report = Report(f"pdmkit classify ({model})")
-        report.add_text(
-            f"Held-out accuracy {summary['accuracy']:.4f} on {summary['n_test']} members "
-            f"(trained on {summary['n_train']}); selected indicators: "
-            f"{', '.join(summary['features'])}."
-        )
-        if split_note is not None:
-            report.add_text(split_note[0].upper() + split_note[1:] + ".")
-        report.add_figure(result.plot(), caption="Confusion matrix (held-out part)")
-        report.add_table(result.to_pandas(), caption="Per-class recall")
-        if selection in ("kruskal", "anova"):
-            report.add_figure(
-                _ranking(table, label, selection, features).plot(k=20),
-                caption="Indicator ranking",
-            )
-        finish(run, summary, report)
-    return summary
-
-
 def run_sensors(
     source: TableSource,
     *,
@@ -426,6 +377,7 @@ def run_sensors(
     model: str = "knn",
     top_k: int = 5,
     seed: int = 0,
+    group: str | None = None,
 ) -> dict:
     """Compare sensors by cross-validated accuracy and cost; write a report.
 
@@ -442,7 +394,7 @@ def run_sensors(
         signal (or the dataset's sensors).
     costs : path, optional
         TOML file of sensor costs (see :func:`load_sensor_costs`).
-    model, top_k : see :func:`compare_sensors`
+    model, top_k, group : see :func:`compare_sensors`
     seed : int, default 0
 
     Returns
@@ -482,6 +434,7 @@ def run_sensors(
             top_k=top_k,
             random_state=seed,
             progress=source.progress,
+            group=group,
         )
         summary = comparison.summary()
         report = Report("pdmkit sensors")

@@ -18,9 +18,10 @@ condition variables, indexed by member id). Each group is one :class:`FeatureGro
 the registry :data:`FEATURE_GROUPS` (its options with their defaults, its indicator
 names, its computation); :func:`plan_extraction` and :func:`extract_task` open the
 ensemble extraction to other drivers (resumable runs, clusters).
-:func:`rank_features` ranks the columns (Kruskal-Wallis, ANOVA, monotonicity,
-trendability, prognosability) and :class:`SelectTopRanked` keeps the best ones inside
-a scikit-learn Pipeline.
+:func:`rank_features` ranks the columns (Kruskal-Wallis, ANOVA, Fisher ratio, ROC AUC,
+Bhattacharyya distance; monotonicity, trendability, prognosability),
+:func:`ranking_stability` repeats a class ranking on cross-validation folds, and
+:class:`SelectTopRanked` keeps the best ones inside a scikit-learn Pipeline.
 
 Examples
 --------
@@ -37,6 +38,7 @@ np.True_
 import importlib
 
 __all__ = [
+    "CLASS_METHODS",
     "CWRU_DRIVE_END",
     "CWRU_FAN_END",
     "CYCLE_LEVELS",
@@ -52,6 +54,7 @@ __all__ = [
     "ExtractionPlan",
     "FeatureGroup",
     "FeatureRanking",
+    "RankingStability",
     "SelectTopRanked",
     "ar_feature_names",
     "ar_features",
@@ -75,6 +78,7 @@ __all__ = [
     "matlab_pwelch",
     "plan_extraction",
     "rank_features",
+    "ranking_stability",
     "spectral",
     "stats",
 ]
@@ -115,8 +119,11 @@ _LAZY = {
     "frf_features": "_model_features",
     "hw_feature_names": "_model_features",
     "hw_features": "_model_features",
+    "CLASS_METHODS": "_ranking",
     "FeatureRanking": "_ranking",
     "METHODS": "_ranking",
+    "RankingStability": "_ranking_stability",
+    "ranking_stability": "_ranking_stability",
     "SelectTopRanked": "_selection",
     "rank_features": "_ranking",
     "spectral": "_spectral",

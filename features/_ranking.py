@@ -2,8 +2,15 @@
 
 Two kinds of ranking, as in MATLAB's Diagnostic Feature Designer:
 
-- **Separating classes** (``labels`` given): Kruskal-Wallis H (rank-based one-way
-  ANOVA, robust to outliers and skew) or the one-way ANOVA F statistic. Higher is better.
+- **Separating classes** (``labels`` given), higher is better: Kruskal-Wallis H
+  (rank-based one-way ANOVA, robust to outliers and skew), the one-way ANOVA F
+  statistic, Fisher's discriminant ratio, the one-vs-rest ROC AUC or the Bhattacharyya
+  distance (defined in :mod:`pdmkit.features._separability`). H depends on ranks only:
+  once the classes no longer overlap it sits at its ceiling, the same for every such
+  feature (noted as ``classes fully separated``), and so does the AUC at 1 for two
+  classes. Fisher and Bhattacharyya keep growing with the gap between the classes
+  relative to their spread: rank well-separated classes with them.
+  :func:`pdmkit.features.ranking_stability` repeats a ranking on cross-validation folds.
 - **Prognostic quality** (a long run-to-failure table with ``unit`` and ``time``
   columns), as J. Coble and J. W. Hines define them (*Identifying optimal prognostic
   parameters from data: a genetic algorithms approach*, Annual Conference of the PHM
@@ -35,14 +42,26 @@ from sklearn.feature_selection import f_classif
 
 from pdmkit._checks import parse_timestamps
 from pdmkit.errors import DataError
+from pdmkit.features._separability import (
+    SEPARABILITY,
+    class_ranges,
+    fully_separated,
+    separation_scores,
+)
 
-__all__ = ["METHODS", "FeatureRanking", "rank_features"]
+__all__ = ["CLASS_METHODS", "METHODS", "FeatureRanking", "rank_features"]
 
-METHODS = ("kruskal", "anova", "monotonicity", "trendability", "prognosability")
+#: the methods :class:`SelectTopRanked` takes (its own scores: H and F)
 _SUPERVISED = ("kruskal", "anova")
+#: the methods that rank by class labels
+CLASS_METHODS = (*_SUPERVISED, *SEPARABILITY)
+METHODS = (*CLASS_METHODS, "monotonicity", "trendability", "prognosability")
 _AXIS_LABELS = {
     "kruskal": "Kruskal-Wallis H",
     "anova": "ANOVA F",
+    "fisher": "Fisher ratio (between / within-class variance)",
+    "auc": "ROC AUC one-vs-rest, max(AUC, 1 - AUC)",
+    "bhattacharyya": "Bhattacharyya distance (mean over class pairs)",
     "monotonicity": "Monotonicity",
     "trendability": "Trendability",
     "prognosability": "Prognosability",
@@ -225,9 +244,10 @@ def _one_way_block(X: np.ndarray, codes: np.ndarray, method: str):
     """Scores of fully-finite columns ``X`` (N x p) for group codes (vectorised).
 
     Kruskal-Wallis H is :func:`scipy.stats.kruskal`, ANOVA F is
-    :func:`sklearn.feature_selection.f_classif`; this adds what a ranking needs around
-    them: constant columns score NaN with a note, an F with no spread within groups is
-    infinite with p = 0.
+    :func:`sklearn.feature_selection.f_classif`, the others come from
+    :func:`~pdmkit.features._separability.separation_scores`; this adds what a ranking
+    needs around them: constant columns score NaN with a note, an F with no spread
+    within groups is infinite with p = 0, an H of fully-separated classes is noted.
     """
     n, p = X.shape
     present = np.unique(codes)
@@ -240,30 +260,46 @@ def _one_way_block(X: np.ndarray, codes: np.ndarray, method: str):
         notes[:] = f"needs at least 2 groups with data, found {k}"
         return scores, pvals, notes
     constant = np.ptp(X, axis=0) == 0 if n else np.ones(p, dtype=bool)
-    notes[constant] = "constant feature"
-    if method == "anova" and n - k < 1:
+    if method in ("anova", "fisher") and n - k < 1:
         notes[~constant] = "every group has a single value: no within-group spread"
+        notes[constant] = "constant feature"
         return scores, pvals, notes
     with np.errstate(divide="ignore", invalid="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore")  # constant columns: NaN and a note below
-        if method == "kruskal":  # H with the tie correction
-            groups = [X[codes == g] for g in range(k)]
-            scores, pvals = scipy.stats.kruskal(*groups, axis=0)
+        if method in SEPARABILITY:
+            scores, pvals, notes = separation_scores(X, codes, k, method)
         else:
-            scores, pvals = f_classif(X, codes)
+            scores, pvals, notes = _h_or_f(X, codes, k, method)
     scores = np.asarray(scores, dtype=float)
     pvals = np.asarray(pvals, dtype=float)
-    if method == "anova":
-        perfect = np.isinf(scores) & ~constant
-        pvals[perfect] = 0.0
-        notes[perfect] = "no spread within groups (F is infinite)"
+    notes[constant] = "constant feature"
     scores[constant] = np.nan
     pvals[constant] = np.nan
     return scores, pvals, notes
 
 
+def _h_or_f(X: np.ndarray, codes: np.ndarray, k: int, method: str):
+    """Kruskal-Wallis H (with the tie correction) or ANOVA F, p-values and notes."""
+    notes = np.full(X.shape[1], "", dtype=object)
+    if method == "kruskal":
+        groups = [X[codes == g] for g in range(k)]
+        scores, pvals = scipy.stats.kruskal(*groups, axis=0)
+        notes[fully_separated(*class_ranges(X, codes, k))] = (
+            "classes fully separated: H at its ceiling, the same for every such "
+            "feature; method='fisher' or 'bhattacharyya' tells them apart"
+        )
+        return np.asarray(scores, dtype=float), np.asarray(pvals, dtype=float), notes
+    scores, pvals = f_classif(X, codes)
+    scores = np.asarray(scores, dtype=float)
+    pvals = np.asarray(pvals, dtype=float)
+    perfect = np.isinf(scores)
+    pvals[perfect] = 0.0
+    notes[perfect] = "no spread within groups (F is infinite)"
+    return scores, pvals, notes
+
+
 def _one_way(X: np.ndarray, codes: np.ndarray, method: str):
-    """Kruskal-Wallis H or ANOVA F per column; NaN samples of a column are left out."""
+    """A class-separation score per column; NaN samples of a column are left out."""
     p = X.shape[1]
     keep_rows = codes >= 0
     X, codes = X[keep_rows], codes[keep_rows]
@@ -518,12 +554,21 @@ def rank_features(
         methods). By default the numeric columns named ``.../...`` are the features (all
         numeric columns when none is), without the label, unit and time columns.
     labels : str or array_like, optional
-        The class of each row, for ``"kruskal"`` and ``"anova"``: a column name, a
-        Series (aligned on the index) or one value per row. Rows with a missing label
-        are left out.
-    method : {"kruskal", "anova", "monotonicity", "trendability", "prognosability"}
-        Kruskal-Wallis H, one-way ANOVA F, or the prognostic metrics of MATLAB's
-        Predictive Maintenance Toolbox (see the module notes).
+        The class of each row, for the class methods (:data:`CLASS_METHODS`): a column
+        name, a Series (aligned on the index) or one value per row. Rows with a missing
+        label are left out.
+    method : str, default "kruskal"
+        By class labels: ``"kruskal"`` (Kruskal-Wallis H), ``"anova"`` (one-way ANOVA
+        F), ``"fisher"`` (Fisher's discriminant ratio, between- over within-class sum
+        of squares; p-value of the F test), ``"auc"`` (one-vs-rest ROC AUC,
+        ``max(AUC, 1 - AUC)`` averaged over the classes) or ``"bhattacharyya"``
+        (Gaussian Bhattacharyya distance averaged over class pairs). H saturates once
+        the classes separate (every such feature at the same ceiling, with a note), the
+        AUC at 1 for two classes; ``"fisher"`` and ``"bhattacharyya"`` do not: use
+        them for well-separated classes. The default stays ``"kruskal"`` (robust to
+        outliers where classes overlap). Or the prognostic metrics of MATLAB's
+        Predictive Maintenance Toolbox, ``"monotonicity"``, ``"trendability"``,
+        ``"prognosability"`` (see the module notes).
     features : sequence of str, optional
         Columns to rank, overriding the default choice.
     unit : str, optional
@@ -563,6 +608,16 @@ def rank_features(
     >>> rank_features(table, "label").top(1)
     ['vib/stats/RMS']
 
+    Classes that do not overlap: H is the same for both features, Fisher's ratio grows
+    with the gap between the classes over their spread:
+
+    >>> far = pd.DataFrame({"near": np.r_[0:10, 20:30], "far": np.r_[0:10, 90:100],
+    ...                     "label": np.repeat([0, 1], 10)})
+    >>> rank_features(far, "label").scores.round(2).tolist()
+    [14.29, 14.29]
+    >>> rank_features(far, "label", method="fisher").scores.round(1).to_dict()
+    {'far': 245.5, 'near': 12.1}
+
     Prognostic metrics from a run-to-failure table:
 
     >>> life = pd.DataFrame({"unit": np.repeat([1, 2], 20),
@@ -581,12 +636,12 @@ def rank_features(
     if len(table) == 0:
         raise DataError("the table has 0 rows; nothing to rank")
 
-    if method in _SUPERVISED:
+    if method in CLASS_METHODS:
         return _rank_by_class(table, labels, method, features)
     if labels is not None:
         raise DataError(
             f"method={method!r} ranks run-to-failure paths and takes no labels; pass "
-            "unit= and time= columns (or use method='kruskal' / 'anova')"
+            f"unit= and time= columns (or use a class method, one of {CLASS_METHODS})"
         )
     return _rank_by_lifetime(table, method, features, unit, time, window)
 
@@ -594,7 +649,7 @@ def rank_features(
 def _rank_by_class(
     table: pd.DataFrame, labels: Any, method: str, features: Sequence[str] | None
 ) -> FeatureRanking:
-    """Kruskal-Wallis or ANOVA ranking of the features by the classes of ``labels``."""
+    """Ranking of the features by how well they separate the classes of ``labels``."""
     label_values, label_col = _labels(table, labels)
     exclude = {label_col} if label_col is not None else set()
     cols = _feature_columns(table, features, exclude)

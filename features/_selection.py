@@ -10,7 +10,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from pdmkit.errors import DataError
 from pdmkit.features._ranking import (
-    _SUPERVISED,
+    CLASS_METHODS,
     FeatureRanking,
     _group_codes,
     _one_way,
@@ -64,8 +64,10 @@ class SelectTopRanked(SelectorMixin, BaseEstimator):
     ----------
     k : int, default 5
         Number of columns to keep (all of them when ``X`` has fewer).
-    method : {"kruskal", "anova"}, default "kruskal"
-        Ranking statistic.
+    method : {"kruskal", "anova", "fisher", "auc", "bhattacharyya"}, default "kruskal"
+        Ranking statistic (see :func:`rank_features`). Kruskal-Wallis H and ROC AUC
+        saturate once classes separate, and the ``k`` kept among the tied columns are
+        then an accident of their order; ``"fisher"`` keeps telling them apart.
     max_correlation : float or None, default None
         Skip a column whose absolute Pearson correlation with an already kept,
         better-ranked column exceeds this value (e.g. 0.95). Rank statistics saturate
@@ -147,9 +149,9 @@ class SelectTopRanked(SelectorMixin, BaseEstimator):
         limit = self.max_correlation
         if limit is not None and not (isinstance(limit, int | float) and 0 < limit <= 1):
             raise DataError(f"max_correlation must be in (0, 1] or None, got {limit!r}")
-        if self.method not in _SUPERVISED:
+        if self.method not in CLASS_METHODS:
             raise DataError(
-                f"method must be one of {list(_SUPERVISED)} for SelectTopRanked, got "
+                f"method must be one of {list(CLASS_METHODS)} for SelectTopRanked, got "
                 f"{self.method!r} (the prognostic metrics need units and time: use "
                 "rank_features)"
             )

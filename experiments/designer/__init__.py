@@ -14,6 +14,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pdmkit.experiments._sources import add_member_options
+
 __all__ = ["add_parser"]
 
 
@@ -24,9 +26,18 @@ def add_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     --------
     >>> import argparse
     >>> sub = argparse.ArgumentParser(prog="pdmkit").add_subparsers(dest="command")
-    >>> args = add_parser(sub).parse_args(["--dataset", "cwru"])
+    >>> designer = add_parser(sub)
+    >>> args = designer.parse_args(["--dataset", "cwru"])
     >>> args.dataset, args.host, args.port
     ('cwru', '127.0.0.1', 0)
+
+    The ``--members`` files read as ``pdmkit features`` reads them:
+
+    >>> args = designer.parse_args(
+    ...     ["--members", "a.npz", "b.npz", "--labels", "labels.csv", "--resample",
+    ...      "12000", "--frame", "0.1s", "--hop", "600"])
+    >>> args.resample, args.frame, args.hop, str(args.labels)
+    (12000.0, '0.1s', '600', 'labels.csv')
     """
     p = sub.add_parser("designer", help="the interactive feature designer in the browser")
     source = p.add_mutually_exclusive_group()
@@ -34,6 +45,9 @@ def add_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     source.add_argument("--members", type=Path, nargs="+", help="recording files")
     source.add_argument("--dataset", help="a named dataset (see `pdmkit datasets`)")
     source.add_argument("--features", type=Path, help="a feature table to start from")
+    # how --members files are read: --fs, --time, --label-from-name, --labels,
+    # --resample, --frame, --hop (the flags of pdmkit features / classify)
+    add_member_options(p)
     p.add_argument(
         "--project",
         type=Path,

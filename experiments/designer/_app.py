@@ -25,14 +25,16 @@ from starlette.routing import Route
 
 from pdmkit import save_model
 from pdmkit.errors import DataError
+from pdmkit.experiments._deploy import FaultClassifier
 from pdmkit.experiments.designer._export import bearing_spec, command_lines, python_script
 from pdmkit.experiments.designer._project import (
     MAX_PROJECT_BYTES,
+    parse_options,
     project_json,
     read_project,
 )
 from pdmkit.experiments.designer._session import Session, one_line, train_summary
-from pdmkit.experiments.designer._source import open_source
+from pdmkit.experiments.designer._source import member_reading, open_source
 from pdmkit.experiments.designer._views import (
     MAX_LEVELS,
     class_values,
@@ -257,8 +259,21 @@ class _Api:
 
         if self.session.result is None:
             raise DataError("train a classifier first (step 3)")
+        s = self.session
+        indicators = s.settings.get("indicators") or {}
+        options = parse_options(indicators.get("options") or "")
+        bearing, shaft_hz = options.pop("bearing", None), options.pop("shaft_hz", None)
+        recipe = {  # what pdmkit predict --members computes from new files
+            "input": "features" if s.source.kind == "features" else "members",
+            "signals": indicators.get("signals"),
+            "groups": indicators.get("groups"),
+            "options": options,
+            "bearing": None if bearing is None else str(bearing),
+            "shaft_hz": shaft_hz,
+        }
+        clf = FaultClassifier.from_result(s.result, s.table, recipe=recipe)
         with tempfile.TemporaryDirectory() as folder:
-            path = save_model(self.session.result.pipeline, Path(folder) / "model.pdmkit")
+            path = save_model(clf, Path(folder) / "model.pdmkit")
             blob = path.read_bytes()
         headers = {"content-disposition": 'attachment; filename="model.pdmkit"'}
         return Response(blob, media_type="application/octet-stream", headers=headers)
@@ -376,7 +391,8 @@ def _session_from(args: argparse.Namespace) -> Session:
             "name the members: --dataset NAME, --ensemble DIR, --members FILES, "
             "--features FILE or --project FILE"
         )
-    session = Session(open_source(kind, value if kind != "members" else list(value)))
+    value = value if kind != "members" else list(value)
+    session = Session(open_source(kind, value, member_reading(args)))
     if project is not None:
         session.start("replay", project)
     return session

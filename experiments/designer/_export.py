@@ -55,7 +55,13 @@ def _source_args(source) -> list[str]:
     if source.kind == "ensemble":
         return ["--ensemble", str(source.value)]
     if source.kind == "members":
-        return ["--members", *map(str, source.value)]
+        reading = []
+        for key, value in getattr(source, "reading", {}).items():
+            reading += [
+                "--" + key.replace("_", "-"),
+                f"{value:g}" if isinstance(value, float) else str(value),
+            ]
+        return ["--members", *map(str, source.value), *reading]
     return ["--features", str(source.value)]
 
 
@@ -153,10 +159,11 @@ def _load_lines(source) -> list[str]:
     if source.kind == "ensemble":
         return [f"ensemble = {str(source.value)!r}  # an on-disk ensemble, read in batches"]
     if source.kind == "members":
+        reading = "".join(f", {k}={v!r}" for k, v in getattr(source, "reading", {}).items())
         return [
             "from pdmkit.ensembles import read_members",
             "",
-            f"ensemble = read_members({[str(v) for v in source.value]!r})",
+            f"ensemble = read_members({[str(v) for v in source.value]!r}{reading})",
         ]
     return [
         "from pdmkit.ensembles import read_table",

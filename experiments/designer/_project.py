@@ -31,8 +31,17 @@ VERSION = 1
 MAX_PROJECT_BYTES = 1 << 20
 _MAX_DEPTH = 6
 MODELS = ("knn", "bagged_trees", "random_forest", "svm", "lda")
-SELECTIONS = ("kruskal", "anova", "pca", "hand")
-RANK_METHODS = ("kruskal", "anova", "monotonicity", "trendability", "prognosability")
+SELECTIONS = ("fisher", "kruskal", "anova", "bhattacharyya", "pca", "hand")
+RANK_METHODS = (
+    "fisher",
+    "kruskal",
+    "anova",
+    "bhattacharyya",
+    "auc",
+    "monotonicity",
+    "trendability",
+    "prognosability",
+)
 
 
 def _text(value: Any, what: str, limit: int = 400) -> str:
@@ -135,7 +144,7 @@ def check_rank(raw: Any) -> dict:
         raise DataError("ranking settings must be an object")
     unit, order = raw.get("unit") or None, raw.get("order") or None
     return {
-        "method": _choice(raw.get("method", "kruskal"), "method", RANK_METHODS),
+        "method": _choice(raw.get("method", "fisher"), "method", RANK_METHODS),
         "unit": None if unit is None else _text(unit, "unit"),
         "order": None if order is None else _text(order, "order"),
     }
@@ -156,7 +165,7 @@ def check_train(raw: Any) -> dict:
         raise DataError(f"test_size must be a number in (0, 1); got {test_size!r:.40}")
     if not 0.0 < float(test_size) < 1.0:
         raise DataError(f"test_size must be a number in (0, 1); got {test_size!r}")
-    selection = _choice(raw.get("selection", "kruskal"), "selection", SELECTIONS)
+    selection = _choice(raw.get("selection", "fisher"), "selection", SELECTIONS)
     features = _texts(raw.get("features", []), "features")
     if selection == "hand" and not features:
         raise DataError("pick at least one indicator by hand (or choose a top-k selection)")

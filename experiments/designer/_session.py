@@ -28,6 +28,7 @@ from pdmkit.experiments.designer._project import (
     parse_options,
 )
 from pdmkit.experiments.designer._views import filter_members
+from pdmkit.features import CLASS_METHODS
 
 __all__ = ["Job", "Session", "extraction_options", "one_line"]
 
@@ -266,7 +267,7 @@ class Session:
         table = self._need_table()
         features = self.feature_columns()
         job.step(0, 1, f"ranking {len(features)} indicators")
-        if settings["method"] in ("kruskal", "anova"):
+        if settings["method"] in CLASS_METHODS:
             label = self._need_label(table)
             ranking = rank_features(
                 table, table[label], method=settings["method"], features=features
@@ -379,6 +380,7 @@ def train_summary(result) -> dict:
         "labels": [str(c) for c in summary["labels"]],
         "confusion": summary["confusion"],
         "model": summary["model"],
+        "split": summary["split"],
         "notes": summary["notes"],
     }
 

@@ -24,14 +24,14 @@ from pdmkit.ensembles import (
     Ensemble,
     iter_parquet,
     parquet_partitions,
-    read_members,
     read_partition,
     read_table,
 )
 from pdmkit.errors import DataError
 from pdmkit.experiments._datasets import get_profile
+from pdmkit.experiments._sources import MEMBER_OPTIONS, TableSource, member_ensemble
 
-__all__ = ["SOURCE_KINDS", "Source", "default_label", "open_source"]
+__all__ = ["SOURCE_KINDS", "Source", "default_label", "member_reading", "open_source"]
 
 #: the kinds of input ``pdmkit designer`` opens (its mutually exclusive options)
 SOURCE_KINDS = ("dataset", "members", "ensemble", "features")
@@ -70,6 +70,10 @@ class Source:
         The members in memory (datasets and member files).
     features : pandas.DataFrame or None
         The feature table of a ``features`` source.
+    reading : dict
+        How member files were read: the options of :data:`MEMBER_OPTIONS` given
+        (``{"labels": "labels.csv", "resample": 12000.0, "frame": "2048"}``), as the
+        export passes them on (``--labels ...``, ``read_members(..., labels=...)``).
 
     Examples
     --------
@@ -93,6 +97,7 @@ class Source:
     default_options: dict[str, Any] = field(default_factory=dict)
     ensemble: Any = None
     features: pd.DataFrame | None = None
+    reading: dict[str, Any] = field(default_factory=dict)
     _partition: Any = None
 
     @classmethod
@@ -227,10 +232,32 @@ def _ensemble_source(path: str) -> Source:
     )
 
 
-def _members_source(files: list[str]) -> Source:
+def _members_source(files: list[str], reading: dict) -> Source:
+    """The member files, read as ``pdmkit features --members`` reads them."""
+    ensemble, _ = member_ensemble(TableSource(members=files, **reading))
+    source = Source.from_ensemble(ensemble, kind="members", value=[str(f) for f in files])
+    source.reading = dict(reading)
+    return source
 
-    ensemble = read_members(files)
-    return Source.from_ensemble(ensemble, kind="members", value=[str(f) for f in files])
+
+def member_reading(args: Any) -> dict[str, Any]:
+    """The ``--members`` reading options a command line gave (:data:`MEMBER_OPTIONS`).
+
+    Only those given; paths as text.
+
+    Examples
+    --------
+    >>> import argparse, pathlib
+    >>> member_reading(argparse.Namespace(fs=None, labels=pathlib.Path("l.csv"),
+    ...                                   frame="2048", host="127.0.0.1"))
+    {'labels': 'l.csv', 'frame': '2048'}
+    """
+    out = {}
+    for name in MEMBER_OPTIONS:
+        value = getattr(args, name, None)
+        if value is not None:
+            out[name] = str(value) if isinstance(value, os.PathLike) else value
+    return out
 
 
 def _features_source(path: str) -> Source:
@@ -253,8 +280,8 @@ def _features_source(path: str) -> Source:
     )
 
 
-def open_source(kind: str, value: Any) -> Source:
-    """Open the members that ``pdmkit designer`` was started on.
+def open_source(kind: str, value: Any, reading: dict | None = None) -> Source:
+    r"""Open the members that ``pdmkit designer`` was started on.
 
     Parameters
     ----------
@@ -262,6 +289,10 @@ def open_source(kind: str, value: Any) -> Source:
         Which option named them.
     value : str or list of str
         The dataset name, member files, ensemble folder or feature table.
+    reading : dict, optional
+        How member files are read (``kind="members"`` only): ``fs``, ``time``,
+        ``label_from_name``, ``labels``, ``resample``, ``frame``, ``hop``, as
+        :func:`pdmkit.ensembles.read_members` takes them (see :func:`member_reading`).
 
     Returns
     -------
@@ -282,14 +313,35 @@ def open_source(kind: str, value: Any) -> Source:
     >>> src = open_source("ensemble", str(path))
     >>> src.label, src.conditions.index.tolist(), src.read("m00002", "x")[:2]
     ('label', ['m00000', 'm00001', 'm00002'], array([1., 1.]))
+
+    Member files in frames, labelled from a table:
+
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> for name in ("a", "b"):
+    ...     np.savez(d / f"{name}.npz", vib=np.ones(100))
+    >>> _ = (d / "labels.csv").write_text("file,fault,fs\na.npz,ok,50\nb.npz,worn,50\n")
+    >>> src = open_source("members", [d / "a.npz", d / "b.npz"],
+    ...                   {"labels": d / "labels.csv", "frame": "1s"})
+    >>> src.label, src.signals, src.conditions["source_member"].tolist()
+    ('fault', {'vib': 50.0}, ['a', 'a', 'b', 'b'])
     """
+    reading = {k: v for k, v in (reading or {}).items() if v is not None}
+    unknown = sorted(set(reading) - set(MEMBER_OPTIONS))
+    if unknown:
+        raise DataError(f"unknown member reading option(s) {unknown}")
+    if reading and kind != "members":
+        flags = ", ".join("--" + k.replace("_", "-") for k in reading)
+        raise DataError(
+            f"{flags} applies to --members files; the --{kind} source is read as it is. "
+            "Give the recordings with --members"
+        )
     if kind == "dataset":
         return _dataset_source(str(value))
     if kind == "ensemble":
         return _ensemble_source(os.fspath(value))
     if kind == "members":
         files = [os.fspath(v) for v in ([value] if isinstance(value, str) else value)]
-        return _members_source(files)
+        return _members_source(files, reading)
     if kind == "features":
         return _features_source(os.fspath(value))
     raise DataError(f"source kind must be one of {list(SOURCE_KINDS)}; got {kind!r}")

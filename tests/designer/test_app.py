@@ -19,6 +19,7 @@ import pytest
 from starlette.testclient import TestClient
 
 from pdmkit.ensembles import Ensemble
+from pdmkit.errors import DataError
 from pdmkit.experiments.designer import add_parser
 from pdmkit.experiments.designer._app import create_app
 from pdmkit.experiments.designer._project import MAX_PROJECT_BYTES
@@ -189,7 +190,14 @@ def test_model_file_loads_safely_and_predicts_the_same(tmp_path) -> None:
     (tmp_path / "m.pdmkit").write_bytes(blob)
     loaded = load_model(tmp_path / "m.pdmkit")
     X = session.table[session.result.input_features].to_numpy()
-    assert (loaded.predict(X) == session.result.pipeline.predict(X)).all()
+    expected = session.result.pipeline.predict(X)
+    assert (loaded.predict(session.table).to_numpy() == expected).all()
+    # columns are matched by name: reversed, the same predictions; one missing, an error
+    reversed_table = session.table[session.table.columns[::-1]]
+    assert (loaded.predict(reversed_table).to_numpy() == expected).all()
+    with pytest.raises(DataError, match="lacks 1 of the"):
+        loaded.predict(session.table.drop(columns=session.result.input_features[0]))
+    assert loaded.recipe["signals"] == ["flow"] and loaded.recipe["groups"] == ["stats"]
 
 
 def test_project_round_trip_and_validation(client: TestClient) -> None:

@@ -256,8 +256,8 @@ def test_classify_split_time_trains_on_the_past(tmp_path, rng, capsys):
     )
     assert code == 0
     random_split, time_split = _summary(tmp_path / "a.json"), _summary(tmp_path / "b.json")
-    assert random_split["split"] == "stratified" and random_split["order"] is None
-    assert time_split["split"] == "time" and time_split["order"] == "when"
+    assert random_split["split"]["kind"] == "random" and random_split["order"] is None
+    assert time_split["split"]["kind"] == "time" and time_split["order"] == "when"
     assert (time_split["n_train"], time_split["n_test"]) == (360, 120)
     # the split falls where the sorted stamps say: the 360th earliest trains
     stamps = sorted(table["when"])

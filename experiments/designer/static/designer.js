@@ -270,7 +270,9 @@ function pct(v) { return v === null || v === undefined ? "–" : (100 * v).toFix
 function showTraining(res) {
   const cv = res.cv_accuracy === null ? "" : ` · cross-validated ${pct(res.cv_accuracy)} ± ${pct(res.cv_accuracy_std)}`;
   $("train-result").innerHTML = `${escapeHtml(res.model)}: held-out accuracy <b id="accuracy" data-accuracy="${res.accuracy}">${pct(res.accuracy)}</b>`
-    + ` on ${res.n_test} members (trained on ${res.n_train})${cv}<br><span class="muted">indicators: ${res.features.map(escapeHtml).join(", ")}</span>`
+    + ` on ${res.n_test} members (trained on ${res.n_train})${cv}`
+    + (res.split ? `<br><span id="split-kind">${escapeHtml(res.split.kind)} split: it measures ${escapeHtml(res.split.measures)}</span>` : "")
+    + `<br><span class="muted">indicators: ${res.features.map(escapeHtml).join(", ")}</span>`
     + (res.notes.length ? `<br><span class="muted">${res.notes.map(escapeHtml).join("; ")}</span>` : "");
   const counts = res.confusion;
   const z = counts.map((row) => { const n = row.reduce((a, b) => a + b, 0) || 1; return row.map((v) => v / n); });
