@@ -32,12 +32,10 @@ MAX_PROJECT_BYTES = 1 << 20
 _MAX_DEPTH = 6
 MODELS = ("knn", "bagged_trees", "random_forest", "svm", "lda")
 SELECTIONS = ("fisher", "kruskal", "anova", "bhattacharyya", "pca", "hand")
+#: rankings by class label (the others rank by lifetime: unit and time columns)
+CLASS_RANKINGS = ("fisher", "kruskal", "anova", "bhattacharyya", "auc")
 RANK_METHODS = (
-    "fisher",
-    "kruskal",
-    "anova",
-    "bhattacharyya",
-    "auc",
+    *CLASS_RANKINGS,
     "monotonicity",
     "trendability",
     "prognosability",
@@ -156,7 +154,7 @@ def check_train(raw: Any) -> dict:
     Examples
     --------
     >>> check_train({"model": "knn", "top_k": 5})["selection"]
-    'kruskal'
+    'fisher'
     """
     if not isinstance(raw, dict):
         raise DataError("training settings must be an object")

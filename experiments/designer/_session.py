@@ -21,6 +21,7 @@ import pandas as pd
 
 from pdmkit.errors import DataError, ModelError
 from pdmkit.experiments.designer._project import (
+    CLASS_RANKINGS,
     check_indicators,
     check_rank,
     check_sensors,
@@ -28,7 +29,6 @@ from pdmkit.experiments.designer._project import (
     parse_options,
 )
 from pdmkit.experiments.designer._views import filter_members
-from pdmkit.features import CLASS_METHODS
 
 __all__ = ["Job", "Session", "extraction_options", "one_line"]
 
@@ -267,7 +267,7 @@ class Session:
         table = self._need_table()
         features = self.feature_columns()
         job.step(0, 1, f"ranking {len(features)} indicators")
-        if settings["method"] in CLASS_METHODS:
+        if settings["method"] in CLASS_RANKINGS:
             label = self._need_label(table)
             ranking = rank_features(
                 table, table[label], method=settings["method"], features=features
