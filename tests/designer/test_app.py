@@ -181,6 +181,7 @@ def test_histogram_scatter_rank_train_sensors(client: TestClient) -> None:
 
 def test_model_file_loads_safely_and_predicts_the_same(tmp_path) -> None:
     from pdmkit import load_model
+    from pdmkit._entry import main as pdmkit_main
 
     session = Session(Source.from_ensemble(_twin_like(), "members", ["a.csv"]))
     client = TestClient(create_app(session, TOKEN))
@@ -198,6 +199,13 @@ def test_model_file_loads_safely_and_predicts_the_same(tmp_path) -> None:
     with pytest.raises(DataError, match="lacks 1 of the"):
         loaded.predict(session.table.drop(columns=session.result.input_features[0]))
     assert loaded.recipe["signals"] == ["flow"] and loaded.recipe["groups"] == ["stats"]
+    # pdmkit predict scores a feature table with the designer's file as with classify's
+    session.table.to_parquet(tmp_path / "table.parquet")
+    args = ["predict", "--model", str(tmp_path / "m.pdmkit"), "--features"]
+    args += [str(tmp_path / "table.parquet"), "--out", str(tmp_path / "pred"), "--quiet"]
+    assert pdmkit_main(args) == 0
+    got = pd.read_csv(tmp_path / "pred" / "predictions.csv", index_col="member")
+    assert (got.loc[session.table.index, "predicted"].to_numpy() == expected).all()
 
 
 def test_project_round_trip_and_validation(client: TestClient) -> None:
