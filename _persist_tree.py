@@ -45,6 +45,7 @@ PDMKIT_CLASSES = (
     "pdmkit.experiments._deploy.FaultClassifier",
     "pdmkit.features._ranking.FeatureRanking",
     "pdmkit.features._selection.SelectTopRanked",
+    "pdmkit.models.diagnosis._health.HealthModel",
     "pdmkit.rul._base.Unit",
     "pdmkit.rul._boosting.BoostingRULModel",
     "pdmkit.rul._conformal.ConformalRUL",

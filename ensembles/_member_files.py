@@ -34,6 +34,7 @@ from pdmkit.ensembles._member_labels import (
     _long_enough,
     _NameConditions,
     _resampled,
+    clock_column,
 )
 from pdmkit.ensembles._table_files import (
     _COMPRESSED,
@@ -171,6 +172,14 @@ _NOT_READ = (
     "holds as numeric variables to read it"
 )
 #: What a true/false signal became.
+_CLOCK_FIELD = (
+    "looks like a clock field (whole numbers, constant in the file); kept as a condition "
+    "(the recording's time stamp), not a signal"
+)
+_CLOCK_COUNTER = (
+    "looks like a clock or a sample counter (whole numbers counting up); not read as a "
+    "signal"
+)
 _READ_AS_01 = (
     "holds true/false values; read as a signal of 0.0 and 1.0. Save it as numbers if "
     "that is what it means (or as one scalar if it is a condition)"
@@ -316,7 +325,15 @@ def _table_contents(
     for c in table.columns:
         column = table[c]
         if pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
-            signals[str(c)] = column.to_numpy(dtype=np.float64)
+            values = column.to_numpy(dtype=np.float64)
+            clock = clock_column(str(c), values)
+            if clock == "constant":
+                conditions[str(c)] = float(values[0])
+                notes.append(("column", str(c), _CLOCK_FIELD))
+            elif clock == "counter":
+                notes.append(("column", str(c), _CLOCK_COUNTER))
+            else:
+                signals[str(c)] = values
         elif column.nunique(dropna=False) == 1:
             conditions[str(c)] = column.iloc[0]
         elif pd.api.types.is_bool_dtype(column):

@@ -405,3 +405,47 @@ def _expected_rate(read: list, fs: float | None) -> tuple[float | None, str]:
             "file's rate in an fs column of the labels table (--labels)"
         )
     return expected, whose
+
+
+#: column names a clock field or a counter goes by; in a header-less table
+#: (``column_0``, ...) every column is checked
+CLOCK_NAMES = re.compile(
+    r"(?i)^(column_\d+|hours?|minutes?|min|seconds?|sec|ms|us|µs|microseconds?|"
+    r"milliseconds?|time_?stamp|counter|sample_index|ticks?)$"
+)
+
+
+def clock_column(name: str, values: np.ndarray) -> str | None:
+    """Whether a member file's column is a clock: ``"constant"``, ``"counter"`` or None.
+
+    Raw recorders write the time of day beside the samples (PRONOSTIA's snapshots:
+    hour, minute, second, microsecond, then the two accelerations, no header). Such a
+    column, read as a signal, becomes a "health indicator" that ranks first by
+    monotonicity. A column is a clock when its name is a clock's (or the table has
+    no header) and its values are whole numbers that are constant (a field of the
+    time stamp) or count up with at most two resets (microseconds wrapping at the
+    second), or tick over once by one (a seconds field within a 0.1 s snapshot). A
+    header-less on/off signal that switches on once would look like the last: the
+    warning names every column left out.
+
+    Examples
+    --------
+    >>> clock_column("column_3", np.array([65664.0, 65703, 65742, 3, 42]))
+    'counter'
+    >>> clock_column("column_0", np.array([9.0, 9, 9])), clock_column("acc", np.arange(5.0))
+    ('constant', None)
+    >>> clock_column("column_4", np.array([0.552, 0.501, 0.138]))
+    """
+    if not CLOCK_NAMES.match(name) or values.size < 2:
+        return None
+    if not np.all(np.isfinite(values)) or not np.all(values == np.round(values)):
+        return None
+    steps = np.diff(values)
+    if np.all(steps == 0):
+        return "constant"
+    resets = np.count_nonzero(steps < 0)
+    distinct = np.unique(values)
+    ticks_once = distinct.size == 2 and resets == 0 and distinct[1] - distinct[0] == 1
+    if (resets <= 2 and distinct.size >= 3) or ticks_once:  # a second ticking over
+        return "counter"
+    return None

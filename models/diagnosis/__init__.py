@@ -11,7 +11,11 @@ Rajagopalan 2005). Residual generators of the rotor monograph (sec. 2.4-2.5):
 channel-to-channel ARX relations between two measured outputs
 (:func:`channel_to_channel`), parity equations on them (:class:`ParityEquations`,
 :func:`parity_residual`) and the input reconstructed by an inverted model
-(:func:`reconstruct_input`).
+(:func:`reconstruct_input`). Condition monitoring in service (issue 31): a health model
+fitted on healthy rows only, with PCA T²/Q, robust Mahalanobis, isolation-forest or
+symbolic-dynamics scores, a health index, a split-conformal alarm threshold and
+persistent alarms (:class:`HealthModel`, :func:`conformal_threshold`,
+:func:`persistent_alarm`, :func:`calibration_split`; ``docs/monitoring.md``).
 
 Examples
 --------
@@ -23,6 +27,12 @@ Examples
 """
 
 from pdmkit.models.diagnosis._anomaly import MLPAnomaly, PCAAnomaly, RBFAnomaly
+from pdmkit.models.diagnosis._health import HealthModel
+from pdmkit.models.diagnosis._health_threshold import (
+    calibration_split,
+    conformal_threshold,
+    persistent_alarm,
+)
 from pdmkit.models.diagnosis._masks import DiagnosticMask, DiagnosticMatrix, MaskResult
 from pdmkit.models.diagnosis._residual_generators import (
     ParityEquations,
@@ -44,6 +54,7 @@ from pdmkit.models.diagnosis._symbolic import (
 __all__ = [
     "DiagnosticMask",
     "DiagnosticMatrix",
+    "HealthModel",
     "MLPAnomaly",
     "MaskResult",
     "PCAAnomaly",
@@ -51,9 +62,12 @@ __all__ = [
     "ParityResult",
     "RBFAnomaly",
     "SymbolicAnomaly",
+    "calibration_split",
     "channel_to_channel",
+    "conformal_threshold",
     "max_entropy_partition",
     "parity_residual",
+    "persistent_alarm",
     "reconstruct_input",
     "sfnn_fraction",
     "sfnn_partition",
