@@ -34,6 +34,8 @@ OUTPUTS: dict[str, tuple[str, ...]] = {
     "rank": ("ranking.parquet", "report.html", "summary.json"),
     "classify": ("model.pdmkit", "report.html", "summary.json"),
     "predict": ("predictions.csv", "recordings.csv", "report.html", "summary.json"),
+    "monitor": ("model.pdmkit", "report.html", "summary.json"),
+    "monitor-score": ("report.html", "summary.json"),
     "sensors": ("report.html", "summary.json"),
     "rul": ("predictions.parquet", "model.pdmkit", "report.html", "summary.json"),
     "identify": ("report.html", "summary.json"),

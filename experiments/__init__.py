@@ -61,6 +61,8 @@ __all__ = [
     "run_features",
     "run_identify",
     "run_mismatch",
+    "run_monitor_fit",
+    "run_monitor_score",
     "run_predict",
     "run_rank",
     "run_rul",
@@ -79,6 +81,7 @@ __all__ = [
     "seed_sensor_table",
     "simulate_leak_dataset",
     "split_run_to_failure",
+    "watch_folder",
 ]
 
 #: public name -> the module that defines it; imported on first use, so that the
@@ -100,6 +103,9 @@ _LAZY = {
     "IDENTIFY_STRUCTURES": "_identify",
     "run_identify": "_identify",
     "run_mismatch": "_mismatch",
+    "run_monitor_fit": "_monitor",
+    "run_monitor_score": "_monitor",
+    "watch_folder": "_monitor",
     "Report": "_report",
     "LEAK_DEFAULTS": "_rul",
     "leak_accuracy": "_rul",

@@ -25,7 +25,7 @@ from typing import NoReturn
 
 from pdmkit._outputs import collect_warnings
 from pdmkit.errors import DataError, ModelError, did_you_mean
-from pdmkit.experiments import _cli_models, _cli_rul, _cli_tables
+from pdmkit.experiments import _cli_models, _cli_monitor, _cli_rul, _cli_tables
 from pdmkit.experiments._cli_common import add_output_options, say
 from pdmkit.experiments.designer import add_parser as add_designer_parser
 from pdmkit.experiments.studies import STUDIES, run_study
@@ -119,6 +119,7 @@ def build_parser() -> argparse.ArgumentParser:
     _cli_tables.add_parsers(sub)
     _cli_rul.add_parsers(sub)
     _cli_models.add_parsers(sub)
+    _cli_monitor.add_parsers(sub)
 
     p = sub.add_parser("study", help="run one of the source studies end to end")
     p.add_argument("name", choices=sorted(STUDIES), help="the study (see below)")

@@ -6,28 +6,31 @@ import json
 
 import pytest
 
+from pdmkit._outputs import OUTPUTS
 from pdmkit.experiments._cli import main
 
 
 @pytest.mark.slow
 def test_demo_writes_summary_and_report(tmp_path):
+    # the output folder holds the user's files and a stale run's: the demo replaces
+    # its own files and leaves the user's byte for byte (this is the demo's case of
+    # tests/security/test_output_folders.py, run here to run the demo once)
     out = tmp_path / "demo"
-    assert (
-        main(
-            [
-                "demo",
-                "--out",
-                str(out),
-                "--n-members",
-                "80",
-                "--seed",
-                "2",
-                "--recording-s",
-                "2.5",
-            ]
-        )
-        == 0
-    )
+    (out / "rul").mkdir(parents=True)
+    (out / "notes.txt").write_text("mine\n")
+    (out / "rul" / "mine.csv").write_text("a,b\n1,2\n")
+    for name in OUTPUTS["demo"]:
+        (out / name).write_text("stale\n")
+    argv = ["demo", "--out", str(out), "--n-members", "80", "--seed", "2"]
+    argv += ["--recording-s", "2.5", "--json", str(tmp_path / "copy.json")]
+    assert main(argv) == 0
+    assert (out / "notes.txt").read_text() == "mine\n"
+    assert (out / "rul" / "mine.csv").read_text() == "a,b\n1,2\n"
+    manifest = json.loads((out / ".pdmkit" / "run.json").read_text())
+    assert set(manifest["files"]) == set(OUTPUTS["demo"])
+    for name in OUTPUTS["demo"]:
+        assert (out / name).read_bytes() != b"stale\n", name
+    assert (tmp_path / "copy.json").read_bytes() == (out / "summary.json").read_bytes()
     summary = json.loads((out / "summary.json").read_text())
     # the seed's 20 labels (the author's faultCode2Label), every one simulated
     assert summary["members"] == 80

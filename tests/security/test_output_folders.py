@@ -165,17 +165,9 @@ COMMANDS = ["identify", "mismatch", "rul", "features", "classify", "sensors", "r
 
 
 # --------------------------------------------------------------------------- tests
-@pytest.mark.parametrize(
-    "command", [*COMMANDS, pytest.param("demo", marks=pytest.mark.slow)]
-)
-def test_user_files_stay_and_pdmkit_files_are_replaced(command, tmp_path, monkeypatch):
-    if command == "demo":  # the files are the point here: the demo's discovery on a budget
-        import functools
-
-        from pdmkit.experiments import _demo
-
-        budgeted = functools.partial(_demo.demo_mismatch_cases, max_seconds=5.0)
-        monkeypatch.setattr(_demo, "demo_mismatch_cases", budgeted)
+# the demo's case runs in tests/experiments/test_demo.py (one demo run for both)
+@pytest.mark.parametrize("command", COMMANDS)
+def test_user_files_stay_and_pdmkit_files_are_replaced(command, tmp_path):
     out = tmp_path / "out"
     argv = _command(command, out, out)  # the inputs live in OUT too
     argv += ["--json", str(tmp_path / "summary-copy.json")]
@@ -194,8 +186,6 @@ def test_user_files_stay_and_pdmkit_files_are_replaced(command, tmp_path, monkey
     assert copy.read_bytes() == (out / MAIN_JSON[command]).read_bytes()
     added = {p.name for p in out.iterdir()} - {Path(r).parts[0] for r in before}
     assert added <= {Path(n).parts[0] for n in own} | PRIVATE
-    if command == "demo":
-        return  # one run is slow enough; the rerun is the same mechanism
     assert main(argv) == 0  # a rerun replaces pdmkit's files, and only those
     assert _snapshot(out, skip=own) == before
     second = _assert_committed(out, command)

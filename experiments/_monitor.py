@@ -1,0 +1,398 @@
+"""``pdmkit monitor``: health baselines from healthy rows, new rows scored into a history.
+
+``fit`` learns a :class:`~pdmkit.models.diagnosis.HealthModel` from the rows the user
+marks healthy (the first part of each unit's life, or an expression) and saves it;
+``score`` judges a feature table against it and adds the rows to each unit's history
+(:class:`~pdmkit.experiments._monitor_history.HealthHistory`, SQLite); ``watch`` does
+the same for every new table that lands in a folder, each file once.
+"""
+
+from __future__ import annotations
+
+import os
+import time as _time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pdmkit._checks import file_sha256, parse_timestamps
+from pdmkit._outputs import OutputRun
+from pdmkit._persist import load_model, save_model
+from pdmkit.ensembles import read_table
+from pdmkit.errors import DataError, ModelError
+from pdmkit.experiments._messages import finish, say
+from pdmkit.experiments._monitor_history import HealthHistory
+from pdmkit.experiments._report import Report
+
+__all__ = ["run_monitor_fit", "run_monitor_score", "watch_folder"]
+
+PathLike = str | os.PathLike
+#: indicators named in the history per row (the largest contributions)
+TOP_INDICATORS = 3
+
+
+def _read(path: PathLike, unit: str | None, time: str) -> pd.DataFrame:
+    table = read_table(path)
+    for flag, col in (("--unit", unit), ("--time", time)):
+        if col is not None and col not in table.columns:
+            raise DataError(
+                f"{path}: {flag} {col!r} is not a column; columns: "
+                f"{[str(c) for c in table.columns][:12]}"
+            )
+    return table
+
+
+def _time_values(table: pd.DataFrame, time: str, where: str) -> np.ndarray:
+    """The time column as numbers (seconds since the first stamp for timestamps)."""
+    column = table[time]
+    if pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
+        values = column.to_numpy(dtype=float)
+    else:
+        stamps = parse_timestamps(column)
+        if stamps.isna().any():
+            raise DataError(
+                f"{where}: --time {time!r} holds {str(column[stamps.isna()].iloc[0])!r}, "
+                "neither a number nor a timestamp"
+            )
+        values = (stamps - pd.Timestamp("1970-01-01")).dt.total_seconds().to_numpy()
+    if not np.isfinite(values).all():
+        raise DataError(f"{where}: --time {time!r} is missing on some rows")
+    return values
+
+
+def _feature_columns(table: pd.DataFrame, exclude: set) -> list[str]:
+    """Indicator columns (``signal/group/F``), else every numeric column but unit/time."""
+    named = [str(c) for c in table.columns if "/" in str(c)]
+    if named:
+        return named
+    return [
+        str(c)
+        for c in table.columns
+        if str(c) not in exclude
+        and pd.api.types.is_numeric_dtype(table[c])
+        and not pd.api.types.is_bool_dtype(table[c])
+    ]
+
+
+def _healthy_rows(table, units, t, healthy_first, healthy_where) -> np.ndarray:
+    if (healthy_first is None) == (healthy_where is None):
+        raise DataError("give one of --healthy-first FRACTION or --healthy-where EXPR")
+    if healthy_where is not None:
+        try:
+            mask = np.asarray(table.eval(healthy_where, engine="python"), dtype=bool)
+        except Exception as exc:
+            raise DataError(
+                f"--healthy-where {healthy_where!r} cannot be evaluated: {exc}"
+            ) from None
+        return mask
+    if not 0 < healthy_first < 1:
+        raise DataError(f"--healthy-first must be in (0, 1); got {healthy_first}")
+    mask = np.zeros(len(table), dtype=bool)
+    for u in pd.unique(units):
+        rows = np.flatnonzero(units == u)
+        start, end = t[rows].min(), t[rows].max()
+        mask[rows] = t[rows] <= start + healthy_first * (end - start)
+    return mask
+
+
+def run_monitor_fit(
+    features: PathLike,
+    *,
+    out_dir: PathLike,
+    unit: str | None = None,
+    time: str,
+    healthy_first: float | None = None,
+    healthy_where: str | None = None,
+    method: str = "pca",
+    false_alarm_rate: float = 0.01,
+    persistence: int = 3,
+    json_path: PathLike | None = None,
+) -> dict:
+    """Fit a health baseline on the healthy rows of a feature table and save it.
+
+    Parameters
+    ----------
+    features : path
+        A feature table: one row per recording, a unit column, a time column.
+    out_dir : path
+        Receives ``model.pdmkit``, ``summary.json`` and ``report.html``.
+    unit, time : str
+        The columns naming each row's asset and its time (numbers or timestamps).
+    healthy_first : float, optional
+        The first fraction of each unit's time span is healthy.
+    healthy_where : str, optional
+        A pandas expression marking the healthy rows instead.
+    method, false_alarm_rate, persistence
+        See :class:`~pdmkit.models.diagnosis.HealthModel`.
+    json_path : path, optional
+        Also write the summary here.
+
+    Returns
+    -------
+    dict
+        ``threshold``, ``n_healthy``, ``features``, ``method``, ``model_file``.
+
+    Examples
+    --------
+    >>> import tempfile, numpy as np, pandas as pd
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.tile(np.arange(300.0), 2)
+    >>> table = pd.DataFrame({"unit": np.repeat(["a", "b"], 300), "t": t,
+    ...     "v/stats/RMS": rng.normal(size=600) + (t > 250) * 8,
+    ...     "v/stats/Kurtosis": rng.normal(size=600)})
+    >>> d = tempfile.mkdtemp()
+    >>> table.to_csv(f"{d}/f.csv", index=False)
+    >>> s = run_monitor_fit(f"{d}/f.csv", out_dir=f"{d}/m", unit="unit", time="t",
+    ...                     healthy_first=0.5, false_alarm_rate=0.05)
+    >>> s["n_healthy"], s["features"]
+    (300, ['v/stats/RMS', 'v/stats/Kurtosis'])
+    """
+    from pdmkit.models.diagnosis import HealthModel
+
+    table = _read(features, unit, time)
+    t = _time_values(table, time, str(features))
+    units = (
+        table[unit].astype(str).to_numpy(dtype=object)
+        if unit
+        else np.full(len(table), "unit")
+    )
+    order = np.lexsort((t, units))
+    table, t, units = table.iloc[order], t[order], units[order]
+    healthy = _healthy_rows(table, units, t, healthy_first, healthy_where)
+    cols = _feature_columns(table, {unit, time})
+    if not cols:
+        raise DataError(f"{features}: no numeric indicator columns to monitor")
+    model = HealthModel(
+        method=method, false_alarm_rate=false_alarm_rate, persistence=persistence
+    )
+    model.fit(table.loc[healthy, cols], groups=units[healthy])
+    inputs = [features]
+    with OutputRun(out_dir, "monitor", inputs=inputs, json_path=json_path) as run:
+        run.add_file("model.pdmkit", lambda p: save_model(model, p))
+        summary = {
+            "method": method,
+            "threshold": float(model.threshold_),
+            "false_alarm_rate": float(false_alarm_rate),
+            "persistence": int(persistence),
+            "n_healthy": int(healthy.sum()),
+            "n_units": len(pd.unique(units)),
+            "features": cols,
+            "unit": unit,
+            "time": time,
+            "model_file": str(run.path("model.pdmkit")),
+        }
+        say(
+            f"health baseline ({method}) on {summary['n_healthy']} healthy rows of "
+            f"{summary['n_units']} unit(s): threshold {summary['threshold']:.4g} for a "
+            f"{false_alarm_rate:g} false-alarm rate per row"
+        )
+        report = Report("pdmkit monitor fit")
+        report.add_text(
+            f"Baseline {method} on {summary['n_healthy']} healthy rows; alarm threshold "
+            f"{summary['threshold']:.4g} (split conformal, {false_alarm_rate:g} per row), "
+            f"{persistence} consecutive rows above it raise the alarm."
+        )
+        finish(run, summary, report)
+    return summary
+
+
+def _load_health_model(path: PathLike):
+    from pdmkit.models.diagnosis import HealthModel
+
+    model = load_model(path)
+    if not isinstance(model, HealthModel):
+        raise ModelError(
+            f"{path} holds a {type(model).__name__}, not a health model saved by "
+            "pdmkit monitor fit"
+        )
+    return model
+
+
+def score_file(model, path: PathLike, history, *, unit: str | None, time: str):
+    """Score one feature table into ``history`` (None when it was scored before)."""
+    sha = file_sha256(Path(path))
+    if history.seen(sha):
+        return None
+    table = _read(path, unit, time)
+    t = _time_values(table, time, str(path))
+    units = table[unit].astype(str) if unit else pd.Series("unit", index=table.index)
+    assessed = model.assess(table[list(model.feature_names_in_)])
+    contrib = model.contributions(table[list(model.feature_names_in_)])
+    tops = [list(row.nlargest(TOP_INDICATORS).index) for _, row in contrib.iterrows()]
+    rows = pd.DataFrame(
+        {
+            "unit": units.to_numpy(),
+            "time": t,
+            "time_text": table[time].astype(str).to_numpy(),
+            "member": [str(m) for m in table.index],
+            "score": assessed["score"].to_numpy(),
+            "health_index": assessed["health_index"].to_numpy(),
+            "exceeds": assessed["above_threshold"].to_numpy(),
+        }
+    )
+    return history.record(
+        rows,
+        persistence=int(model.persistence),
+        source=(sha, str(path)),
+        top_indicators=tops,
+    )
+
+
+def _units_summary(history) -> dict:
+    frame = history.history()
+    first = history.first_alarms(text=True)
+    out: dict[str, Any] = {}
+    for u, part in frame.groupby("unit", sort=True):
+        out[str(u)] = {
+            "first_alarm": first.get(u),
+            "n_rows": len(part),
+            "last_time": part["time_text"].iloc[-1],
+            "last_health_index": float(part["health_index"].iloc[-1]),
+            "alarm": bool(part["alarm"].iloc[-1]),
+        }
+    return out
+
+
+def run_monitor_score(
+    model_path: PathLike,
+    features: PathLike,
+    *,
+    db: PathLike,
+    out_dir: PathLike,
+    unit: str | None = None,
+    time: str,
+    json_path: PathLike | None = None,
+) -> dict:
+    """Score a feature table against a saved health model; add it to the history.
+
+    Parameters
+    ----------
+    model_path : path
+        ``model.pdmkit`` from :func:`run_monitor_fit`.
+    features : path
+        The rows to judge (the model's indicator columns, matched by name).
+    db : path
+        The SQLite history (created when missing); a table already scored (same
+        SHA-256) is not added again.
+    out_dir : path
+        Receives ``summary.json`` and ``report.html``.
+    unit, time : str
+        As for :func:`run_monitor_fit`.
+    json_path : path, optional
+        Also write the summary here.
+
+    Returns
+    -------
+    dict
+        ``units``: per unit ``first_alarm`` (the time as the table writes it, or
+        None), ``n_rows``, ``last_health_index``, ``alarm``; ``n_scored`` (0 when
+        the file was scored before).
+
+    Examples
+    --------
+    >>> import tempfile, numpy as np, pandas as pd
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.tile(np.arange(300.0), 2)
+    >>> table = pd.DataFrame({"unit": np.repeat(["a", "b"], 300), "t": t,
+    ...     "v/stats/RMS": rng.normal(size=600) + (t > 250) * 8 * (np.arange(600) < 300),
+    ...     "v/stats/Kurtosis": rng.normal(size=600)})
+    >>> d = tempfile.mkdtemp()
+    >>> table.to_csv(f"{d}/f.csv", index=False)
+    >>> _ = run_monitor_fit(f"{d}/f.csv", out_dir=f"{d}/m", unit="unit", time="t",
+    ...                     healthy_first=0.5, false_alarm_rate=0.05)
+    >>> s = run_monitor_score(f"{d}/m/model.pdmkit", f"{d}/f.csv", db=f"{d}/h.sqlite",
+    ...                       out_dir=f"{d}/s", unit="unit", time="t")
+    >>> s["units"]["a"]["first_alarm"], s["units"]["b"]["first_alarm"]
+    ('253.0', None)
+    """
+    model = _load_health_model(model_path)
+    inputs = [model_path, features, db]
+    with OutputRun(out_dir, "monitor-score", inputs=inputs, json_path=json_path) as run:
+        with HealthHistory(db, model_sha256=file_sha256(Path(model_path))) as history:
+            scored = score_file(model, features, history, unit=unit, time=time)
+            units = _units_summary(history)
+        n = 0 if scored is None else len(scored)
+        summary = {"model_file": str(model_path), "db": str(db), "n_scored": n}
+        summary["units"] = units
+        alarmed = {u: v["first_alarm"] for u, v in units.items() if v["first_alarm"]}
+        say(
+            f"{n} rows scored"
+            + (" (file scored before)" if scored is None else "")
+            + f"; {len(alarmed)} of {len(units)} unit(s) in alarm"
+            + (": " + ", ".join(f"{u} since {t}" for u, t in alarmed.items()))
+            * bool(alarmed)
+        )
+        report = Report("pdmkit monitor score")
+        report.add_table(pd.DataFrame.from_dict(units, orient="index"), caption="Units")
+        finish(run, summary, report)
+    return summary
+
+
+def watch_folder(
+    model_path: PathLike,
+    folder: PathLike,
+    *,
+    db: PathLike,
+    unit: str | None = None,
+    time: str,
+    interval: float = 10.0,
+    once: bool = False,
+    pattern: str = "*.csv",
+) -> int:
+    """Score every new feature table that lands in ``folder``, each once.
+
+    Polls every ``interval`` seconds (``once``: one pass, then return); a file is
+    taken when its size has not changed since the previous pass (still being
+    written otherwise). Each new alarm is logged as one line. Ctrl-C stops cleanly
+    between files. Returns the number of files scored.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, numpy as np, pandas as pd
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> rng = np.random.default_rng(1)
+    >>> day = lambda k: pd.DataFrame({"unit": "pump", "t": k * 100 + np.arange(100.0),
+    ...     "v/stats/RMS": rng.normal(size=100) + (k == 2) * 9,
+    ...     "v/stats/Kurtosis": rng.normal(size=100)})
+    >>> day(0).to_csv(d / "base.csv", index=False)
+    >>> _ = run_monitor_fit(d / "base.csv", out_dir=d / "m", unit="unit", time="t",
+    ...                     healthy_first=0.99, false_alarm_rate=0.05)
+    >>> (d / "in").mkdir()
+    >>> for k in (1, 2):
+    ...     day(k).to_csv(d / "in" / f"day{k}.csv", index=False)
+    >>> watch_folder(d / "m" / "model.pdmkit", d / "in", db=d / "h.sqlite",
+    ...              unit="unit", time="t", once=True)
+    2
+    """
+    if not 0.1 <= interval <= 3600:
+        raise DataError(f"--interval must be 0.1 to 3600 seconds; got {interval}")
+    model = _load_health_model(model_path)
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise DataError(f"{folder} is not a folder to watch")
+    sizes: dict[Path, int] = {}
+    done = 0
+    with HealthHistory(db, model_sha256=file_sha256(Path(model_path))) as history:
+        try:
+            while True:
+                for path in sorted(folder.glob(pattern)):
+                    size = path.stat().st_size
+                    if not once and sizes.get(path) != size:
+                        sizes[path] = size  # seen growing: take it next pass
+                        continue
+                    before = history.first_alarms()
+                    rows = score_file(model, path, history, unit=unit, time=time)
+                    if rows is None:
+                        continue
+                    done += 1
+                    for u, t in history.first_alarms(text=True).items():
+                        if t is not None and before.get(u) is None:
+                            say(f"ALARM {u} since {t} ({path.name})")
+                if once:
+                    return done
+                _time.sleep(interval)
+        except KeyboardInterrupt:
+            say(f"stopped; {done} file(s) scored into {db}")
+    return done
