@@ -72,7 +72,9 @@ def _unit_time(p: argparse.ArgumentParser) -> None:
 def add_parsers(sub: argparse._SubParsersAction) -> None:
     """Register ``monitor`` and its sub-commands."""
     monitor = sub.add_parser("monitor", help="health baselines, alarms, asset histories")
-    steps = monitor.add_subparsers(dest="step", required=True, metavar="STEP")
+    steps = monitor.add_subparsers(
+        dest="step", required=True, metavar="STEP", help="fit, score or watch"
+    )
     p = steps.add_parser("fit", help="fit a health baseline on healthy rows")
     p.add_argument("--features", type=Path, required=True, help="feature table")
     _unit_time(p)
