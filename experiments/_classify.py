@@ -389,14 +389,6 @@ def _cv_scores(
     return np.asarray(scores, dtype=float)
 
 
-def _sort_labels(values: set) -> list:
-    values = [_plain(v) for v in values]
-    try:
-        return sorted(values)
-    except TypeError:
-        return sorted(values, key=str)
-
-
 def _selected_names(pipe: Pipeline, features: list) -> list[str]:
     """Names of what the fitted selector keeps, best first."""
     select = pipe.named_steps.get("select")

@@ -34,6 +34,15 @@ def _plain(value: Any) -> Any:
     return value.item() if isinstance(value, np.generic) else value
 
 
+def _sorted_plain(values) -> list:
+    """Class labels as plain Python values, sorted (by their text when types mix)."""
+    values = [_plain(v) for v in values]
+    try:
+        return sorted(values)
+    except TypeError:
+        return sorted(values, key=str)
+
+
 def _feature_matrix(table: pd.DataFrame, features: list) -> np.ndarray:
     """Return the float matrix; DataError naming members and columns when not finite."""
     X = table[features].to_numpy(dtype=float)

@@ -37,7 +37,7 @@ from sklearn.model_selection import StratifiedGroupKFold, StratifiedKFold, train
 
 from pdmkit._checks import parse_timestamps
 from pdmkit.errors import DataError
-from pdmkit.experiments._classify_result import _plain, _show
+from pdmkit.experiments._classify_result import _plain, _show, _sorted_plain
 
 __all__ = ["SPLITS", "SplitPlan", "plan_split"]
 
@@ -144,7 +144,7 @@ def _group_split(table, y, groups, test_size, gap, rng, notes):
     mixed = per_group.index[per_group > 1]
     if len(mixed):
         return _mixed_group_split(y, groups, test_size, rng, notes)
-    for cls in _sorted(y.unique()):
+    for cls in _sorted_plain(y.unique()):
         rows = np.flatnonzero(y.to_numpy() == cls)
         names = list(pd.unique(groups[rows]))
         if len(names) == 1:
@@ -179,7 +179,7 @@ def _mixed_group_split(y, groups, test_size, rng, notes):
         raise DataError(
             f"cannot hold out whole groups with test_size={test_size}: {exc}"
         ) from None
-    unseen = _sorted(set(y.iloc[test]) - set(y.iloc[train]))
+    unseen = _sorted_plain(set(y.iloc[test]) - set(y.iloc[train]))
     if unseen:
         notes.append(
             f"class(es) {_show(unseen)} occur only in the held-out groups: the "
@@ -197,7 +197,7 @@ def _cv_groups(table, y, groups, train, blocks, folds: int) -> np.ndarray:
     """
     g = np.asarray(groups[train], dtype=object).copy()
     yt = y.to_numpy()[train]
-    for cls in _sorted(set(yt)):
+    for cls in _sorted_plain(set(yt)):
         rows = np.flatnonzero(yt == cls)
         if len(set(g[rows])) > 1 and _plain(cls) not in blocks:
             continue
@@ -205,14 +205,6 @@ def _cv_groups(table, y, groups, train, blocks, folds: int) -> np.ndarray:
         for k, chunk in enumerate(np.array_split(ranked, max(folds, 2))):
             g[chunk] = f"{g[chunk[0]] if len(chunk) else ''}#block{k}"
     return g
-
-
-def _sorted(values) -> list:
-    values = list(values)
-    try:
-        return sorted(values)
-    except TypeError:
-        return sorted(values, key=str)
 
 
 def plan_split(
@@ -407,7 +399,7 @@ def time_split(
             f"{_show(seen)}; a classifier needs two classes to learn from. Lower "
             "test_size (--test-size) or use the stratified split"
         )
-    unseen = _sorted([_plain(v) for v in set(y.iloc[test_pos]) - seen])
+    unseen = _sorted_plain(set(y.iloc[test_pos]) - seen)
     if unseen:
         notes.append(
             f"class(es) {_show(unseen)} appear only among the later (test) members: "

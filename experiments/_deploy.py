@@ -124,10 +124,7 @@ class FaultClassifier:
 
     def _embed(self, X: np.ndarray) -> np.ndarray:
         """``X`` through the pipeline's steps before the model."""
-        Z = X
-        for _, step in self.pipeline.steps[:-1]:
-            Z = step.transform(Z)
-        return np.asarray(Z, dtype=float)
+        return np.asarray(self.pipeline[:-1].transform(X), dtype=float)
 
     def _matrix(self, table: pd.DataFrame) -> np.ndarray:
         """The feature columns by name; a missing one is a one-line error."""

@@ -31,12 +31,12 @@ from pdmkit.experiments._classify import (
     _fit_to_size,
     _label_values,
     _model_name,
-    _plain,
     _show,
     _smallest_fit_size,
     classify,
     make_classifier,
 )
+from pdmkit.experiments._classify_result import _sorted_plain
 from pdmkit.experiments._classify_splits import _cv_groups, group_column
 from pdmkit.experiments._sensor_costs import _resolve_costs
 
@@ -575,7 +575,7 @@ def _sensor_members(task: _SensorTask, sensor, by_signal: dict, notes: list[str]
         )
         y = y[~y.isin(lonely)]
     all_classes = set(task.y.unique())
-    missing_classes = _sort_any(all_classes - set(y.unique()))
+    missing_classes = _sorted_plain(all_classes - set(y.unique()))
     if missing_classes:
         notes.append(
             f"classes {_show(missing_classes)} have no (usable) member with this "
@@ -638,11 +638,3 @@ def _score_sensor(task: _SensorTask, row: dict, y: pd.Series, cols: list, notes:
     row["features"] = "; ".join(res.features)
     notes.extend(n for n in res.notes if n not in notes)
     return res
-
-
-def _sort_any(values: set) -> list:
-    values = [_plain(v) for v in values]
-    try:
-        return sorted(values)
-    except TypeError:
-        return sorted(values, key=str)

@@ -65,7 +65,8 @@ def test_fit_then_score_names_each_units_first_alarm(tmp_path, rng):
     first = float(units["a"]["first_alarm"])
     assert 600 < first < 620  # the drift passes 1 % false alarms within a few hours
     # the same file again adds nothing
-    assert main([*args[:-4], "--json", str(tmp_path / "s2.json")]) == 0
+    again_args = [*args[:-4], "--json", str(tmp_path / "s2.json")]
+    assert main([*again_args, "--out", str(tmp_path / "s2")]) == 0
     again = json.loads((tmp_path / "s2.json").read_text())
     assert again["n_scored"] == 0 and again["units"] == units
     with sqlite3.connect(tmp_path / "h.sqlite") as con:
