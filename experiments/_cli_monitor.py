@@ -96,10 +96,10 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--false-alarms",
-        type=fraction,
-        default=0.01,
+        default="0.01",
         metavar="RATE",
-        help="target false-alarm rate per row of a healthy unit (default 0.01)",
+        help="target false-alarm rate of a healthy unit: per row (0.01, the default) or "
+        "per time (1/30d; units s, min, h, d, w; needs timestamps in --time)",
     )
     p.add_argument(
         "--persistence",

@@ -24,9 +24,11 @@ from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError, ModelError
 from pdmkit.experiments._messages import finish, say
 from pdmkit.experiments._monitor_history import HealthHistory
+from pdmkit.experiments._monitor_report import alarm_table, plot_health_history
 from pdmkit.experiments._report import Report
+from pdmkit.models.diagnosis import HealthModel, calibration_split
 
-__all__ = ["run_monitor_fit", "run_monitor_score", "watch_folder"]
+__all__ = ["false_alarm_spec", "run_monitor_fit", "run_monitor_score", "watch_folder"]
 
 PathLike = str | os.PathLike
 #: indicators named in the history per row (the largest contributions)
@@ -97,6 +99,74 @@ def _healthy_rows(table, units, t, healthy_first, healthy_where) -> np.ndarray:
     return mask
 
 
+_PER = {"s": 1.0, "min": 60.0, "h": 3600.0, "d": 86400.0, "w": 604800.0}
+
+
+def false_alarm_spec(spec: str | float) -> tuple[float | None, float | None]:
+    """``--false-alarms``: a rate per row (``0.01``) or per time (``1/30d``).
+
+    Returns ``(per_row, per_second)``, one of them None. Time units: ``s``, ``min``,
+    ``h``, ``d``, ``w``.
+
+    Examples
+    --------
+    >>> false_alarm_spec("0.01")
+    (0.01, None)
+    >>> false_alarm_spec("1/30d")[1] * 86400 * 30
+    1.0
+    """
+    text = str(spec).strip().replace(" ", "")
+    if "/" not in text:
+        try:
+            rate = float(text)
+        except ValueError:
+            rate = np.nan
+        if not 0 < rate < 1:
+            raise DataError(
+                f"--false-alarms {spec!r}: expected a rate per row in (0, 1) such as "
+                "0.01, or a rate per time such as 1/30d"
+            )
+        return rate, None
+    count, _, span = text.partition("/")
+    unit = span.lstrip("0123456789.")
+    number = span[: len(span) - len(unit)] or "1"
+    try:
+        per_second = float(count) / (float(number) * _PER[unit])
+    except (ValueError, KeyError, ZeroDivisionError):
+        per_second = np.nan
+    if not np.isfinite(per_second) or per_second <= 0:
+        raise DataError(
+            f"--false-alarms {spec!r}: expected COUNT/SPAN such as 1/30d (units: "
+            f"{', '.join(_PER)})"
+        )
+    return None, per_second
+
+
+def _per_row_rate(spec, table, time, t, units, healthy) -> tuple[float, dict]:
+    """The per-row false-alarm rate for ``spec``, and what it was derived from."""
+    per_row, per_second = false_alarm_spec(spec)
+    if per_row is not None:
+        return per_row, {}
+    column = table[time]
+    if pd.api.types.is_numeric_dtype(column):
+        raise DataError(
+            f"--false-alarms {spec}: a rate per time needs timestamps in --time "
+            f"{time!r}, which holds numbers of unknown unit; give a rate per row"
+        )
+    steps = np.concatenate(
+        [np.diff(t[healthy & (units == u)]) for u in pd.unique(units[healthy])]
+    )
+    step = float(np.median(steps)) if steps.size else np.nan
+    if not step > 0:
+        raise DataError(f"--false-alarms {spec}: the healthy rows have no time step")
+    rate = per_second * step
+    if not rate < 1:
+        raise DataError(
+            f"--false-alarms {spec}: one row every {step:g} s already exceeds that rate"
+        )
+    return rate, {"false_alarms": str(spec), "row_step_s": step}
+
+
 def run_monitor_fit(
     features: PathLike,
     *,
@@ -106,7 +176,7 @@ def run_monitor_fit(
     healthy_first: float | None = None,
     healthy_where: str | None = None,
     method: str = "pca",
-    false_alarm_rate: float = 0.01,
+    false_alarm_rate: float | str = 0.01,
     persistence: int = 3,
     json_path: PathLike | None = None,
 ) -> dict:
@@ -124,7 +194,11 @@ def run_monitor_fit(
         The first fraction of each unit's time span is healthy.
     healthy_where : str, optional
         A pandas expression marking the healthy rows instead.
-    method, false_alarm_rate, persistence
+    false_alarm_rate : float or str
+        Per row (``0.01``) or per time (``"1/30d"``, with timestamps in ``time``:
+        converted with the healthy rows' median time step; at most one false alarm
+        per row is then certified, so the rate per time holds before persistence).
+    method, persistence
         See :class:`~pdmkit.models.diagnosis.HealthModel`.
     json_path : path, optional
         Also write the summary here.
@@ -149,8 +223,6 @@ def run_monitor_fit(
     >>> s["n_healthy"], s["features"]
     (300, ['v/stats/RMS', 'v/stats/Kurtosis'])
     """
-    from pdmkit.models.diagnosis import HealthModel
-
     table = _read(features, unit, time)
     t = _time_values(table, time, str(features))
     units = (
@@ -164,17 +236,31 @@ def run_monitor_fit(
     cols = _feature_columns(table, {unit, time})
     if not cols:
         raise DataError(f"{features}: no numeric indicator columns to monitor")
-    model = HealthModel(
-        method=method, false_alarm_rate=false_alarm_rate, persistence=persistence
-    )
-    model.fit(table.loc[healthy, cols], groups=units[healthy])
+    alpha, derived = _per_row_rate(false_alarm_rate, table, time, t, units, healthy)
+    model = HealthModel(method=method, false_alarm_rate=alpha, persistence=persistence)
+    try:
+        model.fit(table.loc[healthy, cols], groups=units[healthy])
+    except DataError:
+        if not derived:
+            raise
+        step = derived["row_step_s"]
+        n_cal = calibration_split(
+            int(healthy.sum()), model.calibration_fraction, units[healthy]
+        )[1].size
+        raise DataError(
+            f"--false-alarms {false_alarm_rate} is {alpha:.3g} per row at one row every "
+            f"{step:g} s, and {n_cal} healthy calibration rows can certify at most "
+            f"1/{(n_cal + 1) * step / 3600:.3g}h; mark more rows healthy or ask for a "
+            "larger rate"
+        ) from None
     inputs = [features]
     with OutputRun(out_dir, "monitor", inputs=inputs, json_path=json_path) as run:
         run.add_file("model.pdmkit", lambda p: save_model(model, p))
         summary = {
             "method": method,
             "threshold": float(model.threshold_),
-            "false_alarm_rate": float(false_alarm_rate),
+            "false_alarm_rate": float(alpha),
+            **derived,
             "persistence": int(persistence),
             "n_healthy": int(healthy.sum()),
             "n_units": len(pd.unique(units)),
@@ -183,15 +269,18 @@ def run_monitor_fit(
             "time": time,
             "model_file": str(run.path("model.pdmkit")),
         }
+        per_time = ""
+        if derived:
+            per_time = f" ({false_alarm_rate} at one row per {derived['row_step_s']:g} s)"
         say(
             f"health baseline ({method}) on {summary['n_healthy']} healthy rows of "
             f"{summary['n_units']} unit(s): threshold {summary['threshold']:.4g} for a "
-            f"{false_alarm_rate:g} false-alarm rate per row"
+            f"{alpha:.3g} false-alarm rate per row{per_time}"
         )
         report = Report("pdmkit monitor fit")
         report.add_text(
             f"Baseline {method} on {summary['n_healthy']} healthy rows; alarm threshold "
-            f"{summary['threshold']:.4g} (split conformal, {false_alarm_rate:g} per row), "
+            f"{summary['threshold']:.4g} (split conformal, {alpha:.3g} per row), "
             f"{persistence} consecutive rows above it raise the alarm."
         )
         finish(run, summary, report)
@@ -199,7 +288,6 @@ def run_monitor_fit(
 
 
 def _load_health_model(path: PathLike):
-    from pdmkit.models.diagnosis import HealthModel
 
     model = load_model(path)
     if not isinstance(model, HealthModel):
@@ -256,6 +344,36 @@ def _units_summary(history) -> dict:
             "alarm": bool(part["alarm"].iloc[-1]),
         }
     return out
+
+
+def _score_report(frame: pd.DataFrame, summary: dict) -> Report:
+    report = Report("pdmkit monitor score")
+    n_alarm = sum(1 for v in summary["units"].values() if v["first_alarm"])
+    report.add_summary_box(
+        [
+            ("Scored now", f"{summary['n_scored']} rows", None),
+            (
+                "In alarm",
+                f"{n_alarm} of {len(summary['units'])} unit(s)",
+                report.anchor("Alarms"),
+            ),
+            ("History", str(summary["db"]), None),
+        ]
+    )
+    if frame.empty:
+        report.add_text("The history holds no rows yet.")
+        return report
+    report.add_heading("Health over time")
+    report.add_figure(
+        plot_health_history(frame),
+        caption="Health index per unit over its whole history (dashed: the alarm "
+        "threshold, 0.5; red: in alarm from the first alarm on)",
+    )
+    report.add_heading("Alarms")
+    report.add_table(
+        alarm_table(frame), caption="Per unit: first alarm and the indicators that drove it"
+    )
+    return report
 
 
 def run_monitor_score(
@@ -316,6 +434,7 @@ def run_monitor_score(
         with HealthHistory(db, model_sha256=file_sha256(Path(model_path))) as history:
             scored = score_file(model, features, history, unit=unit, time=time)
             units = _units_summary(history)
+            history_frame = history.history()
         n = 0 if scored is None else len(scored)
         summary = {"model_file": str(model_path), "db": str(db), "n_scored": n}
         summary["units"] = units
@@ -327,9 +446,7 @@ def run_monitor_score(
             + (": " + ", ".join(f"{u} since {t}" for u, t in alarmed.items()))
             * bool(alarmed)
         )
-        report = Report("pdmkit monitor score")
-        report.add_table(pd.DataFrame.from_dict(units, orient="index"), caption="Units")
-        finish(run, summary, report)
+        finish(run, summary, _score_report(history_frame, summary))
     return summary
 
 

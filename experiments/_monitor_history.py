@@ -37,6 +37,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit.errors import DataError
+from pdmkit.models.diagnosis import alarm_runs
 
 __all__ = ["SCHEMA_VERSION", "HealthHistory"]
 
@@ -209,13 +210,12 @@ class HealthHistory:
                 f"scored ({last:g}); rows are added in time order, each once"
             )
         texts = part["time_text"] if "time_text" in part.columns else part["time"]
-        runs, alarms = [], []
-        for t, text, exceeds in zip(times, texts, part["exceeds"], strict=True):
-            run = run + 1 if bool(exceeds) else 0
-            if run >= persistence and not alarm:
-                alarm, first, first_text = 1, float(t), str(text)
-            runs.append(run)
-            alarms.append(bool(alarm))
+        exceeds = part["exceeds"].to_numpy(dtype=bool)
+        alarms, runs = alarm_runs(exceeds, persistence, run_length=run, alarm=bool(alarm))
+        if alarms.any() and not alarm:
+            k = int(np.argmax(alarms))
+            first, first_text = float(times[k]), str(np.asarray(texts)[k])
+        run, alarm = int(runs[-1]), int(alarms[-1])
         part = part.assign(run_length=runs, alarm=alarms)
         self._db.executemany(
             "INSERT INTO scores VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",

@@ -29,6 +29,7 @@ Examples
 from pdmkit.models.diagnosis._anomaly import MLPAnomaly, PCAAnomaly, RBFAnomaly
 from pdmkit.models.diagnosis._health import HealthModel
 from pdmkit.models.diagnosis._health_threshold import (
+    alarm_runs,
     calibration_split,
     conformal_threshold,
     persistent_alarm,
@@ -62,6 +63,7 @@ __all__ = [
     "ParityResult",
     "RBFAnomaly",
     "SymbolicAnomaly",
+    "alarm_runs",
     "calibration_split",
     "channel_to_channel",
     "conformal_threshold",

@@ -140,15 +140,49 @@ def persistent_alarm(
         raise ModelError(f"clear_after must be >= 1 or None; got {clear_after!r}.")
     out = np.zeros(e.size, dtype=bool)
     for rows in _runs(units, e.size):
-        on, over, quiet = False, 0, 0
-        for i in rows:
-            over, quiet = (over + 1, 0) if e[i] else (0, quiet + 1)
-            if not on and over >= p:
-                on = True
-            elif on and c is not None and quiet >= c:
-                on = False
-            out[i] = on
+        out[rows] = alarm_runs(e[rows], p, c)[0]
     return out
+
+
+def alarm_runs(
+    exceed: ArrayLike,
+    persistence: int,
+    clear_after: int | None = None,
+    *,
+    run_length: int = 0,
+    alarm: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """One unit's alarm states and exceedance run lengths, continuing a carried state.
+
+    The rule of :func:`persistent_alarm` for rows that continue a sequence scored
+    before: ``run_length`` consecutive exceedances and the ``alarm`` state carried in
+    from the rows before (a history that scores one file at a time), so that scoring
+    in pieces equals scoring at once.
+
+    Returns
+    -------
+    alarms : ndarray of bool, shape (n,)
+    runs : ndarray of int, shape (n,)
+        Consecutive exceedances up to and including each row.
+
+    Examples
+    --------
+    >>> from pdmkit.models.diagnosis import alarm_runs
+    >>> alarm_runs([1, 1, 0, 1], persistence=3, run_length=1)[0].astype(int).tolist()
+    [0, 1, 1, 1]
+    """
+    e = np.asarray(exceed, dtype=bool).ravel()
+    alarms = np.zeros(e.size, dtype=bool)
+    runs = np.zeros(e.size, dtype=int)
+    over, quiet, on = int(run_length), 0, bool(alarm)
+    for i, hit in enumerate(e):
+        over, quiet = (over + 1, 0) if hit else (0, quiet + 1)
+        if not on and over >= persistence:
+            on = True
+        elif on and clear_after is not None and quiet >= clear_after:
+            on = False
+        alarms[i], runs[i] = on, over
+    return alarms, runs
 
 
 def calibration_split(

@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from pdmkit.experiments._cli import main
 
@@ -142,3 +143,45 @@ def test_ims_test2_bearing1_alarms_after_half_its_life(tmp_path, require_data):
     life = (stamps[-1] - stamps[0]).total_seconds()
     first = pd.Timestamp(units["Bearing 1"]["first_alarm"])
     assert 0.5 < (first - stamps[0]).total_seconds() / life < 0.85
+
+
+def test_score_report_shows_health_over_time_and_the_drivers_of_each_alarm(tmp_path, rng):
+    table = _fleet(rng)
+    model = _fit(tmp_path, table)
+    args = ["monitor", "score", "--model", model, "--features", str(tmp_path / "fleet.csv")]
+    args += ["--unit", "pump", "--time", "hour", "--db", str(tmp_path / "h.sqlite")]
+    assert main([*args, "--out", str(tmp_path / "s")]) == 0
+    page = (tmp_path / "s" / "report.html").read_text()
+    assert "Health over time" in page and 'src="data:image/png;base64,' in page
+    with sqlite3.connect(tmp_path / "h.sqlite") as con:
+        first = con.execute(
+            "SELECT time_text, top_indicators FROM scores WHERE unit = 'a' AND alarm = 1 "
+            "ORDER BY time LIMIT 1"
+        ).fetchone()
+    drivers = json.loads(first[1])
+    assert drivers[0] == "v/stats/RMS"  # the drifting indicator drives pump a's alarm
+    assert f"<td>{first[0]}</td>" in page and ", ".join(drivers) in page
+
+
+def test_false_alarms_per_time_become_a_rate_per_row_of_the_time_step(tmp_path, rng):
+    from pdmkit.errors import DataError
+    from pdmkit.experiments._monitor import false_alarm_spec
+
+    assert false_alarm_spec("0.02") == (0.02, None)
+    assert false_alarm_spec("2/1w") == (None, 2 / 604800)
+    for bad in ("0", "1.5", "x/30d", "1/30y", "1/0d"):
+        with pytest.raises(DataError, match="--false-alarms"):
+            false_alarm_spec(bad)
+    table = _fleet(rng)
+    stamps = pd.Timestamp("2026-01-01") + pd.to_timedelta(table["hour"] * 10, unit="min")
+    table["stamp"] = stamps.dt.strftime("%Y-%m-%d %H:%M:%S")
+    table.drop(columns="hour").to_csv(tmp_path / "fleet.csv", index=False)
+    args = ["monitor", "fit", "--features", str(tmp_path / "fleet.csv"), "--unit", "pump"]
+    args += ["--time", "stamp", "--healthy-first", "0.3"]
+    assert main([*args, "--false-alarms", "1/1d", "--out", str(tmp_path / "m")]) == 0
+    summary = json.loads((tmp_path / "m" / "summary.json").read_text())
+    assert summary["row_step_s"] == 600.0
+    assert summary["false_alarm_rate"] == pytest.approx(600 / 86400)
+    # 2 x 72 calibration rows cannot certify 1 per 30 days (1 per 4320 rows)
+    assert main([*args, "--false-alarms", "1/30d", "--out", str(tmp_path / "m2")]) == 2
+    assert not (tmp_path / "m2").exists()
