@@ -1,27 +1,37 @@
 # Two entry points for a fresh machine (see README):  make demo  |  make test
-# Both create .venv/ at the repository root when it is missing.
+# Both create .venv/ at the repository root when it is missing. The demo needs only
+# pdmkit's core install (no torch, no Dask: pyproject.toml's extras); the tests take
+# the dev extra, which holds every extra, so that the whole suite runs.
 PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
-STAMP := $(VENV)/.installed-stamp
+CORE_STAMP := $(VENV)/.installed-core-stamp
+DEV_STAMP := $(VENV)/.installed-dev-stamp
+PIP_E := $(BIN)/python -m pip install --quiet -e
 
 .PHONY: demo test lint venv clean
 
-$(STAMP): pyproject.toml
-	test -x $(BIN)/python || $(PY) -m venv $(VENV)
+$(BIN)/python:
+	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[dev]"
-	touch $(STAMP)
 
-venv: $(STAMP)
+$(CORE_STAMP): pyproject.toml | $(BIN)/python
+	$(PIP_E) .
+	touch $(CORE_STAMP)
 
-demo: $(STAMP)
+$(DEV_STAMP): pyproject.toml | $(BIN)/python
+	$(PIP_E) ".[dev]"
+	touch $(DEV_STAMP) $(CORE_STAMP)
+
+venv: $(DEV_STAMP)
+
+demo: $(CORE_STAMP)
 	$(BIN)/pdmkit demo --out results/demo
 
-test: $(STAMP)
+test: $(DEV_STAMP)
 	$(BIN)/python -m pytest -q -n auto --dist worksteal --durations=25
 
-lint: $(STAMP)
+lint: $(DEV_STAMP)
 	$(BIN)/ruff check . && $(BIN)/ruff format --check .
 
 clean:

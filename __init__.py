@@ -25,7 +25,7 @@ Examples
 0.7071
 """
 
-import importlib
+from importlib import import_module as _import_module
 
 from pdmkit import errors
 from pdmkit._config import data_dir
@@ -49,9 +49,9 @@ def __getattr__(name: str):
     'extract'
     """
     if name in _SUBPACKAGES:
-        return importlib.import_module(f"pdmkit.{name}")
+        return _import_module(f"pdmkit.{name}")
     raise AttributeError(f"module 'pdmkit' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted([*globals(), *_SUBPACKAGES])
+    return sorted({*globals(), *_SUBPACKAGES})

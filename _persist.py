@@ -46,6 +46,7 @@ import numpy as np
 
 from pdmkit._atomic import atomic_path
 from pdmkit._checks import file_sha256, npy_declared
+from pdmkit._optional import require
 from pdmkit._persist_tree import (
     _Decoder,
     _Encoder,
@@ -381,7 +382,7 @@ def _load_npz(blob: bytes, where: str) -> dict[str, np.ndarray]:
 def _load_tensors(blob: bytes, where: str) -> dict[str, Any]:
     import pickle
 
-    import torch
+    torch = require("torch", what=f"the torch model in {where}")
 
     from pdmkit._config import max_bytes
 
@@ -495,7 +496,7 @@ def load_model(path: str | os.PathLike, *, expect_sha256: str | None = None) -> 
 
 
 def _load_torch_module(manifest: dict, state: Any, tensors: dict, where: str) -> Any:
-    import torch
+    torch = require("torch", what=f"the torch model in {where}")
 
     cls = _registered(manifest.get("class"), torch_registry(), where)
     config = state.get("config") if isinstance(state, dict) else None

@@ -1,31 +1,38 @@
 """The exceptions and warnings pdmkit raises.
 
-Every class subclasses a built-in, so ``except ValueError`` keeps working in user code.
+Every exception subclasses :class:`PdmkitError` and a built-in, so ``except PdmkitError``
+catches whatever pdmkit raises and ``except ValueError`` keeps working in user code.
 Messages name the input (file, member, signal or parameter), what was expected, what
 was found, and how to fix it.
 
 Examples
 --------
->>> from pdmkit.errors import DataError
->>> issubclass(DataError, ValueError)
-True
+>>> from pdmkit.errors import DataError, PdmkitError
+>>> issubclass(DataError, ValueError), issubclass(DataError, PdmkitError)
+(True, True)
 """
 
-import difflib
-from collections.abc import Iterable
+import difflib as _difflib
+from collections.abc import Iterable as _Iterable
 
 __all__ = [
     "ConvergenceWarning",
     "DataError",
     "DataNotFoundError",
     "DataWarning",
+    "MissingExtraError",
     "ModelError",
     "NotFittedError",  # noqa: F822 (made on first use by __getattr__)
+    "PdmkitError",
     "did_you_mean",
 ]
 
 
-class DataError(ValueError):
+class PdmkitError(Exception):
+    """The base of every exception pdmkit raises (each also subclasses a built-in)."""
+
+
+class DataError(PdmkitError, ValueError):
     """Input data is malformed: wrong shape, non-finite values, missing signal or column."""
 
 
@@ -33,8 +40,16 @@ class DataNotFoundError(DataError, FileNotFoundError):
     """A dataset or file could not be found where pdmkit looked for it."""
 
 
-class ModelError(ValueError):
+class ModelError(PdmkitError, ValueError):
     """A model (model file, parameters, structure) is malformed or inconsistent."""
+
+
+class MissingExtraError(PdmkitError, ImportError):
+    """A feature needs an optional package that is not installed.
+
+    The message names the feature, the package and the ``pip install 'pdmkit[extra]'``
+    that brings it (see :mod:`pdmkit._optional`); ``except ImportError`` catches it.
+    """
 
 
 def __getattr__(name: str):
@@ -54,7 +69,7 @@ def __getattr__(name: str):
         raise AttributeError(f"module 'pdmkit.errors' has no attribute {name!r}")
     from sklearn.exceptions import NotFittedError as _SklearnNotFittedError
 
-    class NotFittedError(_SklearnNotFittedError):
+    class NotFittedError(PdmkitError, _SklearnNotFittedError):
         """An estimator was used before ``fit``.
 
         scikit-learn's ``NotFittedError`` (a ``ValueError`` and an ``AttributeError``),
@@ -79,7 +94,7 @@ class DataWarning(UserWarning):
     """
 
 
-def did_you_mean(name: object, choices: Iterable[object]) -> str:
+def did_you_mean(name: object, choices: _Iterable[object]) -> str:
     """The "; did you mean 'x'?" hint for an unknown name, or ``""`` when none is close.
 
     Parameters
@@ -101,5 +116,5 @@ def did_you_mean(name: object, choices: Iterable[object]) -> str:
     >>> did_you_mean("zzz", ["Flow"])
     ''
     """
-    close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
+    close = _difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
     return f"; did you mean {close[0]!r}?" if close else ""

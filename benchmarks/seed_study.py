@@ -3,7 +3,7 @@
 Simulates the seed's data set as the seed built it
 (:func:`pdmkit.ensembles.simulate_seed_ensemble`: 4840 recordings of 242 fault codes,
 20 repeats each, grouped into the seed's 20 labels), runs each of the seed's recipes
-(:mod:`pdmkit.experiments`: ``seed_flow_knn``, ``seed_flow_bagged_trees``,
+(:mod:`pdmkit.experiments.thesis`: ``seed_flow_knn``, ``seed_flow_bagged_trees``,
 ``seed_flow_pca_bagged_trees``, ``seed_residual_classification``,
 ``seed_sensor_faults``, ``seed_air_leak_rul``) and prints the comparison
 "seed's number | pdmkit on the twin | why they differ", then the sensor table of the
@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     from pdmkit._outputs import to_jsonable
-    from pdmkit.experiments import run_seed_study
+    from pdmkit.experiments.thesis import run_seed_study
 
     started = time.perf_counter()
     out = run_seed_study(

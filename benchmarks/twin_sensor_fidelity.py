@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from pdmkit.experiments import SEED_SENSOR_ACCURACY as SEED_TABLE_9_1
+from pdmkit.experiments.thesis import SEED_SENSOR_ACCURACY as SEED_TABLE_9_1
 
 
 def seed_recipe_pipeline(top_k: int = 5):

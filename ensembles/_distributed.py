@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from pdmkit._checks import check_int
+from pdmkit._optional import require
 from pdmkit.ensembles._ensemble import Ensemble, _table_to_ensemble
 from pdmkit.ensembles._limits import check_declared_sizes
 from pdmkit.ensembles._parquet import (
@@ -114,7 +115,7 @@ def dask_client(client: Any = None) -> Iterator[Any]:
         return
     if isinstance(client, str):
         address = client
-        from distributed import Client
+        Client = require("distributed", what="a Dask scheduler address").Client
 
         try:
             c = Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
@@ -131,7 +132,8 @@ def dask_client(client: Any = None) -> Iterator[Any]:
         return
     if isinstance(client, int):  # bool is refused by _check_workers
         n = _check_workers(client)
-        from distributed import Client, LocalCluster
+        dist = require("distributed", what="a local Dask cluster (workers=N)")
+        Client, LocalCluster = dist.Client, dist.LocalCluster
 
         cluster = LocalCluster(
             n_workers=n,

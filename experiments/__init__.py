@@ -11,6 +11,9 @@ commands, reading members or indicators from a :class:`TableSource`. Each ``run_
 writes a JSON summary and a self-contained HTML :class:`Report`, as the ``pdmkit``
 command of its name does.
 
+The source thesis's study (its ``seed_*`` recipes and published numbers) is in
+:mod:`pdmkit.experiments.thesis`.
+
 Examples
 --------
 >>> import numpy as np, pandas as pd
@@ -23,23 +26,18 @@ Examples
 ['acc/stats/RMS']
 """
 
-import importlib
+from importlib import import_module as _import_module
 
 __all__ = [
     "IDENTIFY_STRUCTURES",
     "LEAK_DEFAULTS",
     "MODELS",
-    "RIG_TABLE_SENSOR_ACCURACY",
-    "SEED_NUMBERS",
-    "SEED_SENSOR_ACCURACY",
-    "SEED_SENSOR_RECIPES",
     "SELECTIONS",
     "ClassificationResult",
     "FaultClassifier",
+    "HealthHistory",
     "Report",
     "RunDirectory",
-    "SeedResult",
-    "SeedSensorRecipe",
     "SensorComparison",
     "SensorCosts",
     "TableSource",
@@ -66,19 +64,7 @@ __all__ = [
     "run_predict",
     "run_rank",
     "run_rul",
-    "run_seed_study",
     "run_sensors",
-    "seed_air_leak_rul",
-    "seed_comparison",
-    "seed_feature_table",
-    "seed_flow_bagged_trees",
-    "seed_flow_knn",
-    "seed_flow_pca_bagged_trees",
-    "seed_indicators",
-    "seed_rank",
-    "seed_residual_classification",
-    "seed_sensor_faults",
-    "seed_sensor_table",
     "simulate_leak_dataset",
     "split_run_to_failure",
     "watch_folder",
@@ -106,6 +92,7 @@ _LAZY = {
     "run_monitor_fit": "_monitor",
     "run_monitor_score": "_monitor",
     "watch_folder": "_monitor",
+    "HealthHistory": "_monitor_history",
     "Report": "_report",
     "LEAK_DEFAULTS": "_rul",
     "leak_accuracy": "_rul",
@@ -121,24 +108,6 @@ _LAZY = {
     "fingerprint_path": "_runs",
     "package_versions": "_runs",
     "predict_members": "_runs",
-    "RIG_TABLE_SENSOR_ACCURACY": "_seed_indicators",
-    "SEED_NUMBERS": "_seed_indicators",
-    "SEED_SENSOR_ACCURACY": "_seed_indicators",
-    "SEED_SENSOR_RECIPES": "_seed_indicators",
-    "SeedResult": "_seed_indicators",
-    "SeedSensorRecipe": "_seed_indicators",
-    "seed_feature_table": "_seed_indicators",
-    "seed_indicators": "_seed_indicators",
-    "seed_rank": "_seed_indicators",
-    "seed_air_leak_rul": "_seed_recipes",
-    "seed_flow_bagged_trees": "_seed_recipes",
-    "seed_flow_knn": "_seed_recipes",
-    "seed_flow_pca_bagged_trees": "_seed_recipes",
-    "seed_residual_classification": "_seed_recipes",
-    "seed_sensor_faults": "_seed_recipes",
-    "seed_sensor_table": "_seed_recipes",
-    "run_seed_study": "_seed_study",
-    "seed_comparison": "_seed_study",
     "SensorComparison": "_sensors",
     "SensorCosts": "_sensor_costs",
     "compare_sensors": "_sensors",
@@ -158,8 +127,8 @@ def __getattr__(name: str):
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'pdmkit.experiments' has no attribute {name!r}")
-    return getattr(importlib.import_module(f"pdmkit.experiments.{module}"), name)
+    return getattr(_import_module(f"pdmkit.experiments.{module}"), name)
 
 
 def __dir__() -> list[str]:
-    return sorted([*globals(), *_LAZY])
+    return sorted({*globals(), *_LAZY})

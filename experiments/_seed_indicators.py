@@ -124,7 +124,7 @@ class SeedSensorRecipe:
 
     Examples
     --------
-    >>> from pdmkit.experiments import SEED_SENSOR_RECIPES
+    >>> from pdmkit.experiments.thesis import SEED_SENSOR_RECIPES
     >>> SEED_SENSOR_RECIPES["Flow"].signals, SEED_SENSOR_RECIPES["Flow"].frange
     (('FlowContraction',), (0.0, 55.0))
     """
@@ -210,7 +210,7 @@ class SeedResult:
 
     Examples
     --------
-    >>> from pdmkit.experiments import SeedResult
+    >>> from pdmkit.experiments.thesis import SeedResult
     >>> r = SeedResult("flow_knn", "7.3.4", "accuracy %", 97.52, 91.0, "twin")
     >>> r.difference
     -6.52
@@ -292,7 +292,7 @@ def seed_indicators(
     Examples
     --------
     >>> from pdmkit.ensembles import simulate_seed_ensemble
-    >>> from pdmkit.experiments import seed_indicators
+    >>> from pdmkit.experiments.thesis import seed_indicators
     >>> ens = simulate_seed_ensemble(20, t_end=1.0, signals=["FlowContraction"])
     >>> table = seed_indicators(ens, ["FlowContraction"], frange=(0, 55))
     >>> table.shape
@@ -359,7 +359,7 @@ def seed_feature_table(
     Examples
     --------
     >>> from pdmkit.ensembles import simulate_seed_ensemble
-    >>> from pdmkit.experiments import seed_feature_table
+    >>> from pdmkit.experiments.thesis import seed_feature_table
     >>> ens = simulate_seed_ensemble(20, t_end=1.0, signals=["FlowContraction"])
     >>> seed_feature_table(ens).filter(like="_stats/Mean").columns.tolist()
     ['FlowContraction_stats/Mean']
@@ -431,7 +431,7 @@ def seed_rank(
     Examples
     --------
     >>> import numpy as np, pandas as pd
-    >>> from pdmkit.experiments import seed_rank
+    >>> from pdmkit.experiments.thesis import seed_rank
     >>> rng = np.random.default_rng(0)
     >>> y = np.repeat(["a", "b"], 30)
     >>> good = rng.normal(size=60) + 3 * (y == "b")

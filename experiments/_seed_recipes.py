@@ -97,7 +97,7 @@ def seed_flow_knn(
     Examples
     --------
     >>> from pdmkit.ensembles import simulate_seed_ensemble
-    >>> from pdmkit.experiments import seed_flow_knn
+    >>> from pdmkit.experiments.thesis import seed_flow_knn
     >>> ens = simulate_seed_ensemble(40, repeats=2, t_end=1.0,
     ...                              signals=["FlowContraction"])
     >>> r = seed_flow_knn(ens)
@@ -148,7 +148,7 @@ def seed_flow_bagged_trees(
     Examples
     --------
     >>> from pdmkit.ensembles import simulate_seed_ensemble
-    >>> from pdmkit.experiments import seed_flow_bagged_trees
+    >>> from pdmkit.experiments.thesis import seed_flow_bagged_trees
     >>> ens = simulate_seed_ensemble(40, repeats=2, t_end=1.0,
     ...                              signals=["FlowContraction"])
     >>> seed_flow_bagged_trees(ens).details["n_indicators"]
@@ -197,7 +197,7 @@ def seed_flow_pca_bagged_trees(
     Examples
     --------
     >>> from pdmkit.ensembles import simulate_seed_ensemble
-    >>> from pdmkit.experiments import seed_flow_pca_bagged_trees
+    >>> from pdmkit.experiments.thesis import seed_flow_pca_bagged_trees
     >>> ens = simulate_seed_ensemble(40, repeats=2, t_end=1.0,
     ...                              signals=["FlowContraction"])
     >>> seed_flow_pca_bagged_trees(ens).metric
@@ -254,7 +254,7 @@ def seed_sensor_table(
     Examples
     --------
     >>> from pdmkit.ensembles import simulate_seed_ensemble
-    >>> from pdmkit.experiments import seed_sensor_table
+    >>> from pdmkit.experiments.thesis import seed_sensor_table
     >>> ens = simulate_seed_ensemble(40, repeats=2, t_end=1.0,
     ...                              signals=["FlowContraction", "AirPressure"])
     >>> seed_sensor_table(ens, sensors=["Flow", "Pressure"])["sensor"].tolist()
@@ -383,7 +383,7 @@ def seed_residual_classification(
 
     Examples
     --------
-    >>> from pdmkit.experiments import seed_residual_classification
+    >>> from pdmkit.experiments.thesis import seed_residual_classification
     >>> r = seed_residual_classification(n_members=40, t_end=1.0)
     >>> r.details["n_classes"], len(r.details["features"]), r.details["validation"]
     (5, 5, 'holdout')
@@ -530,7 +530,7 @@ def seed_sensor_faults(
 
     Examples
     --------
-    >>> from pdmkit.experiments import seed_sensor_faults
+    >>> from pdmkit.experiments.thesis import seed_sensor_faults
     >>> r = seed_sensor_faults(30, t_end=1.0)
     >>> r.details["classes"]
     ['healthy', 'noise', 'offset']
@@ -648,7 +648,7 @@ def seed_air_leak_rul(
 
     Examples
     --------
-    >>> from pdmkit.experiments import seed_air_leak_rul
+    >>> from pdmkit.experiments.thesis import seed_air_leak_rul
     >>> r = seed_air_leak_rul(3, max_cycles=16, cycles_done=4, t_end=1.0)
     >>> r.metric, r.details["n_train_runs"], round(r.details["leak_scale"])
     ('RUL deviation %', 3, 24)

@@ -89,7 +89,7 @@ def seed_comparison(
 
     Examples
     --------
-    >>> from pdmkit.experiments import SeedResult, seed_comparison
+    >>> from pdmkit.experiments.thesis import SeedResult, seed_comparison
     >>> r = SeedResult("flow_knn", "7.3.4, table 7.2", "accuracy %", 97.52, 93.1, "twin")
     >>> seed_comparison([r])[["seed", "pdmkit", "difference"]].iloc[0].tolist()
     [97.52, 93.1, -4.42]
@@ -210,7 +210,7 @@ def run_seed_study(
 
     Examples
     --------
-    >>> from pdmkit.experiments import run_seed_study
+    >>> from pdmkit.experiments.thesis import run_seed_study
     >>> out = run_seed_study(40, repeats=2, t_end=1.0, leak_runs=0,
     ...                      sensor_fault_members=0, part_size=20)
     >>> out["comparison"]["recipe"].tolist()

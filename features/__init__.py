@@ -35,7 +35,7 @@ Examples
 np.True_
 """
 
-import importlib
+from importlib import import_module as _import_module
 
 __all__ = [
     "CLASS_METHODS",
@@ -145,8 +145,8 @@ def __getattr__(name: str):
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'pdmkit.features' has no attribute {name!r}")
-    return getattr(importlib.import_module(f"pdmkit.features.{module}"), name)
+    return getattr(_import_module(f"pdmkit.features.{module}"), name)
 
 
 def __dir__() -> list[str]:
-    return sorted([*globals(), *_LAZY])
+    return sorted({*globals(), *_LAZY})

@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator
 
+from pdmkit._optional import require
 from pdmkit.errors import DataError
 from pdmkit.rul._base import LearnedMixin, Unit, check_fitted, keep_init_args
 
@@ -30,8 +31,8 @@ if TYPE_CHECKING:
 
 
 def _network(arch: str, n_inputs: int, window: int, hidden: int):
-    import torch
-    from torch import nn
+    torch = require("torch", what="the neural RUL model")
+    nn = torch.nn
 
     class LSTMNet(nn.Module):
         def __init__(self):
@@ -124,14 +125,14 @@ class _Threads:
         self.n = n
 
     def __enter__(self):
-        import torch
+        torch = require("torch", what="the neural RUL model")
 
         _keep_buffers()
         self.old = torch.get_num_threads()
         torch.set_num_threads(self.n)
 
     def __exit__(self, *exc):
-        import torch
+        torch = require("torch", what="the neural RUL model")
 
         torch.set_num_threads(self.old)
 
@@ -285,7 +286,7 @@ class NeuralRULModel(LearnedMixin, BaseEstimator):
 
     # ------------------------------------------------------------------ training
     def _train(self, X, y, seed, bar=None):
-        import torch
+        torch = require("torch", what="the neural RUL model")
 
         torch.manual_seed(seed)
         net = _network(self.arch, X.shape[2], int(self.window), int(self.hidden))
@@ -317,7 +318,7 @@ class NeuralRULModel(LearnedMixin, BaseEstimator):
 
     @staticmethod
     def _run(nets, X):
-        import torch
+        torch = require("torch", what="the neural RUL model")
 
         out = np.zeros(len(X))
         with torch.no_grad():
@@ -413,7 +414,7 @@ class NeuralRULModel(LearnedMixin, BaseEstimator):
         weights = state.get("models_")
         self.__dict__.update(state)
         if weights is not None:
-            import torch
+            torch = require("torch", what="the neural RUL model")
 
             n_inputs = len(self.features_) + int(bool(self.time_feature))
             shape = (self.arch, n_inputs, int(self.window), int(self.hidden))

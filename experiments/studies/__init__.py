@@ -21,10 +21,8 @@ Examples
 ['mass-beam', 'motor-fractional', 'rotor-fdi', 'unstable-closed-loop']
 """
 
-from __future__ import annotations
-
-import importlib
-import os
+from importlib import import_module as _import_module
+from os import PathLike as _PathLike
 
 __all__ = ["STUDIES", "run_study"]
 
@@ -58,9 +56,9 @@ STUDIES: dict[str, tuple[str, str, str]] = {
 
 def run_study(
     name: str,
-    out_dir: str | os.PathLike,
+    out_dir: str | _PathLike,
     *,
-    json_path: str | os.PathLike | None = None,
+    json_path: str | _PathLike | None = None,
     seed: int = 0,
     quick: bool = False,
 ) -> dict:
@@ -100,5 +98,5 @@ def run_study(
             f"study: unknown study {name!r}; expected one of {', '.join(sorted(STUDIES))}"
         )
     module, function, _ = STUDIES[name]
-    run = getattr(importlib.import_module(f"{__name__}.{module}"), function)
+    run = getattr(_import_module(f"{__name__}.{module}"), function)
     return run(out_dir, json_path=json_path, seed=seed, quick=quick)

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from pdmkit._optional import require
 from pdmkit.errors import ModelError
 from pdmkit.models.ode._modelfile import OdeModel
 
@@ -177,7 +178,7 @@ def linearize(
     >>> [round(float(v), 3) for v in sorted(lin.poles.imag)]
     [-4.429, 4.429]
     """
-    import torch
+    torch = require("torch", what="linearize (torch autograd)")
 
     dtype = torch.float64
     if isinstance(model, OdeModel):

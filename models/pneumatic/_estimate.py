@@ -48,6 +48,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from pdmkit._optional import require
 from pdmkit.errors import ConvergenceWarning, ModelError
 from pdmkit.models._optim import covariance, half_squares, relative_offset
 from pdmkit.models.pneumatic._estimate_inputs import _setup_problem
@@ -249,6 +250,8 @@ def _check_settings(jacobian: str, n_starts, max_iter) -> None:
         raise ModelError(
             f"estimate_parameters: jacobian must be 'fd' or 'autograd'; got {jacobian!r}."
         )
+    if jacobian == "autograd":  # before the search stage, not minutes into the fit
+        require("torch", what="estimate_parameters(jacobian='autograd')")
     if not isinstance(n_starts, int | np.integer) or n_starts < 1:
         raise ModelError(
             f"estimate_parameters: n_starts must be a positive integer; got {n_starts!r}."

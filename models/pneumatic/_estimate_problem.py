@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from pdmkit._optional import require
 from pdmkit._progress import progress
 from pdmkit.errors import ModelError
 from pdmkit.models._optim import (
@@ -213,7 +214,7 @@ class _Problem:
         batched second reverse pass) gives the columns ``J e_j``: forward sensitivities
         of every residual at the cost of about five forward passes.
         """
-        import torch
+        torch = require("torch", what="estimate_parameters(jacobian='autograd')")
 
         W, p = self.n_windows, self.p
         zt = torch.tensor(np.repeat(z[:, None], W, axis=1), dtype=torch.float64)

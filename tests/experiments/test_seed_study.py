@@ -17,7 +17,7 @@ from pdmkit.ensembles import (
     simulate_seed_ensemble,
 )
 from pdmkit.errors import DataError
-from pdmkit.experiments import (
+from pdmkit.experiments.thesis import (
     SEED_NUMBERS,
     SeedResult,
     seed_air_leak_rul,
@@ -214,7 +214,7 @@ def test_flow_knn_equals_a_hand_sklearn_pipeline(flow_table):
 
 
 def test_residual_and_sensor_table_on_a_small_ensemble(flow_table):
-    from pdmkit.experiments import seed_residual_classification
+    from pdmkit.experiments.thesis import seed_residual_classification
 
     res = seed_residual_classification(flow_table)
     assert res.details["n_classes"] == 5
@@ -230,7 +230,7 @@ def test_residual_and_sensor_table_on_a_small_ensemble(flow_table):
 
 
 def test_the_rig_tables_order_against_table_9_1():
-    from pdmkit.experiments import (
+    from pdmkit.experiments.thesis import (
         RIG_TABLE_SENSOR_ACCURACY,
         SEED_SENSOR_ACCURACY,
         SEED_SENSOR_RECIPES,
@@ -337,8 +337,8 @@ def test_residual_recipe_equals_a_hand_sklearn_pipeline(residual_set):
     from sklearn.multiclass import OneVsOneClassifier
 
     from pdmkit.ensembles import pneumatic_residuals
-    from pdmkit.experiments import seed_residual_classification
     from pdmkit.experiments._seed_indicators import _CONDITIONS
+    from pdmkit.experiments.thesis import seed_residual_classification
 
     res = pneumatic_residuals(
         residual_set, ["LeverPosition"], reference="nominal", nominal_point=(6.25, 6.0)
