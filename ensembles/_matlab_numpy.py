@@ -1,4 +1,9 @@
-"""MATLAB ``.mat`` (v4, v5, v7.3) and NumPy ``.npz`` files, read within size limits.
+"""MATLAB ``.mat`` (v4, v5/v7, v7.3) and NumPy ``.npz`` files, read within size limits.
+
+MATLAB's numeric, logical, char, struct and cell arrays of v4-v7 files are read by
+scipy; its objects (tables, timetables, strings, categoricals, datetimes, durations)
+by ``mat-io`` (``_matlab_tables.py``); v7.3 (HDF5) files by h5py
+(``_matlab_hdf5.py``).
 
 Recordings are untrusted input. Every reader
 
@@ -10,7 +15,9 @@ Recordings are untrusted input. Every reader
   :func:`pdmkit._config.max_bytes` ``("member")`` (1 GiB by default,
   ``$PDMKIT_MAX_MEMBER_BYTES``), so a small file that declares (or decompresses to) a
   huge array is refused before anything is allocated;
-- never unpickles anything.
+- walks the element tree of every cell, struct and object variable before a decoder
+  allocates from what it declares (``_matlab_v5.py``);
+- never unpickles anything, never runs code a file holds.
 """
 
 from __future__ import annotations
@@ -30,6 +37,9 @@ import numpy as np
 from pdmkit._checks import npy_declared
 from pdmkit._config import max_bytes
 from pdmkit.ensembles._limits import _one_line, _size, _too_big, _why
+from pdmkit.ensembles._matlab_hdf5 import read_mat73
+from pdmkit.ensembles._matlab_tables import read_mat_objects
+from pdmkit.ensembles._matlab_v5 import Damaged, MatVariable, TooBig, walk_mat5
 from pdmkit.ensembles._table_files import _DECOMPRESS_ERRORS, _existing_file
 from pdmkit.errors import DataError
 
@@ -37,9 +47,13 @@ __all__ = ["read_mat", "read_npz"]
 
 
 def _is_hdf5_mat(path: Path) -> bool:
+    """A v7.3 file: MATLAB's header says so (version 0x0200), or HDF5 follows it."""
     with path.open("rb") as f:
         head = f.read(520)
-    return head.startswith(b"MATLAB 7.3") or head[512:520] == b"\x89HDF\r\n\x1a\n"
+    version = head[124:128] in (b"\x00\x02IM", b"\x02\x00MI")
+    return (
+        head.startswith(b"MATLAB 7.3") or version or head[512:520] == b"\x89HDF\r\n\x1a\n"
+    )
 
 
 _MI_MATRIX, _MI_COMPRESSED = 14, 15
@@ -75,6 +89,8 @@ def _mat5_header(
 
     try:
         flags = struct.unpack_from(endian + "I", element())[0]
+        if flags & 0xFF == _MAT_OPAQUE:  # name, type system, class: no dims
+            return element().decode("latin-1"), (), 0, flags
         raw = element()
         dims = struct.unpack(endian + f"{len(raw) // 4}i", raw[: len(raw) // 4 * 4])
         name = element().decode("latin-1")
@@ -88,6 +104,8 @@ def _mat5_header(
 
 #: The array flag of a MATLAB logical (true/false) array, stored as uint8.
 _MAT_LOGICAL = 1 << 9
+#: The array class of a MATLAB object (table, string, ...): its data is elsewhere.
+_MAT_OPAQUE = 17
 
 
 def _check_mat5_header(
@@ -129,28 +147,35 @@ def _inflated(f: IO[bytes], n: int) -> Iterator[bytes]:
                 break
 
 
-def _check_mat_sizes(path: Path, limit: int) -> set[str]:
+def _check_mat_sizes(path: Path, limit: int) -> tuple[set[str], list[MatVariable]]:
     """Refuse a .mat file whose variables declare or decompress to more than ``limit``.
 
     Walks the top-level elements of a v5 file without scipy: a compressed variable is
     inflated and counted (never kept), so one that decompresses to gigabytes costs
-    only time, bounded by the ceiling. v4 files (never compressed) are checked from the
-    shapes scipy's ``whosmat`` lists. Returns the names of the logical variables.
+    only time, bounded by the ceiling; the element tree of every cell, struct and
+    object variable, and of the subsystem that holds MATLAB objects, is walked too
+    (:func:`~pdmkit.ensembles._matlab_v5.walk_mat5`). v4 files (never compressed) are
+    checked from the shapes scipy's ``whosmat`` lists. Returns the names of the
+    logical variables, and what the file holds (empty for a v4 file).
     """
     logical: set[str] = set()
+    listing: list[MatVariable] = []
     size = path.stat().st_size
     with path.open("rb") as f:
         head = f.read(128)
         endian = {b"IM": "<", b"MI": ">"}.get(head[126:128])
         if len(head) < 128 or endian is None:
             _check_mat4_sizes(path, limit)
-            return logical
+            return logical, listing
+        (subsystem,) = struct.unpack(endian + "Q", head[116:124])
+        deferred: DataError | None = None  # a bad subsystem matters to objects only
+        spent = [0]  # what the arrays declare, all of them (walk_mat5)
         pos, total, k = 128, 0, 0
         while pos + 8 <= size:
             f.seek(pos)
             mdtype, n = struct.unpack(endian + "II", f.read(8))
             if mdtype >> 16 or mdtype not in (_MI_MATRIX, _MI_COMPRESSED):
-                return logical  # damaged: loadmat says so
+                break  # damaged: loadmat says so
             budget = limit - total
             if mdtype == _MI_COMPRESSED:
                 verb = "decompresses to at least"
@@ -164,9 +189,52 @@ def _check_mat_sizes(path: Path, limit: int) -> set[str]:
                     raise _too_big(f"{path}: {name}", used, limit, verb)
                 raise _too_big(f"{path}: its variables together", total + used, limit, verb)
             total += used
+            try:
+                element = (pos, mdtype, n)
+                listing.append(_walked(path, f, element, endian, header, subsystem, spent))
+            except DataError as exc:
+                if pos != subsystem:
+                    raise
+                deferred = exc
             pos += 8 + n
             k += 1
-    return logical
+    if any(v.is_object for v in listing):
+        if deferred is not None:
+            raise deferred
+        if subsystem not in [v.offset for v in listing]:
+            raise DataError(
+                f"cannot read {path} as a MATLAB file: it holds MATLAB objects but its "
+                f"header places their data at byte {subsystem}, where no variable "
+                "starts; the file is damaged"
+            )
+    return logical, listing
+
+
+def _walked(
+    path: Path,
+    f: IO[bytes],
+    element: tuple,
+    endian: str,
+    header: str,
+    subsystem: int,
+    spent: list[int],
+) -> MatVariable:
+    """The top-level element ``(pos, mdtype, n)`` walked: what it is, or a DataError."""
+    pos, mdtype, n = element
+    name = (
+        "the data of its objects (subsystem)" if pos == subsystem else f"variable {header}"
+    )
+    limit = max_bytes("member")
+    try:
+        return walk_mat5(f, pos, mdtype, n, endian, limit, pos == subsystem, spent)
+    except TooBig as exc:
+        what, found = exc.args
+        raise _too_big(f"{path}: {name} (a {what} inside it)", found, limit) from None
+    except (Damaged, zlib.error) as exc:
+        raise DataError(
+            f"cannot read {path} as a MATLAB file ({name}: {_one_line(exc)}); the file "
+            "is damaged or not a .mat file"
+        ) from None
 
 
 def _check_mat4_sizes(path: Path, limit: int) -> None:
@@ -222,7 +290,7 @@ def _inflated_size(
 
 
 def read_mat(path: str | os.PathLike) -> dict[str, Any]:
-    """Read the variables of a MATLAB ``.mat`` file (v4 to v7).
+    """Read the variables of a MATLAB ``.mat`` file (v4, v5/v7 and v7.3).
 
     Wraps :func:`scipy.io.loadmat` with ``simplify_cells=True``: singleton dimensions
     are squeezed (a ``(n, 1)`` column becomes a 1-D array, a ``1x1`` value a scalar),
@@ -230,10 +298,22 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
     are left out. A logical (true/false) variable is a numpy ``bool`` array (scipy
     alone reads it as ``uint8``).
 
-    Sizes are checked before scipy reads anything, against ``max_bytes("member")``
+    MATLAB objects, which scipy cannot read, are read with the ``mat-io`` package: a
+    ``table`` becomes a :class:`pandas.DataFrame` (``attrs["matlab_class"]``
+    ``"table"``), a ``timetable`` a DataFrame indexed by its row times
+    (``attrs["sample_rate"]`` when it was made with one), a ``string`` a ``str`` (or
+    an object array of them), a ``categorical`` a ``str`` (or a
+    :class:`pandas.Categorical`), a ``datetime`` / ``duration`` a pandas
+    ``Timestamp`` / ``Timedelta`` (or a ``datetime64`` / ``timedelta64`` array); an
+    object of another class is an ``UnreadObject`` that names its class. A v7.3
+    (HDF5) file is read with h5py in the same forms: numeric, logical, char, struct and
+    cell variables (an object in it is an ``UnreadObject``: re-save it with ``-v7``).
+
+    Sizes are checked before anything is decoded, against ``max_bytes("member")``
     (1 GiB by default, ``$PDMKIT_MAX_MEMBER_BYTES``): the shape and class each variable
     declares, the size each compressed variable decompresses to (counted, not kept),
-    and the sum over the variables.
+    the sum over the variables, and every array nested in a cell, struct or object
+    (v7.3: every HDF5 dataset, and what references read).
 
     Parameters
     ----------
@@ -242,16 +322,16 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
     Returns
     -------
     dict
-        Variable name -> numpy array (or scalar, dict, ...).
+        Variable name -> numpy array (or scalar, str, dict, DataFrame, ...).
 
     Raises
     ------
     pdmkit.errors.DataNotFoundError
         The file does not exist.
     pdmkit.errors.DataError
-        A v7.3 (HDF5) file, which scipy cannot read (the message says so), a damaged
-        / non-MATLAB file, one without variables, or a variable (or the variables
-        together) larger than the ceiling.
+        A damaged / non-MATLAB file, one without variables, a variable (or the
+        variables together, or an array nested in one) larger than the ceiling, an
+        HDF5 file with links to other files or references that do not resolve.
 
     Examples
     --------
@@ -263,22 +343,49 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
     >>> sorted(data), data["u"].shape, float(data["Ts"])
     (['Ts', 'u'], (3,), 4.0)
     """
+    return _read_mat(path)[0]
+
+
+def _read_mat(path: str | os.PathLike) -> tuple[dict[str, Any], list[MatVariable]]:
+    """:func:`read_mat`'s variables, and the listing of what the file holds.
+
+    The listing (name, MATLAB class, dimensions of each variable) is empty for a v4
+    file.
+    """
+    path = _existing_file(path, "a MATLAB .mat file")
+    limit = max_bytes("member")
+    if _is_hdf5_mat(path):
+        return read_mat73(path, limit)
+    logical, listing = _check_mat_sizes(path, limit)
+    objects = {v.name: v.classname for v in listing if v.is_object}
+    plain = [v.name for v in listing if not v.is_object and v.name]
+    data = _loadmat(path, plain if objects else None) if plain or not objects else {}
+    if objects:
+        data.update(read_mat_objects(path, list(objects), objects, limit))
+        order = {v.name: i for i, v in enumerate(listing)}
+        data = dict(sorted(data.items(), key=lambda kv: order.get(kv[0], len(order))))
+    if not data:
+        raise DataError(f"{path} holds no variables")
+    for name in logical & data.keys():
+        value = data[name]
+        if isinstance(value, np.ndarray | np.generic) and value.dtype.kind in "iu":
+            data[name] = np.asarray(value).astype(bool)
+        elif isinstance(value, int):  # a 1x1 logical, squeezed to a scalar
+            data[name] = bool(value)
+    return data, [v for v in listing if v.name]  # the subsystem has no name
+
+
+def _loadmat(path: Path, names: list[str] | None) -> dict[str, Any]:
+    """``scipy.io.loadmat(path, simplify_cells=True)`` (of ``names``), errors one-lined."""
     from scipy.io import loadmat
     from scipy.io.matlab import MatReadError
 
-    path = _existing_file(path, "a MATLAB .mat file")
-    if _is_hdf5_mat(path):
-        raise DataError(
-            f"{path} is a MATLAB v7.3 (HDF5) file, which scipy.io.loadmat cannot read; "
-            "re-save it in MATLAB with save(..., '-v7'), or read it with h5py"
-        )
-    logical = _check_mat_sizes(path, max_bytes("member"))
     try:
-        raw = loadmat(path, simplify_cells=True)
+        raw = loadmat(path, simplify_cells=True, variable_names=names)
     except NotImplementedError:
         raise DataError(
-            f"{path} is a MATLAB v7.3 (HDF5) file, which scipy.io.loadmat cannot read; "
-            "re-save it in MATLAB with save(..., '-v7'), or read it with h5py"
+            f"{path} is a MATLAB v7.3 (HDF5) file without the MATLAB header pdmkit "
+            "recognises; re-save it in MATLAB with save(..., '-v7.3') or '-v7'"
         ) from None
     except (
         MatReadError,
@@ -292,21 +399,15 @@ def read_mat(path: str | os.PathLike) -> dict[str, Any]:
         struct.error,
         OverflowError,
         MemoryError,  # a damaged header can claim a huge array
+        UnboundLocalError,  # scipy's reader meets a class it has no branch for
+        AttributeError,
+        RecursionError,
     ) as exc:
         raise DataError(
             f"cannot read {path} as a MATLAB file ({_why(exc)}); the file "
             "is damaged or not a .mat file"
         ) from None
-    data = {k: v for k, v in raw.items() if not k.startswith("__")}
-    if not data:
-        raise DataError(f"{path} holds no variables")
-    for name in logical & data.keys():
-        value = data[name]
-        if isinstance(value, np.ndarray | np.generic) and value.dtype.kind in "iu":
-            data[name] = np.asarray(value).astype(bool)
-        elif isinstance(value, int):  # a 1x1 logical, squeezed to a scalar
-            data[name] = bool(value)
-    return data
+    return {k: v for k, v in raw.items() if not k.startswith("__")}
 
 
 # --------------------------------------------------------------------------- NumPy

@@ -19,12 +19,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pdmkit._checks import check_fs, parse_timestamps
+from pdmkit._checks import check_fs
 from pdmkit._config import max_bytes
 from pdmkit._progress import progress as _progress_bar
 from pdmkit.ensembles._ensemble import Ensemble
 from pdmkit.ensembles._limits import _too_big
-from pdmkit.ensembles._matlab_numpy import read_mat, read_npz
+from pdmkit.ensembles._matlab_numpy import _read_mat, read_npz
 from pdmkit.ensembles._member_labels import (
     _FRAME_WORDS,
     _at_one_rate,
@@ -35,6 +35,14 @@ from pdmkit.ensembles._member_labels import (
     _NameConditions,
     _resampled,
     clock_column,
+)
+from pdmkit.ensembles._member_matlab import nothing_to_read, unpack_mat
+from pdmkit.ensembles._member_rates import (
+    _time_rate,
+    member_rate,
+    resampled_multi,
+    signal_rates,
+    split_rate,
 )
 from pdmkit.ensembles._table_files import (
     _COMPRESSED,
@@ -60,86 +68,6 @@ _FS_NAMES = ("fs", "Fs", "FS", "sampling_rate", "sample_rate")
 #: Names of a time column in a CSV / Parquet member file.
 _TIME_NAMES = ("time", "t", "Time", "TIME")
 _MEMBER_ERRORS = ("member", "signal", "source", "error")
-#: How far a time step may differ from the median step: 1 % of it, or one unit of the
-#: last decimal the time stamps are written with when that is more and at most half a
-#: step (stamps rounded to microseconds at 25.6 kHz step 39 or 40 us).
-_TIME_JITTER = 0.01
-
-
-def _stamp_resolution(t: np.ndarray) -> float:
-    """The decimal step time stamps were written with (``1e-6`` for ``0.000039``), or 0."""
-    for d in range(10):
-        scaled = t * 10.0**d
-        if np.allclose(scaled, np.round(scaled), rtol=1e-12, atol=1e-6):
-            return 10.0**-d
-    return 0.0
-
-
-def _time_rate(path: Path, column: pd.Series, where: Callable[[int], str]) -> float | None:
-    """The sampling rate a time column states, after checking it increases uniformly.
-
-    Numbers are seconds; text is parsed as timestamps. A missing, repeated, decreasing
-    or uneven time stamp is a DataError naming the file and the first bad row.
-    """
-    name = column.name
-    if pd.api.types.is_datetime64_any_dtype(column):
-        stamps = column
-    elif pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
-        stamps = None
-    else:
-        stamps = parse_timestamps(column)
-        if stamps.isna().all():
-            raise DataError(
-                f"{path}: time column {name!r} holds {str(column.iloc[0])!r} at "
-                f"{where(0)}; expected seconds (numbers) or timestamps. Rename the "
-                "column if it is no time, or drop it and pass fs= (--fs)"
-            )
-    if stamps is None:
-        t = column.to_numpy(dtype=float)
-    else:
-        t = (stamps - stamps.dropna().iloc[0]).dt.total_seconds().to_numpy(dtype=float)
-
-    def shown(i: int) -> str:
-        return f"{t[i]:g} s" if stamps is None else repr(str(column.iloc[i]))
-
-    missing = np.flatnonzero(~np.isfinite(t))
-    if missing.size:
-        k = int(missing[0])
-        raise DataError(
-            f"{path}: time column {name!r} has no valid time at {where(k)} (found "
-            f"{str(column.iloc[k])!r}); every row needs its time stamp. Fill it in, or "
-            "drop the time column and pass fs= (--fs)"
-        )
-    if len(t) < 2:
-        return None
-    dt = np.diff(t)
-    back = np.flatnonzero(dt <= 0)
-    if back.size:
-        k = int(back[0]) + 1
-        verb = "repeats" if dt[k - 1] == 0 else "goes back"
-        raise DataError(
-            f"{path}: time {verb} at {where(k)}: {shown(k)} after {shown(k - 1)} on the "
-            "row before; time must increase from row to row. Remove the repeated rows or "
-            "sort them, or drop the time column and pass fs= (--fs)"
-        )
-    step = float(np.median(dt))
-    tol = _TIME_JITTER * step
-    quantum = _stamp_resolution(t)
-    if quantum <= step / 2:  # stamps rounded to a finer decimal than the step
-        tol = max(tol, 1.001 * quantum)
-    uneven = np.flatnonzero(np.abs(dt - step) > tol)
-    if uneven.size:
-        k = int(uneven[0]) + 1
-        raise DataError(
-            f"{path}: time is not uniform at {where(k)}: {shown(k)} is {dt[k - 1]:g} s "
-            f"after the row before, the median step is {step:g} s (steps may differ by "
-            f"{100 * tol / step:.2g} % of it); a member is one uniformly sampled "
-            "recording. Resample it to a uniform grid or split it at the gap, or drop the "
-            "time column and pass fs= (--fs)"
-        )
-    return (len(t) - 1) / float(t[-1] - t[0])
-
-
 #: Most signals one member file may hold (``$PDMKIT_MAX_SIGNALS``): every signal costs
 #: a full set of indicators, so a 35 KB CSV of 2000 three-sample columns cost a minute
 #: and a gigabyte before this bound.
@@ -219,9 +147,15 @@ def _member_contents(
 ) -> tuple[dict, float | None, dict]:
     """(signals, sampling rate or None, condition values) of one file, by its format."""
     suffix = path.suffix.lower()
-    if suffix in (".mat", ".npz"):
-        data = read_mat(path) if suffix == ".mat" else read_npz(path)
-        return _variables_contents(path, data, notes, time)
+    if suffix == ".npz":
+        return _variables_contents(path, read_npz(path), notes, time)
+    if suffix == ".mat":
+        data, listing = _read_mat(path)
+        variables, rates, conds = unpack_mat(path, data, notes)
+        signals, fs, conditions = _variables_contents(path, variables, notes, time)
+        if not signals and listing:
+            raise nothing_to_read(path, listing)
+        return signals, member_rate(signals, fs, rates), {**conds, **conditions}
     return _table_contents(path, notes, time)
 
 
@@ -409,6 +343,17 @@ def read_members(
     ``fs`` gives the sampling rate, other scalars are conditions). The member id is the
     file name without its extension.
 
+    A ``.mat`` file may be v4 to v7.3 (HDF5) and hold what MATLAB users save: a
+    struct's fields are read as variables; a timetable's variables are signals at the
+    rate of its row times; a one-row table (MATLAB's ensemble member: a table of
+    timetables and scalars) gives a signal per timetable, named after the table
+    variable, and a condition per scalar or one-row table. Signals may differ in rate
+    (a rig's 1 kHz sensors beside 40 kHz microphones): each keeps its own (``fs`` of
+    the ensemble), and every member must have each signal at one rate (else that
+    member fails, unless ``resample`` brings every signal to one rate); the member's
+    rate, which ``fs``, ``frame`` and ``hop`` refer to, is its first signal's. A file
+    without a signal pdmkit reads is an error that lists what it holds.
+
     Member files are untrusted input, read by :func:`read_table`, :func:`read_mat` and
     :func:`read_npz` with their checks (sizes declared before reading against
     ``max_bytes("member")``, header-less CSV files, columns mixing numbers and text),
@@ -581,9 +526,10 @@ def read_members(
     log = _MemberErrors(on_error)
     read: list[tuple[str, Path, dict, float | None, dict]] = []
     noted: dict[tuple[str, str, str], list[Path]] = {}
+    multi: dict[Path, dict] = {}  # signals at another rate than their member's
     named = _NameConditions(label_from_name, labels)
     for path in _progress_bar(paths, desc="reading members", enable=progress):
-        member = _read_member(path, time, wanted, named, noted, log.fail)
+        member = _read_member(path, time, wanted, named, noted, log.fail, multi)
         if member is not None:
             read.append(member)
     named.warn_unused()
@@ -594,14 +540,21 @@ def read_members(
     if target is None:
         kept, rate = _at_one_rate(read, fs, log.on_error, log.fail)
     else:
-        kept, rate = _resampled(read, fs, target, wanted, log.fail), target
+        single = [r for r in read if r[1] not in multi]
+        kept = _resampled(single, fs, target, wanted, log.fail) + resampled_multi(
+            [r for r in read if r[1] in multi], multi, target, wanted, log.fail
+        )
+        order = {p: i for i, p in enumerate(paths)}
+        kept.sort(key=lambda row: order.get(row[1], -1))
+        rate, multi = target, {}
     kept = _without_clashes(kept, log.fail)
+    kept, rates = signal_rates(kept, rate, multi, wanted, log.fail)
     if lengths is not None and kept:  # none kept: the error says why, below
         length, step = (
             _in_samples(s, rate, w) for s, w in zip(lengths, _FRAME_WORDS, strict=True)
         )
         kept = _long_enough(kept, length, rate, wanted, log.fail)
-    ens = _members_ensemble([(m, a, c) for m, _, a, c in kept], wanted, rate, paths, log)
+    ens = _members_ensemble([(m, a, c) for m, _, a, c in kept], wanted, rates, paths, log)
     if lengths is not None:
         ens = ens.frames(length, hop=step)
     return (ens, log.table(paths)) if return_errors else ens
@@ -679,16 +632,19 @@ def _read_member(
     named: _NameConditions,
     noted: dict,
     fail: Callable,
+    multi: dict,
 ) -> tuple[str, Path, dict, float | None, dict] | None:
     """``(member, path, signals, rate, conditions)`` of one file, or None if it failed.
 
-    What was read other than as written is added to ``noted`` (note -> files).
+    What was read other than as written is added to ``noted`` (note -> files); the
+    signals at another rate than the member's (first signal's) to ``multi[path]``.
     """
     member = path.name.split(".")[0]
     notes: list[tuple[str, str, str]] = []
     try:
         extra = named.conditions(path)
         arrays, rate, conds = _member_arrays(path, notes, time)
+        rate, odd = split_rate(rate, arrays, wanted)
         conds = named.merge(path, conds, extra)
         rate = _condition_rate(path, conds, rate)  # an fs condition: the rate
     except DataError as exc:
@@ -719,6 +675,8 @@ def _read_member(
             f"NaN/inf value(s) (first at sample {int(np.argmax(~np.isfinite(x)))})",
         )
         return None
+    if odd:
+        multi[path] = odd
     return member, path, arrays, rate, conds
 
 
@@ -732,9 +690,12 @@ def _files_named(where: list[Path]) -> str:
 
 
 def _members_ensemble(
-    kept: list, wanted: list | None, fs: float | None, paths: list, log: _MemberErrors
+    kept: list, wanted: list | None, fs: dict, paths: list, log: _MemberErrors
 ) -> Ensemble:
-    """The ensemble of the ``(member, signals, conditions)`` read; none is an error."""
+    """The ensemble of the ``(member, signals, conditions)`` read; none is an error.
+
+    ``fs`` holds each signal's rate.
+    """
     if not kept:
         first = f"; e.g. {log.errors[0]['error']}" if log.errors else ""
         raise DataError(f"no member could be read from {len(paths)} file(s){first}")
@@ -745,7 +706,7 @@ def _members_ensemble(
         raise DataError(f"member files share the names {dup[:5]}; rename them")
     return Ensemble(
         {s: [a.get(s) for _, a, _ in kept] for s in names},
-        fs=fs,
+        fs={s: fs[s] for s in names},
         conditions=pd.DataFrame([c for _, _, c in kept]) if kept else None,
         member_ids=ids,
     )

@@ -89,14 +89,17 @@ def test_read_mat_squeezes_and_skips_header_keys(tmp_path: Path) -> None:
     assert float(data["Ts"]) == 4.0
 
 
-def test_read_mat_v73_hdf5_is_named(tmp_path: Path) -> None:
+def test_read_mat_damaged_v73_hdf5_is_named(tmp_path: Path) -> None:
+    """v7.3 files are read with h5py (tests/ensembles/test_matlab_members.py); a
+    damaged one is a one-line DataError that says what it was read as."""
     path = tmp_path / "new.mat"
     header = (
         b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  1 00:00:00 2024 HDF5"
     )
     path.write_bytes(header.ljust(512, b" ") + b"\x89HDF\r\n\x1a\n" + bytes(100))
-    with pytest.raises(DataError, match=r"new\.mat is a MATLAB v7\.3 \(HDF5\) file"):
+    with pytest.raises(DataError, match=r"new\.mat as a MATLAB v7\.3 \(HDF5\) file") as exc:
         read_mat(path)
+    assert "\n" not in str(exc.value) and "damaged" in str(exc.value)
 
 
 def test_read_mat_garbage_and_missing(tmp_path: Path) -> None:

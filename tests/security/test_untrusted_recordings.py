@@ -763,9 +763,10 @@ def test_mat_structs_cells_and_text_are_skipped_with_a_warning_naming_them(tmp_p
         ens = read_members(tmp_path)
     assert ens.member_ids.tolist() == ["a", "b"] and ens.signal_names == ["vib"]
     assert ens.conditions["fault"].tolist() == ["ir", "ir"]
+    # a struct's fields are read as the file's variables (issue 32): here conditions
+    assert ens.conditions[["gain", "site"]].values.tolist() == [[2.0, "pump 3"]] * 2
     said = [str(w.message) for w in seen]
     for name, what in [
-        ("meta", "is a MATLAB struct"),
         ("runs", "is a MATLAB cell or struct array"),
         ("names", "holds <U2 values"),
     ]:
