@@ -2,7 +2,10 @@
 
 ``pdmkit --version`` answers from here at once; everything else goes to the full
 command-line interface (:func:`pdmkit.experiments._cli.main`), whose import pulls in
-scikit-learn, scipy and pandas (about a second).
+scikit-learn, scipy and pandas (about a second). The command's Python warnings are
+printed as ``pdmkit: warning: <message>`` lines, each distinct one once and its repeats
+counted at the end (:func:`pdmkit.experiments._messages.cli_warnings`); calling
+pdmkit's functions from Python keeps Python's own warnings.
 
 Examples
 --------
@@ -38,5 +41,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"pdmkit {__version__}")
         return 0
     from pdmkit.experiments._cli import main as run_cli
+    from pdmkit.experiments._messages import cli_warnings
 
-    return run_cli(args)
+    with cli_warnings():  # warnings as `pdmkit: warning:` lines, each once
+        return run_cli(args)

@@ -24,9 +24,11 @@ from pathlib import Path
 from typing import NoReturn
 
 from pdmkit._outputs import collect_warnings
-from pdmkit.errors import DataError, ModelError, did_you_mean
+from pdmkit._progress import silenced
+from pdmkit.errors import DataError, MissingExtraError, ModelError, did_you_mean
 from pdmkit.experiments import _cli_models, _cli_monitor, _cli_rul, _cli_tables
 from pdmkit.experiments._cli_common import add_output_options, say
+from pdmkit.experiments._messages import say_error
 from pdmkit.experiments.designer import add_parser as add_designer_parser
 from pdmkit.experiments.studies import STUDIES, run_study
 
@@ -129,6 +131,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--quick", action="store_true", help="a smaller, faster run for a first look"
     )
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="print nothing on success (warnings and errors still show)",
+    )
     p.epilog = "studies: " + "; ".join(f"{k}: {v[2]}" for k, v in sorted(STUDIES.items()))
     p.set_defaults(func=_cmd_study)
 
@@ -152,17 +159,25 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the ``pdmkit`` command; return its exit status."""
+    """Run the ``pdmkit`` command; return its exit status.
+
+    ``--quiet`` silences progress bars and ``pdmkit:`` lines (:func:`silenced`); an
+    error is one ``pdmkit: error:`` line naming flags (:func:`say_error`). Warnings
+    stay Python's here: the console command (:func:`pdmkit._entry.main`) prints them
+    as ``pdmkit: warning:`` lines.
+    """
     args = build_parser().parse_args(argv)
     try:
-        with collect_warnings():  # a run's JSON lists the warnings of the whole command
+        # a run's JSON lists the warnings of the whole command
+        with silenced(getattr(args, "quiet", False)), collect_warnings():
             return int(args.func(args) or 0)
     except (
         DataError,
         ModelError,
+        MissingExtraError,
         FileNotFoundError,
         PermissionError,
         ConnectionError,
     ) as exc:
-        say("error: " + " ".join(line.strip() for line in str(exc).splitlines()))
+        say_error(exc)
         return 2

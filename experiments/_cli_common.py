@@ -79,7 +79,7 @@ def output_run(args: argparse.Namespace, command: str) -> OutputRun:
 
 
 def add_output_options(parser: argparse.ArgumentParser, default: str) -> None:
-    """Add ``--out DIR`` (default ``default``) and ``--json PATH``, as every command has."""
+    """Add ``--out DIR`` (default ``default``), ``--json PATH`` and ``--quiet``."""
     parser.add_argument(
         "--out",
         type=Path,
@@ -90,6 +90,12 @@ def add_output_options(parser: argparse.ArgumentParser, default: str) -> None:
     )
     parser.add_argument(
         "--json", type=Path, metavar="PATH", help="also write summary.json here"
+    )
+    parser.add_argument(
+        "--quiet",
+        action="store_true",
+        help="print nothing on success: no progress bars, no pdmkit: lines (warnings, "
+        "one line each, and errors still show on stderr)",
     )
 
 

@@ -47,7 +47,8 @@ def _cmd_features(args: argparse.Namespace) -> int:
         say(
             f"{summary['n_skipped']} member(s) skipped for bad input, e.g. "
             f"{summary['errors'][0]['error']}; see {summary['errors_path']} (exit "
-            f"status {EXIT_SKIPPED}; --strict stops at the first)"
+            f"status {EXIT_SKIPPED}; --strict stops at the first)",
+            always=True,
         )
         return EXIT_SKIPPED
     return 0
@@ -307,7 +308,6 @@ def _add_predict_parser(sub: argparse._SubParsersAction) -> None:
         help="the column naming each member's recording for the vote (default "
         "source_member when framed)",
     )
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
     add_output_options(p, "predictions")
     p.set_defaults(func=_cmd_predict)
 
@@ -352,7 +352,8 @@ def add_input_options(parser: argparse.ArgumentParser, *, features_ok: bool = Tr
         nargs="+",
         metavar="FILE",
         help="member files, one recording each (CSV/Parquet with a time column, "
-        ".mat/.npz with an fs variable; folders and glob patterns too)",
+        ".mat with a timetable or an fs variable, .npz with an fs variable; folders and "
+        "glob patterns too)",
     )
     if features_ok:
         source.add_argument(
@@ -391,7 +392,7 @@ def add_input_options(parser: argparse.ArgumentParser, *, features_ok: bool = Tr
 
 
 def _add_bearing_and_output_options(parser: argparse.ArgumentParser) -> None:
-    """The envelope group's bearing and shaft speed; progress, --out, --json."""
+    """The envelope group's bearing and shaft speed; --out, --json, --quiet."""
     parser.add_argument(
         "--bearing",
         metavar="SPEC",
@@ -404,9 +405,6 @@ def _add_bearing_and_output_options(parser: argparse.ArgumentParser) -> None:
         metavar="HZ|COL",
         help="shaft speed in Hz (rpm / 60) for --bearing, or the condition column "
         "holding each member's",
-    )
-    parser.add_argument(
-        "--quiet", action="store_true", help="no progress bars (they show on a terminal)"
     )
     add_output_options(parser, "results")
 

@@ -106,9 +106,9 @@ def test_files_at_two_rates_need_resample(tmp_path, rng, capsys):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--frame", "0"], "frame (--frame) must be positive; got '0'"),
-        (["--frame", "a lot"], "frame (--frame) must be a number of samples (2048) or a"),
-        (["--hop", "512"], "hop (--hop) '512' needs frame (--frame LENGTH)"),
+        (["--frame", "0"], "--frame must be positive; got '0'"),
+        (["--frame", "a lot"], "--frame must be a number of samples (2048) or a"),
+        (["--hop", "512"], "--hop '512' needs --frame LENGTH"),
         (["--frame", "4096", "--strict"], "short.npz has 3000 samples (3 s at 1000 Hz), "
          "fewer than one frame of 4096 samples"),
     ],
