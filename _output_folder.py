@@ -38,6 +38,7 @@ OUTPUTS: dict[str, tuple[str, ...]] = {
     "monitor-score": ("report.html", "summary.json"),
     "sensors": ("report.html", "summary.json"),
     "rul": ("predictions.parquet", "model.pdmkit", "report.html", "summary.json"),
+    "rul-trained": ("predictions.csv", "report.html", "summary.json"),
     "identify": ("report.html", "summary.json"),
     "mismatch": ("candidates.csv", "report.html", "summary.json"),
     "demo": (

@@ -29,6 +29,7 @@ def _cmd_rul(args: argparse.Namespace) -> int:
         raise DataError("--trained MODEL and --history TABLE go together")
     if args.expect_sha256 is not None and args.trained is None:
         raise DataError("--expect-sha256 checks the file of --trained MODEL; give both")
+    _check_modes(args)
     if args.trained is not None:
         answer = predict_rul(
             args.trained,
@@ -38,36 +39,23 @@ def _cmd_rul(args: argparse.Namespace) -> int:
             unit=args.unit,
             time=args.time,
             time_unit=args.time_unit,
+            out_dir=args.out,
         )
         for row in answer["units"]:
             print(row["text"])
+        if args.out is not None:
+            paths = answer["paths"]
+            say(f"wrote {paths['predictions']}, {paths['json']} and {paths['report']}")
         return 0
-    if args.test is not None and args.train is None:
-        raise DataError("--test needs --train (the training units)")
-    if args.train is None and (args.unit or args.time):
-        raise DataError("--unit and --time name columns of --train/--test/--history")
+    out = args.out if args.out is not None else Path(_DEFAULT_OUT)
+    inputs = [*input_paths(args), args.test_rul]
     # before reading anything: --out must not overwrite --train / --test
-    check_output_folder(args.out, "rul", inputs=input_paths(args), json_path=args.json)
-    dataset = args.dataset
-    time_unit = args.time_unit
-    if args.train is not None:
-        from pdmkit.experiments._rul import split_run_to_failure
-
-        train, guessed = _rul_table(args, args.train)
-        time_unit = time_unit or guessed
-        if args.test is None:  # hold out a quarter of the units, cut at random
-            dataset = split_run_to_failure(train, seed=args.seed)
-            say(
-                f"{args.train}: {dataset[1]['unit'].nunique()} of "
-                f"{train['unit'].nunique()} units held out "
-                "as test histories, each cut at 10-90 % of its life"
-            )
-        else:
-            dataset = (train, _rul_table(args, args.test)[0])
+    check_output_folder(out, "rul", inputs=inputs, json_path=args.json)
+    dataset, time_unit = _rul_dataset(args)
     summary = run_rul(
         dataset,
         args.model,
-        out_dir=args.out,
+        out_dir=out,
         json_path=args.json,
         seed=args.seed,
         rul_cap=args.rul_cap,
@@ -79,21 +67,92 @@ def _cmd_rul(args: argparse.Namespace) -> int:
         or None,
         calibrate=args.calibrate,
         time_unit=time_unit,
+        cv=args.cv,
     )
     u = summary.get("time_unit", "")
     capped = cap_text(summary.get("rul_cap"), u, summary.get("rul_cap_source", ""))
     n_warn = len(summary.get("warnings", []))
+    cv = summary.get("cv")
     say(
-        f"{summary['model']}: RMSE {summary['rmse']:.2f} {u}, MAE {summary['mae']:.2f} "
+        (f"cross-validated by unit ({cv['n_folds']} folds), " if cv else "")
+        + f"{summary['model']}: RMSE {summary['rmse']:.2f} {u}, MAE {summary['mae']:.2f} "
         f"{u}, PHM08 score {_readable_float(summary['phm08_score'])}, "
         f"{100 * summary['level']:g} % interval coverage {summary['coverage']:.2f} on "
         f"{summary['n_units']} units; {capped}; time unit {u}"
         + (f"; {n_warn} warning(s), listed in summary.json" if n_warn else "")
-        + f"; see {args.out}/report.html; trained model {summary['model_file']} "
+        + f"; see {out}/report.html; trained model {summary['model_file']} "
         f"(sha256 {summary['model_sha256']}: keep it to check the file later with "
         "--expect-sha256)"
     )
     return 0
+
+
+_DEFAULT_OUT = "results/rul"
+
+
+def _check_modes(args: argparse.Namespace) -> None:
+    """The flags of one mode together: answer, train and test, or cross-validate."""
+    if args.test is not None and args.train is None:
+        raise DataError("--test needs --train (the training units)")
+    if args.test_rul is not None and args.test is None:
+        raise DataError(
+            "--test-rul FILE gives the true RULs of the --test units; give --train and "
+            "--test with it"
+        )
+    if args.cv is not None and (args.train is None or args.test is not None):
+        raise DataError(
+            "--cv cross-validates the units of --train (one table, no --test); "
+            "give --train TABLE without --test (nasa-battery is always "
+            "leave-one-cell-out)"
+        )
+    if args.trained is not None and (args.train is not None or args.cv is not None):
+        raise DataError("--trained answers with a trained model; drop --train / --cv")
+    if args.train is None and args.trained is None and (args.unit or args.time):
+        raise DataError("--unit and --time name columns of --train/--test/--history")
+
+
+def _rul_dataset(args: argparse.Namespace):
+    """What ``run_rul`` trains and scores on, and the time unit.
+
+    A named dataset, a (train, test) pair (the test's true RULs from --test-rul, or
+    drawn by a random cut of a quarter of the units), or one table to cross-validate.
+    """
+    from pdmkit.experiments._rul import split_run_to_failure
+    from pdmkit.experiments._rul_tables import with_true_rul
+
+    if args.train is None:
+        return args.dataset, args.time_unit
+    train, guessed = _rul_table(args, args.train)
+    time_unit = args.time_unit or guessed
+    if args.cv is not None:
+        return train, time_unit
+    if args.test is not None:
+        test = _rul_table(args, args.test)[0]
+        if args.test_rul is not None:
+            test = with_true_rul(test, args.test_rul)
+            say(
+                f"{args.test_rul}: true RULs of the {test['unit'].nunique()} test units "
+                "(the RUL after each unit's last row)"
+            )
+        return (train, test), time_unit
+    dataset = split_run_to_failure(train, seed=args.seed)  # a quarter held out, cut
+    say(
+        f"{args.train}: {dataset[1]['unit'].nunique()} of {train['unit'].nunique()} "
+        "units held out as test histories, each cut at 10-90 % of its life"
+    )
+    return dataset, time_unit
+
+
+def _cv_choice(text: str) -> str | int:
+    """``--cv units`` or ``--cv K`` (K >= 2)."""
+    value = text.strip().lower()
+    if value in ("units", "unit", "loo"):
+        return "units"
+    if value.isdigit() and int(value) >= 2:
+        return int(value)
+    raise argparse.ArgumentTypeError(
+        f"expected 'units' (leave one unit out) or a number of folds >= 2, got {text!r}"
+    )
 
 
 _RUL_TIME_UNITS = {
@@ -208,7 +267,8 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("rul", help="train and evaluate a remaining-useful-life model")
     _add_model_options(p)
     _add_table_options(p)
-    p.set_defaults(func=_cmd_rul)
+    # --out: results/rul when training; with --trained, files only where asked
+    p.set_defaults(func=_cmd_rul, out=None)
 
 
 def _add_model_options(p: argparse.ArgumentParser) -> None:
@@ -290,7 +350,23 @@ def _add_table_options(p: argparse.ArgumentParser) -> None:
         "--test",
         type=Path,
         help="test units' histories, with rul_true_final (each unit's true RUL after "
-        "its last row); with --train",
+        "its last row) or --test-rul; with --train",
+    )
+    p.add_argument(
+        "--test-rul",
+        type=Path,
+        metavar="FILE",
+        help="true RULs of the --test units: one value per line, the RUL after each "
+        "unit's last row, in unit order (C-MAPSS's RUL_FD001.txt), or two columns "
+        "unit and RUL; the test units are scored against them",
+    )
+    p.add_argument(
+        "--cv",
+        type=_cv_choice,
+        metavar="units|K",
+        help="cross-validate --train by unit instead of holding out a test part: "
+        "units = leave one unit out, K = K folds of units; each unit is followed "
+        "through its life by a model trained without it, scored over its last half",
     )
     p.add_argument(
         "--columns",
@@ -324,7 +400,8 @@ def _add_table_options(p: argparse.ArgumentParser) -> None:
         type=Path,
         metavar="MODEL",
         help="answer RULs with a trained model (DIR/model.pdmkit of an earlier run) "
-        "instead of training; with --history",
+        "instead of training; with --history; with --out DIR also writes "
+        "DIR/predictions.csv, summary.json and report.html",
     )
     p.add_argument(
         "--expect-sha256",
@@ -339,4 +416,4 @@ def _add_table_options(p: argparse.ArgumentParser) -> None:
         help="units' histories so far (CSV / Parquet: unit, time or cycle, the model's "
         "columns); with --trained",
     )
-    add_output_options(p, "results/rul")
+    add_output_options(p, _DEFAULT_OUT)

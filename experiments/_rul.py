@@ -61,7 +61,7 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._checks import check_magnitude
-from pdmkit._output_folder import check_output_folder
+from pdmkit._output_folder import check_output_folder, real_path
 from pdmkit._outputs import OutputRun, collect_warnings, write_json_file
 from pdmkit._persist import load_model
 from pdmkit.ensembles import read_table
@@ -78,6 +78,7 @@ from pdmkit.experiments._rul_checks import (
     rename_keys,
     resolve_cap,
 )
+from pdmkit.experiments._rul_cv import run_cv
 from pdmkit.experiments._rul_leak import (
     _LEAK_NAMES,
     LEAK_DEFAULTS,
@@ -92,6 +93,7 @@ from pdmkit.experiments._rul_models import (
     make_rul_model,
 )
 from pdmkit.experiments._rul_tables import run_tables
+from pdmkit.experiments._rul_trained import register_answer
 from pdmkit.rul import resolve_keys, timestamps_to_seconds
 
 __all__ = [
@@ -191,6 +193,7 @@ def predict_rul(
     unit: str | None = None,
     time: str | None = None,
     time_unit: str | None = None,
+    out_dir: str | Path | None = None,
 ) -> dict[str, Any]:
     """RUL of each unit in ``history`` from a model trained by :func:`run_rul`.
 
@@ -216,6 +219,11 @@ def predict_rul(
     time_unit : str, optional
         Unit of the time column (default: the one the model was trained with, else
         ``cycles`` for a ``cycle`` column and ``s`` otherwise).
+    out_dir : str or Path, optional
+        Also write the answer into this output folder: ``predictions.csv`` (unit, its
+        last time, ``rul``, ``lower``, ``upper``, ``level``, ``note``, ``ood_score``),
+        ``summary.json`` (this answer, with ``model_sha256``) and ``report.html``;
+        nothing else in the folder is touched (see :mod:`pdmkit._outputs`).
 
     Returns
     -------
@@ -225,7 +233,9 @@ def predict_rul(
         unit with ``unit``, ``time`` (its last time), ``rul``, ``lower``, ``upper``,
         ``note`` (what the interval means where it is not plain: an upper bound at the
         cap or beyond the horizon, no estimate) and ``text`` (the line ``pdmkit rul
-        --trained`` prints), and ``warnings``.
+        --trained`` prints), ``time_column`` (the model's name for the time column)
+        and ``warnings``; with ``out_dir`` also ``model_sha256``, ``n_units``,
+        ``paths`` and ``run_id``.
 
     Raises
     ------
@@ -255,6 +265,19 @@ def predict_rul(
     'unit pump-7 at time 10 h: RUL 30'
     """
     inputs = [model_file] if isinstance(history, pd.DataFrame) else [model_file, history]
+    if out_dir is not None:
+        if real_path(out_dir) == real_path(Path(model_file).parent):
+            raise DataError(
+                f"--out {out_dir} is the folder of the trained model {model_file}: its "
+                "training run's summary.json and report.html (with the model's SHA-256) "
+                "would be replaced; choose another --out"
+            )
+        with OutputRun(out_dir, "rul-trained", inputs=inputs, json_path=json_path) as run:
+            answer = _predict_rul(model_file, history, expect_sha256, unit, time, time_unit)
+            answer["warnings"] = run.warnings
+            register_answer(run, answer, model_file)
+            run.commit()
+        return answer
     if json_path is not None:  # before any work: --json must not overwrite an input
         check_output_folder(None, "rul", inputs=inputs, json_path=json_path)
     with collect_warnings() as found:
@@ -377,6 +400,7 @@ def _predict_rul(
         "level": float(prediction.level),
         "time_unit": unit_label,
         "rul_cap": cap,
+        "time_column": model_time or "time",
         "units": records,
         "warnings": found,
     }
@@ -397,6 +421,7 @@ def run_rul(
     dataset_options: dict | None = None,
     calibrate: bool = False,
     time_unit: str | None = None,
+    cv: str | int | None = None,
 ) -> dict[str, Any]:
     """Train a RUL model, predict the test units, and write JSON and an HTML report.
 
@@ -409,7 +434,8 @@ def run_rul(
         :func:`simulate_leak_dataset`, scored over the last half of each test unit's
         life), ``"nasa-battery"`` (four Li-ion cells, leave-one-cell-out, the
         degradation models only), or a pair of long tables ``(train, test)`` with ``unit``,
-        ``time``/``cycle`` and the features, the test table holding ``rul_true_final``.
+        ``time``/``cycle`` and the features, the test table holding ``rul_true_final``;
+        with ``cv``, one long table of run-to-failure units.
     model : str, default "similarity"
         One of :data:`RUL_MODELS` (``similarity``, ``degradation``, ``survival``,
         ``neural`` and the variants named in the module notes).
@@ -444,6 +470,12 @@ def run_rul(
         Unit of the time column, shown with every score, axis and line (default
         ``cycles`` for the named datasets and a ``cycle`` column, ``s`` for a
         ``time`` column).
+    cv : "units" or int, optional
+        Cross-validate on one table (``dataset``) instead of scoring a test table:
+        ``"units"`` holds each unit out in turn, an integer K splits the units into K
+        folds; every held-out unit is followed through its life by a model trained
+        without it (:mod:`pdmkit.experiments._rul_cv`, the code path of
+        ``"nasa-battery"``); the summary's ``cv`` lists the folds.
 
     Returns
     -------
@@ -455,14 +487,17 @@ def run_rul(
         beyond the horizon, units without an estimate), ``ood`` (the largest
         out-of-distribution score and the number of test units above 1),
         ``shutdown_endings``, ``checks`` and ``warnings`` (the messages), ``seed``,
-        ``fit_seconds``,
-        ``predict_seconds``, ``estimator``, ``features`` and ``paths``. For
+        ``fit_seconds``, ``predict_seconds``, ``estimator``, ``features``, ``paths``
+        and ``coverage_check`` (:func:`pdmkit.rul.coverage_check`: the intervals'
+        empirical coverage on the held-out units against their level; a warning when
+        far below). With ``cv``: ``cv`` (the scheme and the folds), ``per_unit`` and
+        ``n_predictions``. For cross-validation, ``"nasa-battery"`` and
         ``"pneumatic-leak"`` the scores are over every prediction in the last half of
-        the test units' lives (``n_predictions`` of them), and ``within_10pct`` holds
-        the fraction of test units within 10 % under each reading of
-        :func:`leak_accuracy`, ``indicator_ranking`` the best candidates, and
-        ``true_leak`` the same scores with the true ``log10 C_al`` as the indicator
-        (what the random walk alone allows).
+        the held-out units' lives (``n_predictions`` of them). For
+        ``"pneumatic-leak"`` ``within_10pct`` holds the fraction of test units within
+        10 % under each reading of :func:`leak_accuracy`, ``indicator_ranking`` the
+        best candidates, and ``true_leak`` the same scores with the true
+        ``log10 C_al`` as the indicator (what the random walk alone allows).
 
     Examples
     --------
@@ -497,6 +532,7 @@ def run_rul(
             dataset_options=dataset_options,
             calibrate=calibrate,
             time_unit=time_unit,
+            cv=cv,
         )
         run.commit()
     return summary
@@ -515,8 +551,24 @@ def _rul(
     dataset_options,
     calibrate,
     time_unit=None,
+    cv=None,
 ) -> dict[str, Any]:
     """:func:`run_rul` with its files registered with ``sink`` (not yet written)."""
+    if cv is not None or isinstance(dataset, pd.DataFrame):
+        if cv is None or not isinstance(dataset, pd.DataFrame):
+            raise DataError(
+                "cross-validation (cv='units' or K) takes one table of run-to-failure "
+                "units as dataset, and one table needs cv (or give (train, test)); "
+                f"got cv={cv!r} and a {type(dataset).__name__}"
+            )
+        if dataset_options:
+            raise DataError("dataset options are settings of 'pneumatic-leak'")
+        cap, cap_source = resolve_cap(rul_cap, None)
+        return run_cv(
+            sink, dataset, model, seed, cv=cv, features=features, rul_cap=cap,
+            cap_source=cap_source, options=options, calibrate=calibrate,
+            time_unit=time_unit,
+        )  # fmt: skip
     key = dataset.lower().replace("_", "-") if isinstance(dataset, str) else None
     if key in ("cmapss",):
         key = "cmapss-fd001"

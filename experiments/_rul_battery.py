@@ -13,7 +13,6 @@ few for the similarity, survival and learned models.
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 import pandas as pd
@@ -21,11 +20,13 @@ import pandas as pd
 from pdmkit.ensembles import BATTERY_EOL_AH, load_nasa_battery
 from pdmkit.errors import DataError
 from pdmkit.experiments._report import Report
+from pdmkit.experiments._rul_cv import cross_validate, unit_folds
 from pdmkit.experiments._rul_models import (
     RUL_MODELS,
     _calibration,
     _finish,
     _save_pipeline,
+    _trajectory_coverage,
     _trajectory_plot,
     _trajectory_scores,
     make_rul_model,
@@ -80,22 +81,6 @@ def _capacity_plot(data: pd.DataFrame, threshold: float, ax=None):
     return ax
 
 
-def _leave_one_cell_out(data, failed, model, seed, rul_cap, options, calibrate):
-    """Each failed cell followed through its life by a model trained on the others.
-
-    Returns the predictions of every held-out cell in one table, and the seconds spent
-    fitting.
-    """
-    paths, fit_seconds = [], 0.0
-    for cell in failed:
-        pipeline = _battery_estimator(model, seed, rul_cap, options, calibrate)
-        start = time.perf_counter()
-        pipeline.fit(data[data["unit"] != cell])
-        fit_seconds += time.perf_counter() - start
-        paths.append(pipeline.predict_trajectory(data[data["unit"] == cell]).to_pandas())
-    return pd.concat(paths, ignore_index=True), fit_seconds
-
-
 def _at_discharges(table: pd.DataFrame, cell, discharges=(40, 60, 80)) -> dict:
     """A held-out cell's predicted and true RUL at a few discharges."""
     part = table[table["unit"] == cell].set_index("time")
@@ -128,11 +113,15 @@ def run_battery(
     """
     data = load_nasa_battery()
     failed = [u for u, part in data.groupby("unit", sort=False) if part["failed"].any()]
-    path, fit_seconds = _leave_one_cell_out(
-        data, failed, model, seed, rul_cap, options, calibrate
+    # each failed cell followed through its life by a model trained on the others
+    path, fit_seconds, level = cross_validate(
+        data,
+        unit_folds(failed, "units"),
+        lambda: _battery_estimator(model, seed, rul_cap, options, calibrate),
     )
     life = data[data["unit"].isin(failed)].groupby("unit", sort=False)["cycle"].max()
     table, metrics, acc, fractions = _trajectory_scores(path, life, rul_cap)
+    check = _trajectory_coverage(table, rul_cap, level, [], len(failed))
     at = {cell: _at_discharges(table, cell) for cell in failed}
     final = _battery_estimator(model, seed, rul_cap, options, calibrate).fit(data)
     final.time_unit_ = time_unit
@@ -151,6 +140,7 @@ def run_battery(
             getattr(final.model, "level_", None) or getattr(final.model, "level", 0.9)
         ),
         "within_10pct": fractions,
+        "coverage_check": check,
         "per_cell": {
             str(u): {
                 "life": float(life[u]),

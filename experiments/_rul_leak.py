@@ -33,6 +33,7 @@ from pdmkit.experiments._rul_models import (
     _fit_pipeline,
     _indicator_plot,
     _save_pipeline,
+    _trajectory_coverage,
     _trajectory_plot,
     _trajectory_scores,
 )
@@ -336,6 +337,9 @@ def _run_leak(
     summary = _leak_summary(model, seed, fit, dataset_options)
     summary.update(
         {
+            "coverage_check": _trajectory_coverage(
+                fit.table, rul_cap, fit.level, [], len(fit.acc)
+            ),
             "rul_cap": rul_cap,
             "rul_cap_source": cap_source,
             "time_unit": time_unit,

@@ -20,7 +20,14 @@ from numpy.typing import ArrayLike
 from pdmkit import rul
 from pdmkit._persist import save_model
 from pdmkit.errors import DataError, did_you_mean
-from pdmkit.rul import ConformalRUL, RULPipeline, alpha_lambda_accuracy, rul_metrics
+from pdmkit.experiments._rul_checks import warn
+from pdmkit.rul import (
+    ConformalRUL,
+    RULPipeline,
+    alpha_lambda_accuracy,
+    coverage_check,
+    rul_metrics,
+)
 
 __all__ = ["RUL_MODELS", "leak_accuracy", "make_rul_model"]
 
@@ -226,6 +233,34 @@ def _trajectory_scores(path, life: pd.Series, rul_cap: float | None):
         np.mean(np.abs(last["rul"] - last["rul_true"]) <= 0.1 * last["life"])
     )
     return table, metrics, acc, fractions
+
+
+def coverage_warning(truth, lower, upper, level, found, *, n_units=None) -> dict:
+    """Empirical coverage of the held-out intervals; warned when far below ``level``.
+
+    The rule is :func:`pdmkit.rul.coverage_check`'s (more than 5 points short and a
+    one-sided binomial test at 1 %); ``n_units`` counts the units behind trajectory
+    predictions. Returns the check for the summary (without the message).
+    """
+    check = coverage_check(truth, lower, upper, level, n_units=n_units, warn=False)
+    if check["far_below"]:
+        warn(check["message"], found)
+    return {k: v for k, v in check.items() if k != "message"}
+
+
+def _trajectory_coverage(table: pd.DataFrame, rul_cap, level, found, n_units) -> dict:
+    """:func:`coverage_warning` on the scored rows of :func:`_trajectory_scores`.
+
+    The rows in the last half of each held-out unit's life with an estimate, against
+    the (capped) true RUL; the binomial test counts ``n_units`` units.
+    """
+    last = table[table["last_half"] & ~table["rul"].isna()]
+    if last.empty:
+        return {}
+    truth = np.minimum(last["rul_true"].to_numpy(), np.inf if rul_cap is None else rul_cap)
+    return coverage_warning(
+        truth, last["lower"], last["upper"], level, found, n_units=n_units
+    )
 
 
 def _trajectory_plot(table: pd.DataFrame, units, ax=None, *, time_unit: str = "cycles"):

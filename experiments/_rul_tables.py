@@ -12,14 +12,15 @@ the predictions table and the report are registered with the output run.
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from pdmkit.ensembles import load_cmapss
-from pdmkit.errors import DataError
+from pdmkit.ensembles import load_cmapss, read_table
+from pdmkit.errors import DataError, DataWarning
 from pdmkit.experiments._report import Report, _readable_float
 from pdmkit.experiments._rul_checks import (
     cap_text,
@@ -36,12 +37,32 @@ from pdmkit.experiments._rul_models import (
     _indicator_plot,
     _save_pipeline,
     _time_col,
+    coverage_warning,
 )
 from pdmkit.rul import rul_metrics
 
-__all__ = ["read_tables", "run_tables"]
+__all__ = [
+    "read_tables",
+    "run_tables",
+    "with_true_rul",
+]
 
 _CMAPSS_SENSORS = [f"sensor_{i}" for i in range(1, 22)]
+
+
+def default_features(train: pd.DataFrame) -> list:
+    """The model's input columns of a user's table.
+
+    Every numeric column but the keys, the labels and ``setting*``.
+    """
+    skip = {"unit", "time", "cycle", "rul", "rul_true_final", "failed"}
+    return [
+        c
+        for c in train.columns
+        if c not in skip
+        and not str(c).startswith("setting")
+        and pd.api.types.is_numeric_dtype(train[c])
+    ]
 
 
 def read_tables(dataset, features):
@@ -70,14 +91,7 @@ def read_tables(dataset, features):
         if not isinstance(train, pd.DataFrame) or not isinstance(test, pd.DataFrame):
             raise DataError("dataset tables must be pandas DataFrames")
         name = "tables"
-        skip = {"unit", "time", "cycle", "rul", "rul_true_final", "failed"}
-        default = [
-            c
-            for c in train.columns
-            if c not in skip
-            and not str(c).startswith("setting")
-            and pd.api.types.is_numeric_dtype(train[c])
-        ]
+        default = default_features(train)
     for part, table in (("train", train), ("test", test)):
         if "unit" not in table.columns:
             raise DataError(f"the {part} table has no 'unit' column")
@@ -89,6 +103,84 @@ def read_tables(dataset, features):
     true = test.groupby("unit", sort=False)["rul_true_final"].first()
     cols = list(features) if features is not None else default
     return name, train, test, true, cols
+
+
+def with_true_rul(test: pd.DataFrame, path) -> pd.DataFrame:
+    r"""The test table with ``rul_true_final`` from a true-RUL file (``--test-rul``).
+
+    The file (CSV / text / Parquet, a header line or none) holds one true RUL per test
+    unit: the RUL after the unit's last row. One column: line ``i`` belongs to the
+    ``i``-th test unit in order of appearance (C-MAPSS's ``RUL_FD001.txt``: line ``i``,
+    unit ``i``); numeric unit ids must then appear in ascending order, else which line
+    is which unit is ambiguous. Two columns ``unit`` and another: a value per unit id.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import pandas as pd
+    >>> from pdmkit.experiments._rul_tables import with_true_rul
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "RUL.txt"
+    >>> _ = path.write_text("RUL\n112\n98\n")
+    >>> test = pd.DataFrame({"unit": [1, 1, 2], "cycle": [1, 2, 1], "s1": 0.0})
+    >>> with_true_rul(test, path)["rul_true_final"].tolist()
+    [112, 112, 98]
+    """
+    if "rul_true_final" in test.columns:
+        raise DataError(
+            f"--test-rul {path}: the --test table has its own rul_true_final column; "
+            "give the true RULs once (drop the column or --test-rul)"
+        )
+    with warnings.catch_warnings():  # a bare column of numbers is the expected form
+        warnings.filterwarnings("ignore", "(?s).*holds only numbers", DataWarning)
+        table = read_table(path)
+    units = pd.unique(test["unit"])
+    named = {str(c).strip().lower(): c for c in table.columns}
+    if "unit" in named and table.shape[1] == 2:
+        value = next(c for c in table.columns if c != named["unit"])
+        values = pd.Series(table[value].to_numpy(), index=table[named["unit"]])
+        if values.index.has_duplicates:
+            raise DataError(f"--test-rul {path}: a unit is listed twice")
+        missing = [u for u in units if u not in values.index]
+        if missing:
+            raise DataError(
+                f"--test-rul {path}: no true RUL for test unit(s) {missing[:5]} "
+                f"(the file lists {len(values)} units)"
+            )
+        true = values.reindex(units)
+    elif table.shape[1] == 1:
+        true = _true_rul_in_order(table.iloc[:, 0], units, path)
+    else:
+        raise DataError(
+            f"--test-rul {path}: expected one column of true RULs (one line per test "
+            f"unit) or two, unit and RUL; found {table.shape[1]} columns "
+            f"{list(table.columns)[:6]}"
+        )
+    numbers = pd.to_numeric(true, errors="coerce")
+    bad = ~np.isfinite(numbers.to_numpy(dtype=float)) | (numbers.to_numpy() < 0)
+    if bad.any():
+        raise DataError(
+            f"--test-rul {path}: the true RUL of unit {true.index[bad][0]!r} is "
+            f"{true[bad].iloc[0]!r}; expected a number >= 0"
+        )
+    return test.assign(rul_true_final=test["unit"].map(numbers))
+
+
+def _true_rul_in_order(column: pd.Series, units, path) -> pd.Series:
+    """One true RUL per test unit, line ``i`` for the ``i``-th unit (see above)."""
+    if len(column) != len(units):
+        raise DataError(
+            f"--test-rul {path} gives {len(column)} true RULs for {len(units)} test "
+            "units; expected one line per test unit, in unit order"
+        )
+    ids = pd.to_numeric(pd.Series(units), errors="coerce")
+    if ids.notna().all() and not ids.is_monotonic_increasing:
+        raise DataError(
+            f"--test-rul {path}: the test units appear in the order "
+            f"{', '.join(map(str, units[:4]))}, ... (not ascending), so which line of "
+            "the file is which unit is ambiguous; sort the test table by unit, or give "
+            "the file two columns, unit and RUL"
+        )
+    return pd.Series(column.to_numpy(), index=units)
 
 
 @dataclass(frozen=True)
@@ -139,6 +231,7 @@ class _Scores:
     capped: np.ndarray
     headline: dict
     raw: dict
+    coverage: dict
 
 
 def run_tables(
@@ -203,6 +296,15 @@ def _training_sample(train: pd.DataFrame, cols, n: int = 5000) -> pd.DataFrame:
     return sample.rename(columns={keys[-1]: "time"}).reset_index(drop=True)
 
 
+def keep_training_info(pipeline, train: pd.DataFrame, cols, time_unit: str) -> None:
+    """What ``--trained`` needs of the training run, kept on the fitted pipeline."""
+    pipeline.time_unit_ = time_unit
+    # the training table's columns, in order: a header-less history of the same width
+    # (the raw C-MAPSS text files) gets these names by position (see _predict_rul)
+    pipeline.table_columns_ = [str(c) for c in train.columns if c != "rul_true_final"]
+    pipeline.training_sample_ = _training_sample(train, cols)
+
+
 def _fit_predict(job: _Job) -> _Fit:
     """Train on the training units; predict each test unit at its last observed time."""
     pipeline, fit_seconds = _fit_pipeline(
@@ -214,11 +316,7 @@ def _fit_predict(job: _Job) -> _Fit:
         options=job.options,
         calibrate=job.calibrate,
     )
-    pipeline.time_unit_ = job.unit
-    # the training table's columns, in order: a header-less history of the same width
-    # (the raw C-MAPSS text files) gets these names by position (see _predict_rul)
-    pipeline.table_columns_ = [str(c) for c in job.train.columns if c != "rul_true_final"]
-    pipeline.training_sample_ = _training_sample(job.train, job.cols)
+    keep_training_info(pipeline, job.train, job.cols, job.unit)
     test_in = pipeline.transform(job.test)
     start = time.perf_counter()
     pred = pipeline.model.predict(test_in)
@@ -247,9 +345,11 @@ def _check_and_score(job: _Job, fit: _Fit) -> _Scores:
     part = (pred.estimate[answered], pred.lower[answered], pred.upper[answered])
     headline = rul_metrics(capped[answered], *part)
     raw = rul_metrics(truth[answered], *part)
+    coverage = coverage_warning(capped[answered], *part[1:], pred.level, found)
     return _Scores(
-        found, notes, interval_counts, ood, endings, truth, capped, headline, raw
-    )
+        found, notes, interval_counts, ood, endings, truth, capped, headline, raw,
+        coverage,
+    )  # fmt: skip
 
 
 def _summary(job: _Job, fit: _Fit, scores: _Scores) -> dict[str, Any]:
@@ -278,6 +378,7 @@ def _summary(job: _Job, fit: _Fit, scores: _Scores) -> dict[str, Any]:
         "n_train_units": job.n_train,
         "n_test_units": len(fit.pred),
         "intervals": scores.intervals,
+        "coverage_check": scores.coverage,
         "ood": {
             "max": float(ood.max()) if len(ood) else 0.0,
             "n_outside": int((ood > 1.0).sum()),

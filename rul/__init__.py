@@ -59,6 +59,7 @@ from pdmkit.rul._indicators import (
 )
 from pdmkit.rul._metrics import (
     alpha_lambda_accuracy,
+    coverage_check,
     interval_coverage,
     mae,
     phm08_score,
@@ -99,6 +100,7 @@ __all__ = [
     "ResidualSimilarityModel",
     "WienerDegradationModel",
     "alpha_lambda_accuracy",
+    "coverage_check",
     "interval_coverage",
     "mae",
     "ood_scores",

@@ -19,6 +19,7 @@ prognostic horizon).
 
 from __future__ import annotations
 
+import warnings
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -346,3 +347,111 @@ def rul_metrics(
         width = _vector(upper, "upper") - _vector(lower, "lower")
         out["mean_width"] = float(np.mean(width))
     return out
+
+
+#: The coverage check's rule: intervals are "far below" their level when the covered
+#: fraction is more than ``COVERAGE_TOLERANCE`` below it AND a one-sided exact binomial
+#: test rejects "the intervals hold their level" at ``COVERAGE_ALPHA``.
+COVERAGE_TOLERANCE = 0.05
+COVERAGE_ALPHA = 0.01
+
+
+def coverage_check(
+    rul_true: ArrayLike,
+    lower: ArrayLike,
+    upper: ArrayLike,
+    level: float,
+    *,
+    n_units: int | None = None,
+    what: str = "held-out units",
+    warn: bool = True,
+) -> dict:
+    """Whether intervals hold their level on units with known RUL; warn when far below.
+
+    The empirical coverage ``c`` (fraction of true RULs inside ``[lower, upper]``) of
+    ``n`` units is compared with the nominal ``level``. The rule: the intervals fall
+    *far below* their level when ``c < level - COVERAGE_TOLERANCE`` (0.05) **and** a
+    one-sided exact binomial test of "each unit is covered with probability ``level``"
+    gives ``P(X <= covered) < COVERAGE_ALPHA`` (0.01), ``X ~ Binomial(n, level)``. The
+    tolerance keeps a small shortfall on many units quiet, the test a few misses on few
+    units (5 units at 90 %: 2 covered warns, 3 do not). Then a ``UserWarning`` says so
+    in one sentence with the numbers.
+
+    Predictions along a unit's life (a trajectory) are not independent: pass the number
+    of units as ``n_units``, and the test counts ``round(c * n_units)`` covered of
+    ``n_units`` (conservative).
+
+    Parameters
+    ----------
+    rul_true, lower, upper : array_like
+        True RUL and predicted interval, one per prediction.
+    level : float
+        Nominal level of the intervals (e.g. 0.9).
+    n_units : int, optional
+        Independent units behind the predictions (default: one per prediction).
+    what : str, default "held-out units"
+        What the predictions are, for the message.
+    warn : bool, default True
+        Raise the warning (else only return the message).
+
+    Returns
+    -------
+    dict
+        ``coverage``, ``level``, ``n`` (units tested), ``n_covered``, ``p_value``,
+        ``far_below`` (bool), ``rule`` and ``message`` (None when not far below).
+
+    Examples
+    --------
+    >>> import warnings
+    >>> from pdmkit.rul import coverage_check
+    >>> true = [10.0] * 20
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     bad = coverage_check(true, [11.0] * 18 + [9.0] * 2, [20.0] * 20, 0.9)
+    >>> bad["coverage"], bad["far_below"], str(caught[0].message).split(" (")[0]
+    (0.1, True, "90 % intervals covered 10 % of held-out units' true RUL")
+    >>> coverage_check(true, [9.0] * 19 + [11.0], [20.0] * 20, 0.9)["far_below"]
+    False
+    """
+    from scipy.stats import binom
+
+    lvl = float(level)
+    if not 0 < lvl < 1:
+        raise DataError(f"level must be in (0, 1), got {level!r}")
+    cov = interval_coverage(rul_true, lower, upper)
+    n = len(np.asarray(rul_true).reshape(-1)) if n_units is None else int(n_units)
+    if n < 1:
+        raise DataError(f"n_units must be at least 1, got {n_units!r}")
+    k = round(cov * n)
+    p = float(binom.cdf(k, n, lvl))
+    far = bool(cov < lvl - COVERAGE_TOLERANCE and p < COVERAGE_ALPHA)
+    pct = f"{100 * lvl:g} %"
+    message = None
+    if far:
+        counted = (
+            f"{k} of {n}"
+            if n_units is None
+            else f"about {k} of {n} units: the predictions along a unit's life count as one"
+        )
+        message = (
+            f"{pct} intervals covered {100 * cov:.0f} % of {what}' true RUL ({counted}; "
+            f"a one-sided binomial test puts this below {pct} at p = {p:.2g}): the "
+            f"intervals are far too narrow to be read as {pct} intervals; recalibrate "
+            "them (pdmkit.rul.ConformalRUL, pdmkit rul --calibrate) or quote the "
+            "measured coverage"
+        )
+        if warn:
+            warnings.warn(message, UserWarning, stacklevel=2)
+    return {
+        "coverage": cov,
+        "level": lvl,
+        "n": n,
+        "n_covered": k,
+        "p_value": p,
+        "far_below": far,
+        "rule": (
+            f"far below: coverage < level - {COVERAGE_TOLERANCE:g} and one-sided "
+            f"binomial p < {COVERAGE_ALPHA:g}"
+        ),
+        "message": message,
+    }

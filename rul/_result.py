@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
@@ -136,6 +137,9 @@ class RULPrediction:
     def evaluate(self, rul_true: ArrayLike | Mapping[object, float]) -> dict[str, float]:
         """RMSE, MAE, PHM08 score and interval coverage against the true RULs.
 
+        Warns (:func:`pdmkit.rul.coverage_check`) when the intervals cover far fewer
+        true RULs than their level says.
+
         Parameters
         ----------
         rul_true : array_like or mapping
@@ -153,7 +157,7 @@ class RULPrediction:
         >>> p.evaluate({1: 12.0, 2: 20.0})["rmse"]
         1.4142135623730951
         """
-        from pdmkit.rul._metrics import rul_metrics
+        from pdmkit.rul._metrics import coverage_check, rul_metrics
 
         if isinstance(rul_true, dict | pd.Series):
             mapping = dict(rul_true)
@@ -161,7 +165,15 @@ class RULPrediction:
             if missing:
                 raise DataError(f"rul_true has no value for units {missing[:8]}")
             rul_true = [mapping[u] for u in self.unit]
-        return rul_metrics(rul_true, self.estimate, self.lower, self.upper)
+        out = rul_metrics(rul_true, self.estimate, self.lower, self.upper)
+        if 0 < self.level < 1:
+            check = coverage_check(
+                rul_true, self.lower, self.upper, self.level, what="the scored units",
+                warn=False,
+            )  # fmt: skip
+            if check["far_below"]:
+                warnings.warn(check["message"], UserWarning, stacklevel=2)
+        return out
 
     def plot(
         self,
