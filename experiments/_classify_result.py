@@ -417,8 +417,10 @@ class ClassificationResult:
                 colour = "white" if top > 0 and shade[i, j] > 0.5 * top else "black"
                 ax.text(j, i, str(int(cm[i, j])), ha="center", va="center", color=colour)
         names = [str(c) for c in self.labels]
+        # tilted when the names would run into each other (a cell is about 9 letters)
+        tilt = n > 3 or max(map(len, names), default=0) > 9
         ax.set_xticks(
-            range(n), names, rotation=45 if n > 3 else 0, ha="right" if n > 3 else "center"
+            range(n), names, rotation=45 if tilt else 0, ha="right" if tilt else "center"
         )
         ax.set_yticks(range(n), names)
         ax.set_xlabel("predicted class")

@@ -45,14 +45,7 @@ def _cmd_mismatch(args: argparse.Namespace) -> int:
         say(f"diagnosis: {summary['verdict']} ({said}). See {args.out}/report.html")
         return 0
     verdict = summary["verdict"]
-    fit = summary["fit"]
-    target = f" on {verdict['target']}" if verdict["target"] else ""
-    target += "".join(f" + {a['effect']} on {a['target']}" for a in verdict.get("also", []))
-    say(
-        f"verdict: {verdict['effect']}{target}; validation RMSE "
-        f"{fit['rmse_nominal']:.4g} -> {fit['rmse_augmented']:.4g}. "
-        f"{verdict['physics']} See {args.out}/report.html"
-    )
+    say(f"verdict: {verdict['headline']}. {verdict['physics']} See {args.out}/report.html")
     return 0
 
 

@@ -31,7 +31,6 @@ the output folder, all at once, beside whatever the folder already holds
 from __future__ import annotations
 
 import platform
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -43,10 +42,12 @@ import numpy as np
 import pandas as pd
 
 from pdmkit._outputs import OutputRun
-from pdmkit.ensembles import PNEUMATIC_SENSORS
+from pdmkit._plot_signals import envelope_note, plot_signal
+from pdmkit.ensembles import PNEUMATIC_SENSORS, SEED_LABELS
 from pdmkit.errors import DataError
 from pdmkit.experiments._classify import classify
 from pdmkit.experiments._demo_mismatch import add_mismatch_section, demo_mismatch_cases
+from pdmkit.experiments._messages import say
 from pdmkit.experiments._report import Report
 from pdmkit.experiments._seed_indicators import seed_feature_table
 from pdmkit.experiments._seed_recipes import (
@@ -58,7 +59,7 @@ from pdmkit.experiments._seed_recipes import (
     seed_sensor_table,
 )
 from pdmkit.experiments._seed_study import seed_comparison, seed_ensemble_parts
-from pdmkit.experiments._sensors import SensorComparison, compare_sensors
+from pdmkit.experiments._sensors import SensorComparison, _pareto_mask, compare_sensors
 from pdmkit.experiments._twin_recipes import (
     OPERATING,
     _feature_columns,
@@ -74,7 +75,7 @@ __all__ = ["run_demo"]
 
 def _step(message: str) -> Callable[[], float]:
     """Print a progress line; return a function giving the seconds since."""
-    print(f"pdmkit demo: {message} ...", file=sys.stderr, flush=True)
+    say(f"demo: {message} ...")
     start = time.perf_counter()
     return lambda: time.perf_counter() - start
 
@@ -197,7 +198,6 @@ def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
     """:func:`run_demo` with its files registered with ``run`` (not yet written)."""
     settings = _Settings(n_members, seed, recording_s)
     timing: dict[str, float] = {}
-    report = _new_report()
     elapsed = _step(
         f"simulating {n_members} recordings of the twin ({recording_s:g} s, 15 sensors, "
         "the seed's 20 labels) and extracting indicators"
@@ -218,20 +218,21 @@ def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
     rul_summary, rul_figure = _air_leak_rul(run.view("rul"), seed, recording_s)
     timing["rul"] = elapsed()
     elapsed = _step("discovering what a model file left out (mismatch)")
-    # quick checks leave the real-data case out
-    mismatch_cases = demo_mismatch_cases(seed, real_data=False if settings.quick else None)
+    mismatch_cases, skipped = _mismatch_cases(settings)
     timing["mismatch"] = elapsed()
     comparison_table = pd.concat(
-        [seed_comparison(results), pd.DataFrame([_seed_rul_row(rul_summary)])]
+        [seed_comparison(results), pd.DataFrame([_seed_rul_row(rul_summary)])],
+        ignore_index=True,
     )
     best = own.best_sensor
     anchors: dict[str, str] = {}
+    report = _new_report(tanks=skipped is None)
     _data_section(report, anchors, settings, data)
     _seed_section(report, anchors, comparison_table, seed_sensors)
     _own_section(report, anchors, own)
     _rul_section(report, anchors, settings, rul_summary, rul_figure)
     anchors["mismatch"] = report.anchor("5. Mismatch discovery: what the model left out")
-    add_mismatch_section(report, mismatch_cases, 5)
+    add_mismatch_section(report, mismatch_cases, 5, skipped)
     mismatch = [c.summary() for c in mismatch_cases]
     report.add_summary_box(
         _summary_box(
@@ -266,7 +267,7 @@ def _demo(run, n_members: int, seed: int, recording_s: float) -> dict:
     }
     summary["timing_s"]["total"] = round(sum(timing.values()), 2)
     report.add_heading("Time per step")
-    report.add_json(summary["timing_s"], caption="Time per step (s)")
+    report.add_table(_timing_table(summary["timing_s"]), float_format="{:.1f}")
     run.add_report("report.html", report)
     run.add_json("summary.json", summary)
     return summary
@@ -346,19 +347,110 @@ def _run_own_recipe(data: _DataSet, settings: _Settings) -> _OwnRecipe:
     return _OwnRecipe(features, ranking, scores, figure, comparison)
 
 
+def _mismatch_cases(settings: _Settings):
+    """Stage 5: the mismatch cases, and why the real-data case was skipped (or None)."""
+    if not settings.quick:
+        return demo_mismatch_cases(settings.seed)
+    cases, _ = demo_mismatch_cases(settings.seed, real_data=False)
+    return cases, (
+        f"a quick run ({settings.n_members} recordings, fewer than 320) leaves the real "
+        "recordings out"
+    )
+
+
 # ------------------------------------------------------------------------ the report
-def _new_report() -> Report:
-    """The demo's report with its opening paragraph."""
+def _new_report(tanks: bool) -> Report:
+    """The demo's report with its opening paragraph (``tanks``: the real case ran)."""
     report = Report("pdmkit demo: predictive maintenance of a pneumatic piston (simulated)")
     report.add_text(
         "The study of the seed thesis (Predictive maintenance of pneumatic pistons, "
         "chapters 3, 7 and 8) on pdmkit's digital twin of its rig: a double-acting "
         "vertical piston with throttle valves, adjustable small end dampers, static large "
         "dampers, load masses of 0-6.25 kg and 5 or 6 bar supply, recorded 10 s at 1 kHz "
-        "by the fifteen sensors of the seed's table 3.1. All data on this page are "
-        "simulated, except the Cascaded Tanks recordings of the last section."
+        "by the fifteen sensors of the seed's table 3.1. "
+        + (
+            "All data on this page are simulated, except the Cascaded Tanks recordings "
+            "of the last section."
+            if tanks
+            else "All data on this page are simulated (the real Cascaded Tanks case of "
+            "the last section was skipped; it says why)."
+        )
     )
     return report
+
+
+#: The demo's steps as the time table names them.
+_STEPS = {
+    "simulate_and_indicators": "simulating the recordings and their indicators",
+    "seed_recipes": "the seed's recipes",
+    "pdmkit_recipe": "pdmkit's recipe and the sensor comparison",
+    "rul": "remaining useful life",
+    "mismatch": "mismatch discovery",
+    "total": "total",
+}
+
+
+def _timing_table(timing: dict) -> pd.DataFrame:
+    """The seconds of each step as a two-column table.
+
+    Examples
+    --------
+    >>> _timing_table({"rul": 1.234, "total": 2.0}).to_dict("records")[0]
+    {'step': 'remaining useful life', 'seconds': 1.234}
+    """
+    return pd.DataFrame(
+        {"step": [_STEPS.get(k, k) for k in timing], "seconds": list(timing.values())}
+    )
+
+
+def _label_table(table: pd.DataFrame) -> pd.DataFrame:
+    """Recordings per label (pdmkit's fault codes, in the seed's order).
+
+    With the name the seed thesis gives each: the seed's strings appear here only,
+    mapped to the codes the rest of the report uses.
+
+    Examples
+    --------
+    >>> t = pd.DataFrame({"fault": ["healthy", "throttle_1", "throttle_1"]})
+    >>> _label_table(t).to_dict("records")[1]
+    {'label': 'throttle_1', 'recordings': 2, 'in the seed thesis': 'valve1'}
+    """
+    counts = table["fault"].value_counts()
+    order = [c for c in SEED_LABELS if c in counts.index]
+    order += sorted(set(counts.index) - set(order))
+    return pd.DataFrame(
+        {
+            "label": order,
+            "recordings": [int(counts[c]) for c in order],
+            "in the seed thesis": [SEED_LABELS.get(c, "—") for c in order],
+        }
+    )
+
+
+def _sensor_table(comparison: SensorComparison) -> pd.DataFrame:
+    """The sensor comparison as the report shows it: what a reader compares.
+
+    The constant bookkeeping columns (members, classes, folds) go to the caption;
+    cross-validated accuracy only when there was cross-validation.
+    """
+    t = comparison.to_pandas()
+    out = pd.DataFrame(
+        {
+            "sensor": t["sensor"],
+            "signals": t["signals"].str.replace("Operating, ", "", regex=False),
+            "held-out accuracy": t["heldout_accuracy"],
+        }
+    )
+    if t["accuracy"].notna().any():
+        out["CV accuracy"] = t["accuracy"]
+        out["CV std"] = t["accuracy_std"]
+    out["cost [CZK]"] = t["cost"]
+    out["indicators"] = t["n_features"]
+    out["the forest's top indicators"] = t["features"]
+    # without cross-validation the front is the held-out accuracy's (as the plot's)
+    front = t["pareto"] if "CV accuracy" in out else _pareto_mask(out.iloc[:, 2], t["cost"])
+    out["Pareto front"] = np.where(front, "yes", "")
+    return out
 
 
 def _heading(report: Report, anchors: dict, key: str, text: str) -> None:
@@ -379,10 +471,14 @@ def _data_section(report: Report, anchors: dict, settings: _Settings, data: _Dat
         "tells how the labels were derived."
     )
     report.add_table(
-        data.counts.rename("recordings").to_frame(), caption="Recordings per seed label"
+        _label_table(data.table),
+        caption="Recordings per label (pdmkit's fault codes, used throughout this "
+        "report; the last column: the seed thesis's name for each)",
     )
     report.add_figure(
-        _example_figure(data.example), caption="One recording per single fault"
+        _example_figure(data.example),
+        caption="One recording per single fault. "
+        + envelope_note(len(data.example.signal("LeverPosition")[0])),
     )
 
 
@@ -439,10 +535,14 @@ def _own_section(report: Report, anchors: dict, own: _OwnRecipe) -> None:
         own.figure, caption=f"operating-point forest: held-out accuracy {accuracy:.3f}"
     )
     report.add_figure(own.comparison.plot(), caption="Sensors: accuracy against cost")
+    t = own.comparison.to_pandas()
+    members = pd.to_numeric(t["n_members"], errors="coerce").max()
     report.add_table(
-        own.comparison.to_pandas().drop(columns=["note"]),
+        _sensor_table(own.comparison),
         caption="Each sensor type with pdmkit's recipe (its indicators plus the "
-        "operating point); costs from the seed's table 9.1 (CZK)",
+        "operating point: load and supply)"
+        + (f", {int(members)} recordings" if pd.notna(members) else "")
+        + "; costs from the seed's table 9.1",
     )
 
 
@@ -596,8 +696,8 @@ def _example_figure(ensemble):
         x = ensemble.signal("LeverPosition")[i]
         q = ensemble.signal("FlowExtrusion")[i]
         t = np.arange(x.size) / fs
-        axes[0].plot(t, x * 1e3, lw=0.8, label=code)
-        axes[1].plot(t, q, lw=0.8)
+        line = plot_signal(axes[0], t, x * 1e3, lw=0.8, label=code)
+        plot_signal(axes[1], t, q, lw=0.8, color=line.get_color())
     axes[0].set_ylabel("position (mm)")
     axes[1].set_ylabel("flow into A (l/min)")
     axes[1].set_xlabel("time (s)")

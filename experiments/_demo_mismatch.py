@@ -21,13 +21,17 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from pdmkit._config import data_dir
+from pdmkit._plot_signals import envelope_note
 from pdmkit.ensembles import load_dataset
 from pdmkit.errors import DataError
+from pdmkit.experiments._model_units import output_units
 
 __all__ = ["DemoMismatch", "demo_mismatch_cases"]
 
@@ -60,6 +64,8 @@ class DemoMismatch:
         Wall-clock time of the discovery.
     output : str
         The output its figure shows.
+    unit : str, optional
+        That output's unit (its figure's axis).
     """
 
     name: str
@@ -68,6 +74,7 @@ class DemoMismatch:
     result: Any
     seconds: float
     output: str
+    unit: str | None = None
 
     @property
     def named(self) -> str:
@@ -154,11 +161,36 @@ def concealed_piston_case(seed: int = 0, max_seconds: float | None = None) -> De
         result=result,
         seconds=seconds,
         output=target,
+        unit=output_units(case.model).get(target),
     )
 
 
-def cascaded_tanks_case(max_seconds: float | None = None) -> DemoMismatch | None:
-    """Discovery on the real Cascaded Tanks records, or None without the data.
+#: The real-data case's title (the row the report marks as skipped without it).
+TANKS_CASE = "Cascaded Tanks (real recordings)"
+
+
+def _shown(path: Path) -> str:
+    """``path`` as a user would type it from here: relative when that is short."""
+    try:
+        rel = os.path.relpath(path)
+    except ValueError:  # another drive (Windows)
+        return str(path)
+    return rel if rel.count("..") <= 2 else str(path)
+
+
+def _tanks_missing(exc: Exception) -> str:
+    """Why the Cascaded Tanks records could not be read, in a few words."""
+    folder = data_dir("cascaded_tanks")
+    if not folder.is_dir():
+        return (
+            f"{_shown(folder)} not found (set PDMKIT_DATA to the folder that holds "
+            "cascaded_tanks)"
+        )
+    return str(exc).split(";")[0]
+
+
+def cascaded_tanks_case(max_seconds: float | None = None) -> DemoMismatch | str:
+    """Discovery on the real Cascaded Tanks records, or why it could not run.
 
     Parameters
     ----------
@@ -167,15 +199,16 @@ def cascaded_tanks_case(max_seconds: float | None = None) -> DemoMismatch | None
 
     Returns
     -------
-    DemoMismatch or None
-        None when ``$PDMKIT_DATA/cascaded_tanks`` is not there.
+    DemoMismatch or str
+        The case; or, when ``$PDMKIT_DATA/cascaded_tanks`` cannot be read, the reason
+        (``"../shared/data/cascaded_tanks not found ..."``).
     """
     from pdmkit.models.ode import showcase_model
 
     try:
         tanks = load_dataset("cascaded-tanks")
-    except (DataError, FileNotFoundError, OSError):
-        return None
+    except (DataError, FileNotFoundError, OSError) as exc:
+        return _tanks_missing(exc)
     ts = float(tanks["Ts"])
 
     def frame(u, y):
@@ -188,19 +221,20 @@ def cascaded_tanks_case(max_seconds: float | None = None) -> DemoMismatch | None
         showcase_model("cascaded_tanks"), est, val, max_seconds=max_seconds
     )
     return DemoMismatch(
-        name="Cascaded Tanks (real recordings)",
+        name=TANKS_CASE,
         truth="the upper tank overflows; the lower-tank level sensor saturates at 10 V "
         "(Schoukens et al. 2016)",
         right=None,
         result=result,
         seconds=seconds,
         output="h2",
+        unit="V",  # the level sensor's reading (the showcase's h2 is in its volts)
     )
 
 
 def demo_mismatch_cases(
     seed: int = 0, *, real_data: bool | None = None, max_seconds: float | None = None
-) -> list[DemoMismatch]:
+) -> tuple[list[DemoMismatch], str | None]:
     """The demo's mismatch cases: the concealed piston leak, and the tanks if present.
 
     Parameters
@@ -215,20 +249,28 @@ def demo_mismatch_cases(
 
     Returns
     -------
-    list of DemoMismatch
+    cases : list of DemoMismatch
+    skipped : str or None
+        Why the Cascaded Tanks case did not run (None when it did), for the report.
     """
     cases = [concealed_piston_case(seed, max_seconds)]
-    if real_data is None:
-        real_data = os.environ.get("PDMKIT_DEMO_REAL", "1") != "0"
-    if real_data:
-        tanks = cascaded_tanks_case(max_seconds)
-        if tanks is not None:
-            cases.append(tanks)
-    return cases
+    if real_data is None and os.environ.get("PDMKIT_DEMO_REAL", "1") == "0":
+        return cases, "PDMKIT_DEMO_REAL=0 turns the real-data case off"
+    if real_data is False:
+        return cases, "the real-data case was not asked for"
+    tanks = cascaded_tanks_case(max_seconds)
+    if isinstance(tanks, str):
+        return cases, tanks
+    return [*cases, tanks], None
 
 
-def add_mismatch_section(report, cases: list[DemoMismatch], number: int) -> None:
-    """Append the mismatch section (table, text and one figure per case) to ``report``."""
+def add_mismatch_section(
+    report, cases: list[DemoMismatch], number: int, skipped: str | None = None
+) -> None:
+    """Append the mismatch section (table, text and one figure per case) to ``report``.
+
+    ``skipped`` says why the Cascaded Tanks case is not there (marked in the section).
+    """
     report.add_heading(f"{number}. Mismatch discovery: what the model left out")
     report.add_text(
         "pdmkit compares a model file (the physics as written down) with recordings, "
@@ -257,14 +299,18 @@ def add_mismatch_section(report, cases: list[DemoMismatch], number: int) -> None
     report.add_table(
         pd.DataFrame(rows),
         caption="Verdicts; RMSE on the validation part (re-fitted nominal model -> model "
-        "with the named effects)",
+        "with the named effects), in the output's unit for a model with one output, "
+        "each output divided by its scale for several (the piston's x, pa, pb)",
     )
+    if skipped:
+        report.add_skipped(TANKS_CASE, skipped)
     for c in cases:
         report.add_text(f"{c.name}: {c.result.verdict.get('physics', '')}")
-        fig = c.result.plot(output=c.output)[0].figure
+        fig = c.result.plot(output=c.output, unit=c.unit)[0].figure
+        note = envelope_note(len(c.result.signals["time"]))
         report.add_figure(
             fig,
             caption=f"{c.name}, {c.output}: measured (black), re-fitted nominal model "
             "(blue), with the named effect (red); residuals below; shaded: the located "
-            "windows.",
+            f"windows. {note}".strip(),
         )

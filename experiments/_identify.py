@@ -41,6 +41,7 @@ from pdmkit.experiments._identify_report import (
     _mode_rows,
     build_identify_report,
     format_fit,
+    modes_table,
 )
 from pdmkit.experiments._records import read_record
 from pdmkit.experiments._report import Report
@@ -646,16 +647,18 @@ def _identify(data_path, input, output, structure, order, fs, criterion, band, d
             summary.get("modes") or [], columns=["frequency_hz", "damping"]
         )
         rep.add_table(
-            modes[["frequency_hz", "damping"]], caption="Modes", float_format="{:.5g}"
+            modes_table(modes[["frequency_hz", "damping"]]),
+            caption="Modes",
+            float_format="{:.5g}",
         )
         if summary.get("not_modes"):
             rep.add_table(
-                pd.DataFrame(summary["not_modes"]).drop(columns="pole"),
+                modes_table(summary["not_modes"]),
                 caption="Poles that are not modes, and why",
                 float_format="{:.5g}",
             )
         rep.add_figure(model.plot(), caption="Poles of the AR model")
-        rep.add_json(summary, caption="summary.json")
+        rep.add_text("Every number of this report is in summary.json beside it.")
     else:
         rep = build_identify_report(
             model,

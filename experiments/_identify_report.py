@@ -7,14 +7,14 @@ import math
 import numpy as np
 import pandas as pd
 
-from pdmkit._outputs import to_jsonable
+from pdmkit._plot_signals import MAX_POINTS, axis_label, envelope_note, plot_signal
 from pdmkit.experiments._report import Report
 from pdmkit.models.frequency import frf_comparison
 from pdmkit.models.ident import (
     fit_percent,
 )
 
-__all__ = ["build_identify_report", "format_fit", "format_hz"]
+__all__ = ["build_identify_report", "format_fit", "format_hz", "modes_table"]
 
 
 def format_fit(percent: float | None, digits: int = 2) -> str:
@@ -58,7 +58,7 @@ def _mode_rows(table: pd.DataFrame) -> list[dict]:
 
 
 # --------------------------------------------------------------------------- report
-def _frf_figure(model, u, y, fs: float, band):
+def _frf_figure(model, u, y, fs: float, band, names=("input", "output")):
     """Magnitude, phase (model aligned to the data's branch) and coherence, log axis."""
     import matplotlib.pyplot as plt
 
@@ -69,7 +69,7 @@ def _frf_figure(model, u, y, fs: float, band):
     )
     a1.loglog(f, np.abs(cmp["H"]), color="0.55", lw=0.8, label="H1 estimate (data)")
     a1.loglog(f, np.abs(cmp["G"]), color="C0", label="model")
-    a1.set_ylabel("|G|")
+    a1.set_ylabel(f"|G| [{names[1]} per {names[0]}]")
     a1.legend(loc="best", fontsize="small")
     a2.semilogx(f, cmp["phase_data_deg"], color="0.55", lw=0.8)
     a2.semilogx(f, cmp["phase_model_deg"], color="C0")
@@ -116,13 +116,12 @@ def build_identify_report(
     >>> rep.to_html().count("data:image/png")
     3
     """
-    import matplotlib.pyplot as plt
-
     rep = Report(title)
     rep.add_heading("Summary")
     fn = format_hz(summary.get("natural_frequencies_hz"))
     text = (
-        f"Structure {summary['structure']} with order {summary['order']}: simulation fit "
+        f"Structure {summary['structure']} with order {_text(summary['order'])}: "
+        f"simulation fit "
         f"{format_fit(summary['fit_percent'])} on the estimation data"
         f"{' (filtered to the band)' if band is not None else ''}; modes at "
         f"{fn or 'none'}."
@@ -135,17 +134,15 @@ def build_identify_report(
     for w in summary.get("checks") or []:
         rep.add_text("Warning: " + w)
     if summary.get("modes") is not None:
-        modes = pd.DataFrame(summary["modes"])
+        modes = modes_table(summary["modes"])
         if len(modes):
-            rep.add_table(
-                modes.drop(columns="pole"), caption="Modes", float_format="{:.5g}"
-            )
+            rep.add_table(modes, caption="Modes", float_format="{:.5g}")
         else:
             rep.add_text("No resonance among the poles (see the table below).")
-        dropped = pd.DataFrame(summary.get("not_modes") or [])
+        dropped = modes_table(summary.get("not_modes") or [])
         if len(dropped):
             rep.add_table(
-                dropped.drop(columns="pole"),
+                dropped,
                 caption="Poles that are not modes, and why",
                 float_format="{:.5g}",
             )
@@ -157,7 +154,8 @@ def build_identify_report(
         rep.add_figure(ax, caption="Poles (x) and zeros (o) in the z-plane")
     if hasattr(model, "frequency_response"):
         rep.add_heading("Frequency response")
-        fig, _ = _frf_figure(model, u, y, fs, band)
+        names = (summary.get("input") or "input", summary.get("output") or "output")
+        fig, _ = _frf_figure(model, u, y, fs, band, names)
         rep.add_figure(
             fig,
             caption="Model frequency response over the H1 estimate (scipy.signal.csd / "
@@ -168,23 +166,160 @@ def build_identify_report(
     with np.errstate(all="ignore"):
         y_sim = model.simulate(u_ref)
         fit_now = fit_percent(y_ref, y_sim)
-    t = np.arange(len(y_ref)) / fs
-    fig, ax = plt.subplots(figsize=(7, 3))
-    ax.plot(t, y_ref, color="0.5", lw=0.8, label="measured")
-    ax.plot(t, y_sim, color="C1", lw=0.8, label=f"simulated (fit {format_fit(fit_now, 1)})")
-    ax.set_xlabel("time [s]")
-    ax.legend(loc="best", fontsize="small")
     rep.add_figure(
-        fig,
+        _simulation_figure(y_ref, y_sim, fs, fit_now, summary.get("output") or "output"),
         caption="Simulated vs measured output"
-        + (" (both filtered to the band)" if band is not None else ""),
+        + (" (both filtered to the band)" if band is not None else "")
+        + ". "
+        + envelope_note(len(y_ref)),
     )
     if hasattr(model, "residual_test"):
         with np.errstate(all="ignore"):
             res = model.residual_test(u_ref, y_ref)
-        rep.add_json(
-            to_jsonable(res),
-            caption="Residual tests (Ljung-Box whiteness, input cross-correlation)",
+        if set(res.get("inputs") or {}) == {"u"} and summary.get("input"):
+            res = {**res, "inputs": {summary["input"]: res["inputs"]["u"]}}
+        rep.add_table(
+            _residual_table(res),
+            caption="Residual tests: whiteness of the one-step prediction errors "
+            "(Ljung-Box) and their cross-correlation with the input",
         )
-    rep.add_json(summary, caption="summary.json")
+    rep.add_table(_model_table(summary), caption="The model")
+    rep.add_text("Every number of this report is in summary.json beside it.")
     return rep
+
+
+def _simulation_figure(y_ref, y_sim, fs: float, fit_now, output: str):
+    """Measured and simulated output; a long record also in a detail of its start."""
+    import matplotlib.pyplot as plt
+
+    y_ref, y_sim = np.asarray(y_ref, float), np.asarray(y_sim, float)
+    t = np.arange(len(y_ref)) / fs
+    detail = len(y_ref) > MAX_POINTS
+    fig, axes = plt.subplots(
+        2 if detail else 1, 1, figsize=(9, 5.6 if detail else 3), squeeze=False
+    )
+    axes = axes[:, 0]
+    sim_label = f"simulated (fit {format_fit(fit_now, 1)})"
+    plot_signal(axes[0], t, y_ref, color="0.45", lw=0.8, label="measured")
+    plot_signal(axes[0], t, y_sim, color="C1", lw=0.8, label=sim_label)
+    if detail:
+        k = MAX_POINTS // 4
+        axes[0].axvspan(t[0], t[k - 1], color="C2", alpha=0.2, lw=0, label="detail below")
+        axes[1].plot(t[:k], y_ref[:k], color="0.45", lw=0.8)
+        axes[1].plot(t[:k], y_sim[:k], color="C1", lw=0.8)
+        axes[1].set_title(f"detail: the first {k} samples", fontsize="small")
+    for ax in axes:
+        ax.set_ylabel(axis_label(output))
+    axes[0].legend(loc="upper right", fontsize="small")
+    axes[-1].set_xlabel("time [s]")
+    fig.tight_layout()
+    return fig
+
+
+def _yes(flag) -> str:
+    return "—" if flag is None else ("yes" if flag else "no")
+
+
+def _residual_table(res: dict) -> pd.DataFrame:
+    """The residual tests as sentences: test, result, passed.
+
+    Examples
+    --------
+    >>> res = {"max_lag": 25, "ljung_box_q": 30.5, "p_value": 0.2, "bound": 0.01,
+    ...        "acf_outside": 0.04, "acf_max": 0.02, "white": True,
+    ...        "inputs": {"u": {"xcorr_max": 0.003, "xcorr_lag": -3,
+    ...                         "xcorr_outside": 0.0, "uncorrelated": True}}}
+    >>> _residual_table(res)["passed"].tolist()
+    ['yes', 'yes']
+    """
+    rows = [
+        {
+            "test": f"residual is white (Ljung-Box, lags 1-{res.get('max_lag')})",
+            "result": f"Q = {res.get('ljung_box_q', float('nan')):.4g}, p = "
+            f"{res.get('p_value', float('nan')):.3g}; "
+            f"{100 * res.get('acf_outside', float('nan')):.0f} % of the "
+            f"autocorrelations outside ±{res.get('bound', float('nan')):.3g} "
+            f"(largest {res.get('acf_max', float('nan')):.3g})",
+            "passed": _yes(res.get("white")),
+        }
+    ]
+    for name, x in (res.get("inputs") or {}).items():
+        rows.append(
+            {
+                "test": f"residual uncorrelated with input {name}",
+                "result": f"largest |cross-correlation| "
+                f"{x.get('xcorr_max', float('nan')):.3g} at lag {x.get('xcorr_lag')} "
+                f"samples; {100 * x.get('xcorr_outside', float('nan')):.0f} % of the "
+                "lags outside the bound",
+                "passed": _yes(x.get("uncorrelated")),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _model_table(summary: dict) -> pd.DataFrame:
+    """The fitted model's facts from the summary, one row each (absent ones left out).
+
+    Examples
+    --------
+    >>> _model_table({"structure": "oe", "order": {"nb": 2, "nf": 2, "nk": 1},
+    ...               "fs": 500.0, "fit_percent": 95.123}).to_dict("records")[1]
+    {'': 'order', 'value': 'nb=2, nf=2, nk=1'}
+    """
+    fields = {
+        "structure": ("structure", None),
+        "order": ("order", None),
+        "input": ("input", None),
+        "output": ("output", None),
+        "fs": ("sampling rate", "Hz"),
+        "fit_percent": ("simulation fit", "%"),
+        "n_params": ("parameters", None),
+        "noise_variance": ("noise variance", None),
+        "aic": ("AIC", None),
+        "bic": ("BIC", None),
+    }
+    rows = []
+    for key, (name, unit) in fields.items():
+        value = summary.get(key)
+        if value is None or value == {}:
+            continue
+        rows.append({"": name, "value": _text(value) + (f" {unit}" if unit else "")})
+    return pd.DataFrame(rows, columns=["", "value"])
+
+
+def _text(value) -> str:
+    """A summary value as a reader writes it: ``nb=2, nf=2``, ``0.03``, ``[1, 2]``.
+
+    Examples
+    --------
+    >>> _text({"na": 2, "nb": 1}), _text(0.0300000001), _text(4)
+    ('na=2, nb=1', '0.03', '4')
+    """
+    if isinstance(value, dict):
+        return ", ".join(f"{k}={_text(x)}" for k, x in value.items())
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+#: Column names of the modes tables, as a reader reads them.
+_MODE_COLUMNS = {
+    "frequency_hz": "frequency [Hz]",
+    "damping": "damping ratio",
+    "natural_frequency_hz": "frequency [Hz]",
+}
+
+
+def modes_table(rows) -> pd.DataFrame:
+    """Modes (or poles that are not modes) as the report shows them.
+
+    Examples
+    --------
+    >>> modes_table([{"frequency_hz": 40.0, "damping": 0.03, "pole": [0.8, 0.4]}])
+       frequency [Hz]  damping ratio
+    0            40.0           0.03
+    """
+    table = pd.DataFrame(rows)
+    if "pole" in table.columns:
+        table = table.drop(columns="pole")
+    return table.rename(columns=_MODE_COLUMNS)

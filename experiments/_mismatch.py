@@ -16,8 +16,10 @@ from typing import Any
 import pandas as pd
 
 from pdmkit._outputs import OutputRun, to_jsonable
+from pdmkit._plot_signals import axis_label, envelope_note, plot_signal
 from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError
+from pdmkit.experiments._model_units import output_units
 from pdmkit.experiments._report import Report
 from pdmkit.models.mismatch import (
     ChangeResult,
@@ -87,14 +89,22 @@ def _verdict_text(summary: dict) -> str:
     return text
 
 
-def _spectrum_figure(result: MismatchResult):
+def _spectrum_figure(result: MismatchResult, units: dict):
     import matplotlib.pyplot as plt
 
     spec = result.spectrum
     fig, ax = plt.subplots(2, 1, sharex=True, figsize=(9, 5))
     f = spec.index.to_numpy()
     ax[0].semilogy(f[1:], spec["psd"].to_numpy()[1:], color="C0")
-    ax[0].set_ylabel("residual PSD")
+    found = {units.get(o) for o in result.outputs}
+    unit = found.pop() if len(found) == 1 else None
+    ax[0].set_ylabel(
+        f"residual PSD [{unit}²/Hz]"
+        if unit
+        else "residual PSD [(output)²/Hz]"
+        if len(result.outputs) == 1
+        else "residual PSD [weighted²/Hz]"
+    )
     for c in spec.columns:
         if c.startswith("coherence"):
             ax[1].plot(f, spec[c], label=c)
@@ -106,20 +116,36 @@ def _spectrum_figure(result: MismatchResult):
     return fig
 
 
-def _trace_figure(t, lines, output: str):
+def _trace_figure(t, lines, output: str, unit: str | None = None):
     """Measured and simulated traces of one output: ``lines`` of ``(y, colour, label)``."""
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(1, 1, figsize=(10, 3.5))
     for y, colour, label in lines:
-        ax.plot(t, y, color=colour, lw=0.8 if colour == "k" else 1.0, label=label)
+        plot_signal(ax, t, y, color=colour, lw=0.8 if colour == "k" else 1.0, label=label)
     ax.set_xlabel("time [s]")
-    ax.set_ylabel(output)
+    ax.set_ylabel(axis_label(output, unit))
     ax.legend(loc="best", fontsize="small")
     return fig
 
 
-def _validation_figure(result: MismatchResult, output: str):
+def _values_text(values: dict | None) -> str:
+    """Fitted parameters as ``"k = 396.2, c = 4.1"`` ("none" when there are none).
+
+    Examples
+    --------
+    >>> _values_text({"k": 396.1668550709708, "c": 0.5}), _values_text({})
+    ('k = 396.2, c = 0.5', 'none')
+    """
+    if not values:
+        return "none"
+    return ", ".join(
+        f"{k} = {v:.4g}" if isinstance(v, int | float) else f"{k} = {v}"
+        for k, v in values.items()
+    )
+
+
+def _validation_figure(result: MismatchResult, output: str, unit: str | None = None):
     s = result.signals
     j = result.outputs.index(output)
     lines = [
@@ -128,7 +154,7 @@ def _validation_figure(result: MismatchResult, output: str):
     ]
     if s.get("val_augmented") is not None:
         lines.append((s["val_augmented"][:, j], "C3", "augmented model"))
-    return _trace_figure(s["val_time"], lines, output)
+    return _trace_figure(s["val_time"], lines, output, unit)
 
 
 def _how_fitted(fit: dict) -> str:
@@ -158,75 +184,8 @@ def _how_fitted(fit: dict) -> str:
     return " ".join(said)
 
 
-def build_mismatch_report(result: MismatchResult, summary: dict, title: str) -> Report:
-    """The HTML report of a mismatch discovery (not yet written).
-
-    Sections: the verdict in words and numbers; measured vs nominal vs augmented with
-    the residual before / after and the located windows shaded; the located windows;
-    the regions of the state / input space where the residual concentrates; the ranked
-    candidates; the residual spectrum and coherence; the whiteness tests before and
-    after; the JSON summary.
-
-    Examples
-    --------
-    >>> from pdmkit.models.mismatch._cases import example_result
-    >>> res = example_result()
-    >>> rep = build_mismatch_report(res, mismatch_summary(res), "demo")
-    >>> "Ranked candidates" in rep.to_html()
-    True
-    """
-    rep = Report(title)
-    rep.add_heading("Verdict")
-    rep.add_text(_verdict_text(summary))
-    fit = summary["fit"]
-    rep.add_text(
-        f"Validation: {fit['validation']}. Training RMSE {fit['rmse_train_nominal']:.4g} "
-        f"(nominal) -> {fit['rmse_train_augmented']:.4g} (augmented). Free parameters "
-        f"re-estimated: nominal {fit['free_nominal']}, augmented {fit['free_augmented']}."
-    )
-    rep.add_text(_how_fitted(fit))
-    rep.add_heading("Measured, nominal and augmented")
-    for o in result.outputs:
-        rep.add_figure(
-            result.plot(output=o)[0],
-            caption=(
-                f"{o}: measured (black), re-fitted nominal model (blue), augmented model "
-                "(red); below, the residuals. Shaded: the located windows; dashed: start "
-                "of the validation part."
-            ),
-        )
-        if "val_time" in result.signals:
-            rep.add_figure(
-                _validation_figure(result, o),
-                caption=f"{o} on the separate validation recording.",
-            )
-    rep.add_heading("Where the mismatch is")
-    located = pd.DataFrame(summary["located"])
-    if len(located):
-        rep.add_table(
-            located,
-            caption="Time windows ranked by their share of the nominal "
-            "model's residual energy (best first).",
-        )
-    if len(result.regions):
-        rep.add_table(
-            result.regions.head(10),
-            caption="Regions of the state / input space: share of time, share of residual "
-            "energy, and their ratio (enrichment > 1: the mismatch concentrates there).",
-        )
-    rep.add_figure(
-        _spectrum_figure(result),
-        caption="Spectrum of the nominal residual and its coherence with each input.",
-    )
-    rep.add_heading("Ranked candidates")
-    rep.add_table(
-        result.candidates,
-        caption="Each candidate fitted with the free parameters and the initial state; "
-        "improvement is the relative drop of validation RMSE, criterion the BIC change on "
-        "the training part (negative is better), p_value the Diebold-Mariano test against "
-        "the nominal model; refit False: screened only.",
-    )
-    rep.add_heading("Is anything systematic left?")
+def _whiteness_table(summary: dict) -> pd.DataFrame:
+    """The residual tests before and after, one row per model and output."""
     rows = []
     for when, per_out in summary["diagnostics"]["whiteness"].items():
         for o, w in per_out.items():
@@ -239,15 +198,119 @@ def build_mismatch_report(result: MismatchResult, summary: dict, title: str) -> 
             }
             for u, x in w["inputs"].items():
                 row[f"max |xcorr| {u}"] = x["xcorr_max"]
-                row[f"lag {u}"] = x["xcorr_lag"]
+                row[f"lag {u} [samples]"] = x["xcorr_lag"]
             rows.append(row)
-    if rows:
+    return pd.DataFrame(rows)
+
+
+def _add_traces(rep: Report, result: MismatchResult, units: dict) -> None:
+    """One figure per output (and per output on a separate validation recording)."""
+    note = envelope_note(len(result.signals["time"]))
+    for o in result.outputs:
+        rep.add_figure(
+            result.plot(output=o, unit=units.get(o))[0],
+            caption=(
+                f"{o}: measured (black), re-fitted nominal model (blue), augmented model "
+                "(red); below, the residuals. Shaded: the located windows; dashed: start "
+                f"of the validation part. {note}"
+            ).strip(),
+        )
+        if "val_time" in result.signals:
+            rep.add_figure(
+                _validation_figure(result, o, units.get(o)),
+                caption=f"{o} on the separate validation recording. "
+                + envelope_note(len(result.signals["val_time"])),
+            )
+
+
+def build_mismatch_report(
+    result: MismatchResult, summary: dict, title: str, *, units: dict | None = None
+) -> Report:
+    """The HTML report of a mismatch discovery (not yet written).
+
+    Sections: the verdict in words and numbers; measured vs nominal vs augmented with
+    the residual before / after and the located windows shaded; the located windows;
+    the regions of the state / input space where the residual concentrates; the ranked
+    candidates; the residual spectrum and coherence; the whiteness tests before and
+    after. Every number is also in ``summary.json`` (the report says so, and shows no
+    JSON).
+
+    Parameters
+    ----------
+    result : MismatchResult
+        What :func:`~pdmkit.models.mismatch.discover_mismatch` found.
+    summary : dict
+        Its :func:`mismatch_summary`.
+    title : str
+        The report's title.
+    units : dict, optional
+        Output -> unit for the axes (``output_units`` of ``_model_units``); an output
+        without one is
+        labelled "as recorded".
+
+    Examples
+    --------
+    >>> from pdmkit.models.mismatch._cases import example_result
+    >>> res = example_result()
+    >>> rep = build_mismatch_report(res, mismatch_summary(res), "demo", units={"h1": "m"})
+    >>> html = rep.to_html()
+    >>> "Ranked candidates" in html and "<pre>" not in html
+    True
+    """
+    units = dict(units or {})
+    rep = Report(title)
+    rep.add_heading("Verdict")
+    rep.add_text(_verdict_text(summary))
+    fit = summary["fit"]
+    rep.add_text(
+        f"Validation: {fit['validation']}. Training RMSE {fit['rmse_train_nominal']:.4g} "
+        f"(nominal) -> {fit['rmse_train_augmented']:.4g} (augmented). Free parameters "
+        f"re-estimated: nominal {_values_text(fit['free_nominal'])}; augmented "
+        f"{_values_text(fit['free_augmented'])}."
+    )
+    rep.add_text(_how_fitted(fit))
+    rep.add_heading("Measured, nominal and augmented")
+    _add_traces(rep, result, units)
+    rep.add_heading("Where the mismatch is")
+    located = pd.DataFrame(summary["located"])
+    if len(located):
         rep.add_table(
-            pd.DataFrame(rows),
+            located.rename(
+                columns={"start": "start [s]", "end": "end [s]", "share": "share"}
+            ),
+            caption="Time windows ranked by their share of the nominal "
+            "model's residual energy (best first).",
+        )
+    if len(result.regions):
+        rep.add_table(
+            result.regions.head(10),
+            caption="Regions of the state / input space: share of time, share of residual "
+            "energy, and their ratio (enrichment > 1: the mismatch concentrates there).",
+        )
+    rep.add_figure(
+        _spectrum_figure(result, units),
+        caption="Spectrum of the nominal residual and its coherence with each input.",
+    )
+    rep.add_heading("Ranked candidates")
+    rep.add_table(
+        result.candidates,
+        caption="Each candidate fitted with the free parameters and the initial state; "
+        "improvement is the relative drop of validation RMSE, criterion the BIC change on "
+        "the training part (negative is better), p_value the Diebold-Mariano test against "
+        "the nominal model; refit False: screened only.",
+    )
+    rep.add_heading("Is anything systematic left?")
+    whiteness = _whiteness_table(summary)
+    if len(whiteness):
+        rep.add_table(
+            whiteness,
             caption="Residual tests on the validation part, "
             "before (nominal) and after (augmented).",
         )
-    rep.add_json(summary, caption="JSON summary")
+    rep.add_text(
+        "Every number of this report, with the sources and timings, is in summary.json "
+        "beside it; the ranked candidates also in candidates.csv."
+    )
     return rep
 
 
@@ -346,7 +409,7 @@ def run_mismatch(
         )
     inputs = [model_path, data_path, validation_path]
     with OutputRun(out_dir, "mismatch", inputs=inputs, json_path=json_path) as run:
-        result, summary, title = _discover(
+        result, summary, title, units = _discover(
             model_path,
             data_path,
             validation_path,
@@ -356,7 +419,8 @@ def run_mismatch(
             max_seconds,
         )
         run.add_csv("candidates.csv", result.candidates, index=False)
-        run.add_report("report.html", build_mismatch_report(result, summary, title))
+        report = build_mismatch_report(result, summary, title, units=units)
+        run.add_report("report.html", report)
         run.add_json("summary.json", summary)
         run.commit()
     return summary
@@ -365,7 +429,7 @@ def run_mismatch(
 def _discover(
     model_path, data_path, validation_path, effects, model_timeout, input_hold, max_seconds
 ):
-    """(result, summary, report title) of :func:`run_mismatch`."""
+    """(result, summary, report title, output units) of :func:`run_mismatch`."""
     data = _read(data_path, "data")
     model = load_model_file(model_path, data=data, model_timeout=model_timeout)
     validation = None if validation_path is None else _read(validation_path, "validation")
@@ -383,18 +447,18 @@ def _discover(
         result, model=model_path, data=data_path, validation=validation_path
     )
     title = f"Mismatch discovery: {Path(model_path).name} vs {Path(data_path).name}"
-    return result, summary, title
+    return result, summary, title, output_units(model)
 
 
 # --------------------------------------------------------------------------- diagnosis
-def _diagnosis_figure(result: ChangeResult, j: int, output: str):
+def _diagnosis_figure(result: ChangeResult, j: int, output: str, unit: str | None):
     f = result.fits
     lines = [
         (f["measured"][:, j], "k", "measured"),
         (f["reference"][:, j], "C0", "reference parameters"),
         (f["refitted"][:, j], "C3", "changed parameters refitted"),
     ]
-    return _trace_figure(f["time"], lines, output)
+    return _trace_figure(f["time"], lines, output, unit)
 
 
 def _diagnosis_text(summary: dict) -> str:
@@ -461,11 +525,12 @@ def _run_diagnosis(model_path, data_path, reference_path, out_dir, json_path, ti
             "when it explains a large share alone and leaves both fits' 95 % intervals."
         )
         rep.add_heading("Both fits")
+        units = output_units(model)
         for j, o in enumerate(result.outputs):
             rep.add_figure(
-                _diagnosis_figure(result, j, o),
+                _diagnosis_figure(result, j, o, units.get(o)),
                 caption=f"{o}: measured (black), the reference parameters (blue), every "
-                "free parameter refitted (red).",
+                "free parameter refitted (red). " + envelope_note(len(result.fits["time"])),
             )
         rep.add_heading("Every free parameter")
         rep.add_table(

@@ -30,24 +30,28 @@ __all__ = ["Report"]
 _CSS = """
 body { font-family: -apple-system, "Segoe UI", Helvetica, Arial, sans-serif;
        max-width: 1100px; margin: 2em auto; padding: 0 1em; color: #222;
-       line-height: 1.45; }
+       line-height: 1.45; overflow-wrap: break-word; }
+*, *::before, *::after { box-sizing: border-box; }
 h1 { border-bottom: 2px solid #446; padding-bottom: .2em; }
 h2, h3, h4 { color: #334; margin-top: 1.6em; }
 p { margin: .6em 0; }
-figure { margin: 1.2em 0; }
+figure { margin: 1.2em 0; max-width: 100%; }
 figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
-figcaption, caption { color: #555; font-size: .92em; margin: .3em 0; text-align: left;
-                      caption-side: top; }
-table { border-collapse: collapse; margin: 1em 0; font-size: .9em; }
-th, td { border: 1px solid #ccc; padding: .25em .6em; }
+figcaption, .caption { color: #555; font-size: .92em; margin: .3em 0; }
+.table-wrap { max-width: 100%; overflow-x: auto; margin: .3em 0 1em; }
+table { border-collapse: collapse; font-size: .9em; }
+th, td { border: 1px solid #ccc; padding: .25em .6em; vertical-align: top; }
 th { background: #eef; text-align: left; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+.long { overflow-wrap: anywhere; min-width: 18em; }
 tbody tr:nth-child(even) { background: #f7f7fb; }
 pre { background: #f5f5f5; border: 1px solid #ddd; padding: .8em; overflow-x: auto;
-      font-size: .85em; }
+      font-size: .85em; white-space: pre-wrap; }
 .summary { border: 2px solid #446; background: #f4f4fb; padding: .2em 1.2em;
            margin: 1.2em 0; }
 .summary h2 { margin-top: .6em; }
+.skipped { border-left: 4px solid #b80; background: #fff8e6; padding: .4em .8em;
+           margin: .8em 0; }
 footer { margin-top: 3em; color: #888; font-size: .8em; }
 """
 
@@ -119,6 +123,34 @@ def _table_cell(value: Any, fmt: Callable[[float], str]) -> tuple[str, bool]:
     return str(value), False
 
 
+def _cell_class(text: str, numeric: bool) -> str:
+    """The CSS class of a cell: ``num`` (right-aligned), ``long`` (a word that may wrap).
+
+    Indicator names (``AccelerometerMoving_axisZ/cycle/S2_Decay``) are single words a
+    browser will not wrap; a ``long`` cell (a word over 30 letters) may break them, so
+    its column wraps them instead of pushing the table wider than the page.
+
+    Examples
+    --------
+    >>> _cell_class("0.97", True)
+    ' class="num"'
+    >>> _cell_class("AccelerometerMoving_axisZ/cycle/S2_Decay; Strain/stats/Std", False)
+    ' class="long"'
+    >>> _cell_class("healthy", False)
+    ''
+    """
+    if numeric:
+        return ' class="num"'
+    if any(len(word) > 30 for word in text.split()):
+        return ' class="long"'
+    return ""
+
+
+def _plain_index(index: pd.Index) -> bool:
+    """Whether an index is pandas' bookkeeping, not data: unnamed integers."""
+    return index.name is None and pd.api.types.is_integer_dtype(index.dtype)
+
+
 def _table_rows(df: pd.DataFrame, index: bool, fmt: Callable[[float], str]) -> list[str]:
     """The head and body of an HTML table, every cell escaped."""
     head = ([html.escape(str(df.index.name or ""))] if index else []) + [
@@ -129,11 +161,11 @@ def _table_rows(df: pd.DataFrame, index: bool, fmt: Callable[[float], str]) -> l
     for idx, row in zip(df.index, df.itertuples(index=False, name=None), strict=True):
         cells = []
         if index:
-            cells.append(f"<th>{html.escape(_table_cell(idx, fmt)[0])}</th>")
+            text = _table_cell(idx, fmt)[0]
+            cells.append(f"<th{_cell_class(text, False)}>{html.escape(text)}</th>")
         for value in row:
             text, numeric = _table_cell(value, fmt)
-            cls = ' class="num"' if numeric else ""
-            cells.append(f"<td{cls}>{html.escape(text)}</td>")
+            cells.append(f"<td{_cell_class(text, numeric)}>{html.escape(text)}</td>")
         out.append("<tr>" + "".join(cells) + "</tr>")
     out.append("</tbody></table>")
     return out
@@ -282,6 +314,32 @@ class Report:
         for part in parts:
             self._blocks.append(f"<p>{html.escape(part)}</p>")
 
+    def add_skipped(self, what: str, reason: str) -> None:
+        """Say that a part of the report was skipped, and why.
+
+        A report that promises a section must not leave it out silently: this adds a
+        marked line ``<what>: skipped: <reason>`` where the section would stand.
+
+        Parameters
+        ----------
+        what : str
+            The part left out (a section's title).
+        reason : str
+            Why, e.g. ``"../shared/data/cascaded_tanks not found"``.
+
+        Examples
+        --------
+        >>> rep = Report("r")
+        >>> rep.add_skipped("Cascaded Tanks", "../shared/data/cascaded_tanks not found")
+        >>> "Cascaded Tanks: skipped: ../shared/data/cascaded_tanks not found" in (
+        ...     rep.to_html().replace("<strong>", "").replace("</strong>", ""))
+        True
+        """
+        self._blocks.append(
+            f'<p class="skipped"><strong>{html.escape(str(what))}</strong>: skipped: '
+            f"{html.escape(str(reason))}</p>"
+        )
+
     def add_table(
         self,
         df: pd.DataFrame | pd.Series,
@@ -291,7 +349,10 @@ class Report:
         index: bool | None = None,
         max_rows: int | None = 500,
     ) -> None:
-        """Add a table.
+        """Add a table, in a box of its own that scrolls sideways when it is too wide.
+
+        The caption stands above the table across the page's column; a cell with a
+        long word (an indicator name, a fault code) may wrap it.
 
         Parameters
         ----------
@@ -305,7 +366,8 @@ class Report:
             function ``float -> str``; default: about 4 significant digits, with no
             exponent for costs and counts (``25000``, ``0.9723``).
         index : bool, optional
-            Show the index; default: only when it is not a plain 0..n-1 range.
+            Show the index; default: unless it is unnamed integers (pandas'
+            row numbers, not data).
         max_rows : int or None, default 500
             Show at most this many rows (a note says how many were left out).
 
@@ -325,20 +387,17 @@ class Report:
             )
         fmt = _float_formatter(float_format)
         if index is None:
-            index = not (
-                isinstance(df.index, pd.RangeIndex)
-                and df.index.start == 0
-                and df.index.step == 1
-                and df.index.name is None
-            )
+            index = not _plain_index(df.index)
         omitted = 0
         if max_rows is not None and len(df) > max_rows:
             omitted = len(df) - max_rows
             df = df.iloc[:max_rows]
-        out = ["<table>"]
+        out = []
         if caption:
-            out.append(f"<caption>{html.escape(str(caption))}</caption>")
+            out.append(f'<p class="caption">{html.escape(str(caption))}</p>')
+        out.append('<div class="table-wrap"><table>')
         out += _table_rows(df, index, fmt)
+        out.append("</div>")
         if omitted:
             out.append(f"<p><em>{omitted} more rows not shown.</em></p>")
         self._blocks.append("\n".join(out))

@@ -249,6 +249,9 @@ class SensorComparison:
     ):
         """Scatter accuracy against cost, with error bars and the Pareto front as steps.
 
+        The accuracy is the cross-validated mean (error bars: its std over the folds);
+        a comparison run without cross-validation shows the held-out accuracy.
+
         Parameters
         ----------
         ax : matplotlib.axes.Axes, optional
@@ -278,27 +281,37 @@ class SensorComparison:
         if ax is None:
             _, ax = plt.subplots(figsize=(7.0, 4.5))
         t = self.table
-        known = t[np.isfinite(t["cost"]) & np.isfinite(t["accuracy"])]
-        std = known["accuracy_std"].astype(float).fillna(0.0).to_numpy()
+        # without cross-validation the held-out accuracy is the one there is
+        cv = bool(np.isfinite(t["accuracy"]).any())
+        col = "accuracy" if cv else "heldout_accuracy"
+        t = t.assign(shown=t[col].astype(float))
+        known = t[np.isfinite(t["cost"]) & np.isfinite(t["shown"])]
+        std = known["accuracy_std"].astype(float).fillna(0.0).to_numpy() if cv else None
         ax.errorbar(
             known["cost"],
-            known["accuracy"],
+            known["shown"],
             yerr=std,
             fmt="o",
             color="tab:blue",
             ecolor="0.55",
             capsize=3,
-            label="sensor (CV mean ± std)",
+            label="sensor (CV mean ± std)" if cv else "sensor (held-out accuracy)",
         )
         for row in known.itertuples():
             ax.annotate(
                 str(row.sensor),
-                (row.cost, row.accuracy),
+                (row.cost, row.shown),
                 xytext=(5, 5),
                 textcoords="offset points",
                 fontsize=9,
             )
-        front = self.pareto_front()
+        front = (
+            self.pareto_front()
+            if cv
+            else known[_pareto_mask(known["shown"], known["cost"])]
+            .assign(accuracy=lambda f: f["shown"])
+            .sort_values(["cost", "accuracy"], ascending=[True, False], kind="stable")
+        )
         if len(front):
             ax.step(
                 front["cost"],
@@ -326,7 +339,7 @@ class SensorComparison:
             ax.set_xscale("log")
         unit = cost_unit if cost_unit is not None else self.cost_unit
         ax.set_xlabel(f"sensor cost [{unit}]" if unit else "sensor cost")
-        ax.set_ylabel("accuracy")
+        ax.set_ylabel("accuracy" if cv else "held-out accuracy")
         ax.set_title(f"Sensors: accuracy{f' ({self.model})' if self.model else ''} vs cost")
         ax.grid(True, alpha=0.3)
         ax.legend(loc="lower right", fontsize=8)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 
 import matplotlib
 import numpy as np
@@ -65,3 +66,35 @@ def peak_mb():
 def peak_mb_source() -> str:
     """Python source that defines ``peak_mb()`` for code run in a child process."""
     return _PEAK_MB_SOURCE
+
+
+@pytest.fixture(scope="session")
+def headless_chrome():
+    """Start Debian's headless Chromium through selenium: ``start(what, *args)``.
+
+    Skips the test, saying what to install, when chromium, chromedriver or selenium is
+    missing (no browser is ever downloaded); ``args`` are further Chromium switches.
+    """
+
+    def start(what: str, *args: str):
+        chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+        driver = shutil.which("chromedriver")
+        if chromium is None or driver is None:
+            missing = "chromium" if chromium is None else "chromedriver"
+            pytest.skip(
+                f"{missing} not found: apt-get install chromium chromium-driver to run "
+                f"{what}"
+            )
+        webdriver = pytest.importorskip(
+            "selenium.webdriver", reason="selenium not installed"
+        )
+        from selenium.webdriver.chrome.service import Service
+
+        options = webdriver.ChromeOptions()
+        options.binary_location = chromium
+        for arg in ("--headless=new", "--no-sandbox", "--disable-gpu",
+                    "--disable-dev-shm-usage", *args):  # fmt: skip
+            options.add_argument(arg)
+        return webdriver.Chrome(service=Service(driver), options=options)
+
+    return start

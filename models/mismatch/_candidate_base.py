@@ -223,7 +223,10 @@ class Candidate(abc.ABC):
         gain = eff.options.get("force_gain")
         if not self.per_unit_mass or not gain:
             return {}
-        out: dict = {p: float(values[p]) / gain for p in self.per_unit_mass}
+        out: dict = {
+            p: None if values[p] is None else float(values[p]) / gain
+            for p in self.per_unit_mass
+        }
         out["unit"] = eff.options.get("force_unit", "")
         return out
 
@@ -231,8 +234,9 @@ class Candidate(abc.ABC):
         return f"<Candidate {self.id} on {self.attach}>"
 
 
-def _g(v: float) -> str:
-    return f"{v:.3g}"
+def _g(v: float | None) -> str:
+    """A value for a sentence; None is a limit the fitted model never reaches."""
+    return "(never reached)" if v is None else f"{v:.3g}"
 
 
 @dataclasses.dataclass(frozen=True)

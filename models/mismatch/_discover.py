@@ -80,6 +80,7 @@ from pdmkit.models.mismatch._select import (
     _structured,
     _white,
     _within_reach,
+    inactive_params,
     p_value,
 )
 from pdmkit.models.mismatch._sparse import fit_sparse
@@ -598,7 +599,9 @@ def _forward_selection(
     if current is None:
         return accepted, None, []
     if len(current.effects) > 1:
-        order = _by_weight(f.problem, current)
+        weights = _by_weight(f, current, considered, o.max_iter)
+        current.removal = weights
+        order = [e for e, _ in weights]
         # the effect whose removal costs most leads the verdict
         lead = next(s for s in singles if s.effects[0] == order[0])
         return lead, current, order
@@ -756,6 +759,7 @@ class _Selection:
 
 def _conclude(model, s, f, nominal, x_nominal, sel: _Selection, o, stages, t):
     """Verdict, warnings, candidate table, timings: the result."""
+    final = sel.pair or sel.accepted
     verdict = build_verdict(
         model,
         s.rec,
@@ -767,8 +771,8 @@ def _conclude(model, s, f, nominal, x_nominal, sel: _Selection, o, stages, t):
         sparse_scored=sel.sparse_scored,
         beaten=sel.beaten,
         tie_tolerance=o.tie_tolerance,
+        inactive=inactive_params(f.problem, final) if final is not None else frozenset(),
     )
-    final = sel.pair or sel.accepted
     add_warnings(verdict, (final or sel.base).job, stages.report())
     for text in verdict["warnings"]:
         warnings.warn(f"mismatch: {text}", ConvergenceWarning, stacklevel=2)

@@ -42,6 +42,7 @@ class _Scored:
     bic: float = math.inf
     p_value: float = 1.0
     refit: bool = True
+    removal: list | None = None  # [(effect, validation RMSE without it)], weightiest first
     n_sub: int = 0  # RK4 steps per sample it was fitted with
 
 
@@ -265,26 +266,66 @@ def _simpler_rival(chosen: _Scored, considered: list[_Scored], min_gain: float):
     return best
 
 
-def _by_weight(problem: _Problem, s: _Scored) -> list:
-    """The effects of a structure, the one whose removal raises the fitted cost most first.
+def _by_weight(f, s: _Scored, considered: list[_Scored], max_iter: int) -> list:
+    """The effects of a structure by what each explains, the weightiest first.
 
-    Removal sets its parameters at their neutral values, nothing refitted.
+    An effect's weight is its removal cost: the validation RMSE of the structure
+    without it, the other effects and the model's parameters refitted (a pump's dead
+    zone that the pump's gain absorbs once refitted weighs little, however much the
+    fit moves when only its parameters are set to neutral). Structures already
+    fitted during the selection are reused; the others are fitted here from the
+    structure's values. Returns ``[(effect, rmse_without), ...]``.
+    """
+    fitted = {
+        frozenset(e.key for e in c.effects): c for c in considered if c.e_val is not None
+    }
+    without: dict[str, _Scored] = {}
+    jobs, missing = [], []
+    for e in s.effects:
+        rest = tuple(x for x in s.effects if x is not e)
+        known = fitted.get(frozenset(x.key for x in rest))
+        if known is not None:
+            without[e.key] = known
+            continue
+        jobs += _make_jobs(f.model, rest, f.sc, [{}], s.job.values(), f.x_scale,
+                           tag="+".join(x.key for x in rest), x0=s.job.x0)  # fmt: skip
+        missing.append(e)
+    if jobs:  # started from the fitted structure: half the iterations suffice
+        _lm(f.problem, jobs, max(5, max_iter // 2), ftol=1e-7)
+        scored = [_Scored(j, j.tag, j.effects, n_sub=f.problem.n_sub) for j in jobs]
+        f.score(scored)
+        without.update({e.key: r for e, r in zip(missing, scored, strict=True)})
+    ranked = sorted(s.effects, key=lambda e: -without[e.key].rmse_val)
+    return [(e, float(without[e.key].rmse_val)) for e in ranked]
+
+
+def inactive_params(problem: _Problem, s: _Scored, rtol: float = 1e-6) -> frozenset:
+    """Effect parameters the fitted structure never reaches (``"key.param"``).
+
+    A parameter is inactive when setting it alone to its neutral value leaves the
+    training cost unchanged within ``rtol``: a sensor's lower limit below every value
+    the model ever reads, an overflow rim the level never reaches. Its fitted number
+    is then arbitrary (anywhere in the flat region) and not a finding.
     """
     vals = s.job.values()
-    rows, order = [], []
+    rows, names = [], []
     for e in s.effects:
-        if set(e.param_names) <= set(e.candidate.neutral):
-            off = {
-                **vals,
-                **{f"{e.key}.{p}": e.candidate.neutral[p] for p in e.param_names},
-            }
-            rows.append((s.job, off, s.job.x0))
-            order.append(e)
-    if len(rows) < 2:
-        return list(s.effects)
+        for p in e.param_names:
+            if p in e.candidate.neutral:
+                rows.append(
+                    (s.job, {**vals, f"{e.key}.{p}": e.candidate.neutral[p]}, s.job.x0)
+                )
+                names.append(f"{e.key}.{p}")
+    if not rows:
+        return frozenset()
+    rows.append((s.job, vals, s.job.x0))
     costs = [half_squares(r) for r in problem.residuals(problem.simulate(rows))]
-    ranked = [e for _, e in sorted(zip(costs, order, strict=True), key=lambda z: -z[0])]
-    return ranked + [e for e in s.effects if e not in ranked]
+    ref = costs[-1]
+    return frozenset(
+        n
+        for n, c in zip(names, costs[:-1], strict=True)
+        if abs(c - ref) <= rtol * max(ref, 1e-300)
+    )
 
 
 def _companion_pairs(singles: list[_Scored], top: int) -> list:

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from pdmkit._plot_signals import axis_label, plot_signal
 from pdmkit.errors import ModelError
 from pdmkit.models.mismatch._candidates import SPARSE_ID, Effect, _position_partner
 from pdmkit.models.mismatch._fit_problem import _Job
@@ -27,7 +28,13 @@ from pdmkit.models.mismatch._locate import (
 from pdmkit.models.mismatch._sampling import simulate_states
 from pdmkit.models.mismatch._select import _rmse, _Scored, _structured, p_value
 
-__all__ = ["MismatchResult", "add_warnings", "build_verdict", "candidate_table"]
+__all__ = [
+    "MismatchResult",
+    "add_warnings",
+    "build_verdict",
+    "candidate_table",
+    "headline",
+]
 
 _NONE_PHYSICS = (
     "No candidate effect improves the validation fit significantly beyond the noise: "
@@ -152,17 +159,30 @@ class MismatchResult:
         """
         return self.candidates.copy()
 
-    def plot(self, ax=None, output: str | None = None):
+    def plot(self, ax=None, output: str | None = None, *, unit: str | None = None):
         """Measured vs nominal vs augmented (top) and the residuals (bottom).
 
-        Located windows are shaded; the validation split is a dashed line.
+        Located windows are shaded; the validation split is a dashed line. A long
+        record is drawn decimated, each bin's min-max as a band
+        (:func:`pdmkit._plot_signals.plot_signal`).
+
+        Parameters
+        ----------
+        ax : array of two matplotlib Axes, optional
+            Where to draw; a new figure when omitted.
+        output : str, optional
+            The output to show (default: the first).
+        unit : str, optional
+            Its unit, shown on the value axes (``"pa [Pa]"``; without one,
+            ``"pa (as recorded)"``).
 
         Examples
         --------
         >>> from pdmkit.models.mismatch._cases import example_result
         >>> res = example_result()
-        >>> res.plot().shape
-        (2,)
+        >>> ax = res.plot(unit="m")
+        >>> ax.shape, ax[0].get_ylabel(), ax[1].get_xlabel()
+        ((2,), 'h1 [m]', 'time [s]')
         """
         import matplotlib.pyplot as plt
 
@@ -175,28 +195,18 @@ class MismatchResult:
             _, ax = plt.subplots(2, 1, sharex=True, figsize=(10, 6))
         ax = np.asarray(ax, dtype=object).ravel()
         t = s["time"]
-        ax[0].plot(t, s["measured"][:, j], color="k", lw=0.8, label="measured")
-        ax[0].plot(t, s["nominal"][:, j], color="C0", lw=1.0, label="nominal model")
+        plot_signal(ax[0], t, s["measured"][:, j], color="k", lw=0.8, label="measured")
+        plot_signal(ax[0], t, s["nominal"][:, j], color="C0", label="nominal model")
         if s.get("augmented") is not None:
-            ax[0].plot(t, s["augmented"][:, j], color="C3", lw=1.0, label="augmented model")
-        ax[0].set_ylabel(output)
+            plot_signal(ax[0], t, s["augmented"][:, j], color="C3", label="augmented model")
+        ax[0].set_ylabel(axis_label(output, unit))
         ax[0].legend(loc="best", fontsize="small")
-        ax[1].plot(
-            t,
-            s["measured"][:, j] - s["nominal"][:, j],
-            color="C0",
-            lw=0.8,
-            label="residual, nominal",
-        )
+        residual = s["measured"][:, j] - s["nominal"][:, j]
+        plot_signal(ax[1], t, residual, color="C0", lw=0.8, label="residual, nominal")
         if s.get("augmented") is not None:
-            ax[1].plot(
-                t,
-                s["measured"][:, j] - s["augmented"][:, j],
-                color="C3",
-                lw=0.8,
-                label="residual, augmented",
-            )
-        ax[1].set_ylabel(f"{output} residual")
+            residual = s["measured"][:, j] - s["augmented"][:, j]
+            plot_signal(ax[1], t, residual, color="C3", lw=0.8, label="residual, augmented")
+        ax[1].set_ylabel(axis_label(f"{output} residual", unit))
         ax[1].set_xlabel("time [s]")
         ax[1].legend(loc="best", fontsize="small")
         for w in self.located:
@@ -301,8 +311,13 @@ def _variant(e: Effect) -> str:
     return ""
 
 
-def _verdict_params(s: _Scored) -> dict:
-    vals = s.job.values()
+def _reached(vals: Mapping[str, float], inactive: frozenset) -> dict:
+    """``vals`` with the parameters the fitted model never reaches set to None."""
+    return {k: (None if k in inactive else v) for k, v in vals.items()}
+
+
+def _verdict_params(s: _Scored, inactive: frozenset = frozenset()) -> dict:
+    vals = _reached(s.job.values(), inactive)
     e = s.effects[0]
     if e.candidate.id == SPARSE_ID:
         c = {p: vals[f"{e.key}.{p}"] for p in e.param_names}
@@ -423,17 +438,25 @@ def _no_effect(model, rec, base, singles, sparse_scored, beaten) -> dict:
     return verdict
 
 
-def _named(model, rec, accepted: _Scored, pair: _Scored | None, pair_order) -> dict:
-    """The verdict for an accepted effect (and the further ones of a pair)."""
+def _named(
+    model, rec, accepted: _Scored, pair: _Scored | None, pair_order, inactive: frozenset
+) -> dict:
+    """The verdict for an accepted effect (and the further ones of a pair).
+
+    Parameters in ``inactive`` (never reached by the fitted model) are reported as
+    None, not as findings.
+    """
     e = accepted.effects[0]
     verdict = {
         "effect": e.id,
         "target": e.target,
-        "physics": _explain(e, accepted.job.values(), model, rec),
-        "params": _verdict_params(accepted),
+        "physics": _explain(e, _reached(accepted.job.values(), inactive), model, rec),
+        "params": _verdict_params(accepted, inactive),
     }
+    if inactive:
+        verdict["never_reached"] = sorted(inactive)
     if pair is not None:
-        pv = pair.job.values()
+        pv = _reached(pair.job.values(), inactive)
         verdict["params"] = {p: pv[f"{e.key}.{p}"] for p in e.param_names}
         if e.partner and e.id == "overflow":
             verdict["params"]["into_state"] = e.partner
@@ -447,6 +470,11 @@ def _named(model, rec, accepted: _Scored, pair: _Scored | None, pair_order) -> d
             for e2 in pair_order[1:]
         ]
         verdict["physics"] = _explain(e, pv, model, rec)
+        if pair.removal:
+            verdict["weights"] = [
+                {"effect": x.id, "target": x.target, "rmse_without": r}
+                for x, r in pair.removal
+            ]
     if e.id == SPARSE_ID:
         named = _signatures(e.candidate.labels, e.target, _partner_of(model, e.target))
         if named:
@@ -503,6 +531,7 @@ def build_verdict(
     sparse_scored: list[_Scored],
     beaten: _Scored | None,
     tie_tolerance: float,
+    inactive: frozenset = frozenset(),
 ) -> dict:
     """The verdict: the effect named (or ``none`` / ``unexplained``).
 
@@ -511,7 +540,7 @@ def build_verdict(
     """
     if accepted is None:
         return _no_effect(model, rec, base, singles, sparse_scored, beaten)
-    verdict = _named(model, rec, accepted, pair, pair_order)
+    verdict = _named(model, rec, accepted, pair, pair_order, inactive)
     _alternatives(verdict, pair or accepted, singles, tie_tolerance)
     return verdict
 
@@ -619,6 +648,77 @@ def _localise(model, s, problem, nominal, x_nominal, base, final) -> dict:
     }
 
 
+#: effects whose removal costs are within this share of the largest explain "equally"
+TIED_WEIGHT = 0.02
+
+
+def _white_words(white: bool | None) -> str:
+    if white is None:
+        return ""
+    if white:
+        return "the residual left is white (noise-like): nothing systematic remains"
+    return "the residual left is not white: something systematic remains unexplained"
+
+
+def headline(verdict: dict, fit: dict) -> str:
+    """The verdict in one sentence: the effects by weight, the fit, the residual.
+
+    Effects are named by what each explains (the validation RMSE without it, the
+    rest refitted), the weightiest first; then the fit before and after and, in
+    words, whether the residual left is white.
+
+    Examples
+    --------
+    >>> from pdmkit.models.mismatch._verdict import headline
+    >>> v = {"effect": "overflow", "target": "h1", "confidence": {"white_after": False},
+    ...      "weights": [{"effect": "overflow", "target": "h1", "rmse_without": 0.41},
+    ...                  {"effect": "dead_zone", "target": "u", "rmse_without": 0.29}]}
+    >>> headline(v, {"rmse_nominal": 0.672, "rmse_augmented": 0.283})[:62]
+    'overflow on h1 explains most (validation RMSE 0.41 without it)'
+    """
+    conf = verdict.get("confidence", {})
+    before, after = fit["rmse_nominal"], fit["rmse_augmented"]
+    effect = verdict["effect"]
+    if effect == "none":
+        return "No effect is missing: " + (
+            _white_words(conf.get("white_before")) or "the model explains the data"
+        )
+    if effect == "unexplained":
+        lead = verdict.get("best_partial")
+        closest = f"; closest: {lead['effect']} on {lead['target']}" if lead else ""
+        return (
+            "Unexplained: something systematic is left in the residual that no "
+            f"candidate effect explains significantly{closest}"
+        )
+    weights = verdict.get("weights")
+    if weights:
+        top = weights[0]["rmse_without"]
+        k = sum(1 for w in weights if w["rmse_without"] >= (1 - TIED_WEIGHT) * top)
+        first, rest = weights[:k], weights[k:]
+        if k == 1:
+            text = (
+                f"{first[0]['effect']} on {first[0]['target']} explains most (validation "
+                f"RMSE {top:.4g} without it)"
+            )
+        else:
+            text = (
+                " and ".join(f"{w['effect']} on {w['target']}" for w in first)
+                + " explain most, about equally (validation RMSE "
+                + " and ".join(f"{w['rmse_without']:.4g}" for w in first)
+                + " without each)"
+            )
+        if rest:
+            text += ", then " + ", ".join(
+                f"{w['effect']} on {w['target']} ({w['rmse_without']:.4g} without it)"
+                for w in rest
+            )
+    else:
+        text = f"{effect} on {verdict['target']}"
+    text += f"; validation RMSE {before:.4g} -> {after:.4g}"
+    words = _white_words(conf.get("white_after"))
+    return text + (f"; {words}" if words else "")
+
+
 def _result(model, s, problem, nominal, x_nominal, base, final, verdict, table, timings):
     """The :class:`MismatchResult`.
 
@@ -636,6 +736,7 @@ def _result(model, s, problem, nominal, x_nominal, base, final, verdict, table, 
             all(x["white"] for x in white["after"].values()) if white["after"] else None
         ),
     }
+    verdict["headline"] = headline(verdict, fit)
     return MismatchResult(
         verdict=verdict,
         candidates=table,

@@ -12,39 +12,12 @@ with the reason when one is missing (no browser is ever downloaded).
 from __future__ import annotations
 
 import re
-import shutil
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 import pytest
-
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-DRIVER = shutil.which("chromedriver")
-
-
-def _driver():
-    if CHROMIUM is None or DRIVER is None:
-        missing = "chromium" if CHROMIUM is None else "chromedriver"
-        pytest.skip(
-            f"{missing} not found: apt-get install chromium chromium-driver to run the "
-            "browser test"
-        )
-    webdriver = pytest.importorskip("selenium.webdriver", reason="selenium not installed")
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for arg in (
-        "--headless=new",
-        "--no-sandbox",
-        "--disable-gpu",
-        "--disable-dev-shm-usage",
-        "--window-size=1400,1000",
-    ):
-        options.add_argument(arg)
-    return webdriver.Chrome(service=Service(DRIVER), options=options)
 
 
 def _wait(driver, condition, timeout: float = 30.0, what: str = ""):
@@ -77,12 +50,12 @@ def _traces(driver, plot_id: str) -> int:
 
 @pytest.mark.real_data
 def test_designer_end_to_end_in_chromium(
-    tmp_path: Path, require_data, start_designer
+    tmp_path: Path, require_data, start_designer, headless_chrome
 ) -> None:
     require_data("cwru_bearing")
     shots = tmp_path / "screenshots"
     shots.mkdir()
-    driver = _driver()
+    driver = headless_chrome("the browser test", "--window-size=1400,1000")
     server = start_designer("--dataset", "cwru")
     try:
         driver.get(server.url)

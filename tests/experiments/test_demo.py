@@ -7,23 +7,15 @@ import json
 import pytest
 
 from pdmkit._outputs import OUTPUTS
-from pdmkit.experiments._cli import main
 
 
 @pytest.mark.slow
-def test_demo_writes_summary_and_report(tmp_path):
-    # the output folder holds the user's files and a stale run's: the demo replaces
-    # its own files and leaves the user's byte for byte (this is the demo's case of
-    # tests/security/test_output_folders.py, run here to run the demo once)
-    out = tmp_path / "demo"
-    (out / "rul").mkdir(parents=True)
-    (out / "notes.txt").write_text("mine\n")
-    (out / "rul" / "mine.csv").write_text("a,b\n1,2\n")
-    for name in OUTPUTS["demo"]:
-        (out / name).write_text("stale\n")
-    argv = ["demo", "--out", str(out), "--n-members", "80", "--seed", "2"]
-    argv += ["--recording-s", "2.5", "--json", str(tmp_path / "copy.json")]
-    assert main(argv) == 0
+def test_demo_writes_summary_and_report(demo_run):
+    # the run (tests/experiments/conftest.py) found the output folder holding the
+    # user's files and a stale run's: the demo replaces its own files and leaves the
+    # user's byte for byte (the demo's case of tests/security/test_output_folders.py)
+    tmp_path, out = demo_run.tmp, demo_run.out
+    assert demo_run.code == 0
     assert (out / "notes.txt").read_text() == "mine\n"
     assert (out / "rul" / "mine.csv").read_text() == "a,b\n1,2\n"
     manifest = json.loads((out / ".pdmkit" / "run.json").read_text())

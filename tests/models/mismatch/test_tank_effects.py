@@ -113,6 +113,20 @@ def test_cascaded_tanks_example_names_overflow_and_the_sensor_ceiling(require_da
     assert res.fit["rmse_augmented"] <= 0.30
     sat = next(a for a in [v, *v.get("also", [])] if a["effect"] == "sensor_saturation")
     assert 9.8 <= sat["params"]["high"] <= 10.05
+    # the lower limit is never reached by the fitted model: not reported as a finding
+    assert sat["params"]["low"] is None and "(never reached)" in sat["physics"]
+    # the effects by weight: the validation RMSE with each removed (the rest refitted),
+    # the weightiest first and leading the headline; none is free (each costs)
+    weights = [w["rmse_without"] for w in v["weights"]]
+    assert weights == sorted(weights, reverse=True)
+    assert min(weights) > res.fit["rmse_augmented"]
+    lead = v["weights"][0]
+    assert v["headline"].startswith(f"{lead['effect']} on {lead['target']}")
+    assert (v["effect"], v["target"]) == (lead["effect"], lead["target"])
+    # the overflow is among the effects that explain most
+    top = [w for w in v["weights"] if w["rmse_without"] >= 0.98 * weights[0]]
+    assert ("overflow", "h1") in {(w["effect"], w["target"]) for w in top}, v["weights"]
+    assert ("not white" in v["headline"]) == (not v["confidence"]["white_after"])
     # the overflow is active: the fitted upper tank reaches its cap
     from pdmkit.models.ode._simulate import simulate_ode
 
