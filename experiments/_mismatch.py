@@ -77,8 +77,10 @@ def _verdict_text(summary: dict) -> str:
             f"model: {r0:.4g}."
         )
     on = f" on {v['target']}" if v.get("target") else ""
+    lead = v.get("headline") or f"{v['effect']}{on}"
+    lead = f"Verdict: {lead}."
     text = (
-        f"Verdict: {v['effect']}{on}. {v['physics']} Validation RMSE "
+        f"{lead} {v['physics']} Validation RMSE "
         f"{r0:.4g} (nominal, re-fitted) -> {r1:.4g} (augmented), "
         f"{100 * (1 - r1 / r0):.1f} % lower."
     )
