@@ -203,6 +203,32 @@ def parse_timestamps(column):
         return pd.to_datetime(column, errors="coerce")
 
 
+def time_as_seconds(column):
+    """A time column as float numbers: as given, or seconds since 1970 for timestamps.
+
+    Returns ``(values, unread)``: ``unread`` is the first value that is neither a
+    number nor a timestamp (None when all read); missing values stay NaN.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from pdmkit._checks import time_as_seconds
+    >>> stamps = pd.Series(["1970-01-01 00:01:00", "1970-01-02 00:00:00"])
+    >>> time_as_seconds(stamps)[0].tolist()
+    [60.0, 86400.0]
+    >>> time_as_seconds(pd.Series(["2004-03-04", "later"]))[1]
+    'later'
+    """
+    import pandas as pd
+
+    if pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
+        return column.to_numpy(dtype=float), None
+    stamps = parse_timestamps(column)
+    unread = stamps.isna() & column.notna()
+    seconds = (stamps - pd.Timestamp("1970-01-01")).dt.total_seconds().to_numpy(dtype=float)
+    return seconds, (column[unread].iloc[0] if unread.any() else None)
+
+
 def uniform_step(time: object, source: str) -> float:
     """The sampling step of a time column, after checking it increases uniformly.
 

@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 from sklearn.model_selection import StratifiedGroupKFold, StratifiedKFold, train_test_split
 
-from pdmkit._checks import parse_timestamps
+from pdmkit._checks import time_as_seconds
 from pdmkit.errors import DataError
 from pdmkit.experiments._classify_result import _plain, _show, _sorted_plain
 
@@ -344,17 +344,12 @@ def _order_key(table: pd.DataFrame, order: str | None) -> tuple[np.ndarray, Any]
             f"found: {conditions}. Pass order= the column that orders members in time"
         )
     column = table[order]
-    if pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
-        key = column.to_numpy(dtype=float)
-    else:
-        stamps = parse_timestamps(column)
-        if stamps.isna().any():
-            bad = column[stamps.isna()].iloc[0]
-            raise DataError(
-                f"order column {order!r} holds {str(bad)!r}, neither a number nor a "
-                "timestamp; a time split orders members by numbers or timestamps"
-            )
-        key = (stamps - stamps.min()).dt.total_seconds().to_numpy(dtype=float)
+    key, unread = time_as_seconds(column)
+    if unread is not None:
+        raise DataError(
+            f"order column {order!r} holds {str(unread)!r}, neither a number nor a "
+            "timestamp; a time split orders members by numbers or timestamps"
+        )
     if not np.isfinite(key).all():
         bad = table.index[~np.isfinite(key)]
         raise DataError(

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pdmkit._checks import file_sha256, parse_timestamps
+from pdmkit._checks import file_sha256, time_as_seconds
 from pdmkit._outputs import OutputRun
 from pdmkit._persist import load_model, save_model
 from pdmkit.ensembles import read_table
@@ -47,18 +47,13 @@ def _read(path: PathLike, unit: str | None, time: str) -> pd.DataFrame:
 
 
 def _time_values(table: pd.DataFrame, time: str, where: str) -> np.ndarray:
-    """The time column as numbers (seconds since the first stamp for timestamps)."""
-    column = table[time]
-    if pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
-        values = column.to_numpy(dtype=float)
-    else:
-        stamps = parse_timestamps(column)
-        if stamps.isna().any():
-            raise DataError(
-                f"{where}: --time {time!r} holds {str(column[stamps.isna()].iloc[0])!r}, "
-                "neither a number nor a timestamp"
-            )
-        values = (stamps - pd.Timestamp("1970-01-01")).dt.total_seconds().to_numpy()
+    """The time column as numbers (seconds since 1970 for timestamps)."""
+    values, unread = time_as_seconds(table[time])
+    if unread is not None:
+        raise DataError(
+            f"{where}: --time {time!r} holds {str(unread)!r}, neither a number nor a "
+            "timestamp"
+        )
     if not np.isfinite(values).all():
         raise DataError(f"{where}: --time {time!r} is missing on some rows")
     return values
