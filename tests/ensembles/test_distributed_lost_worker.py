@@ -73,7 +73,7 @@ def ensemble():
     )
 
 
-def _wait_for_workers(c, n=2, timeout=30.0):
+def _wait_for_workers(c, n=2, timeout=120.0):  # nannies restart slowly under load
     c.wait_for_workers(n, timeout=timeout)
     deadline = time.monotonic() + timeout
     while len(c.scheduler_info()["workers"]) < n and time.monotonic() < deadline:
