@@ -288,6 +288,10 @@ class _NormalEquations:
         Jx: np.ndarray | None = None,
         free: np.ndarray | None = None,
     ):
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow: see _step
+            self._build(J, r, Jx, free)
+
+    def _build(self, J, r, Jx, free) -> None:
         self.free, self.p = free, J.shape[1]
         if free is not None:  # held coordinates take no step
             J = J[:, free]
@@ -319,14 +323,25 @@ class _NormalEquations:
         return full, dx
 
     def _step(self, lam: float) -> tuple[np.ndarray, np.ndarray | None]:
-        """The step in the coordinates not held."""
+        """The step in the coordinates not held.
+
+        NaN where the normal equations are not finite (a Jacobian so steep that its
+        squares overflow, far out in a diverging trial): such a step is a trial that
+        fails, and the damping grows, instead of a linear-algebra error.
+        """
         if self.Jx is None:
-            return _solve(self.A + lam * np.diag(self.D), -self.g), None
-        nx = self.Jx.shape[2]
+            A = self.A + lam * np.diag(self.D)
+            if not (np.all(np.isfinite(A)) and np.all(np.isfinite(self.g))):
+                return np.full(self.n, np.nan), None
+            return _solve(A, -self.g), None
+        K, _, nx = self.Jx.shape
         eye = np.eye(nx)
         Axx = self.Axx + lam * np.einsum(
             "ki,ij->kij", np.clip(self.dX, 1e-12 * self.top, None), eye
         )
+        parts = (Axx, self.Agx, self.gx, self.A, self.g)
+        if not all(np.all(np.isfinite(a)) for a in parts):
+            return np.full(self.n, np.nan), np.full((K, nx), np.nan)
         Ainv = np.linalg.pinv(Axx)  # (K, nx, nx), batched
         Agx, gx = self.Agx, self.gx
         if self.n:

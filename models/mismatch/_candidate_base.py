@@ -160,6 +160,10 @@ class Candidate(abc.ABC):
     kinds: tuple[str, ...] = ("level", "pressure")
 
     # hooks -------------------------------------------------------------------
+    def neutral_values(self, eff: Effect) -> Mapping[str, float]:
+        """The parameter values for which ``eff`` has no effect (default ``neutral``)."""
+        return self.neutral
+
     @abc.abstractmethod
     def specs(self, eff: Effect, sc: Scales) -> dict[str, ParamSpec]:
         """The effect's parameters: bounds, scales and neutral values."""
@@ -283,6 +287,11 @@ class Effect:
         if self.candidate.id == "overflow" and self.partner is None:
             names = names[:1]
         return names
+
+    @property
+    def neutral(self) -> Mapping[str, float]:
+        """Parameter values for which this effect does nothing (rows without it)."""
+        return self.candidate.neutral_values(self)
 
     def qualified(self) -> list[str]:
         """Parameter names prefixed by the effect key (unique within a structure)."""

@@ -28,6 +28,7 @@ import numpy as np
 
 from pdmkit.errors import ModelError
 from pdmkit.models.mismatch._candidate_base import Candidate, Effect, ParamSpec, Scales
+from pdmkit.models.mismatch._effects_constant import FileConstant, attach_constants
 from pdmkit.models.mismatch._effects_input import (
     DeadTime,
     DeadZone,
@@ -105,6 +106,7 @@ _ALL: tuple[Candidate, ...] = (
     SensorDrift(),
     SensorGain(),
     SensorLag(),
+    FileConstant(),
 )
 
 #: candidate by ``(id, attach)``
@@ -124,6 +126,7 @@ _ATTACH_TEXT = {
     "level": "level / pressure state (term on its derivative)",
     "output": "an output (sensor model)",
     "state": "any non-kinematic state (term on its derivative)",
+    "parameter": "a constant of PARAMS not in FREE (its value re-estimated)",
 }
 
 
@@ -144,7 +147,7 @@ def candidate_library() -> pd.DataFrame:
     >>> from pdmkit.models.mismatch._candidates import candidate_library
     >>> lib = candidate_library()
     >>> len(lib), sorted(lib.loc[lib["id"] == "saturation", "attach"])
-    (24, ['input', 'level'])
+    (25, ['input', 'level'])
     >>> lib["id"].iloc[-1]
     'sparse'
     """
@@ -364,6 +367,7 @@ _ATTACH = {
     "input": _attach_input,
     "level": _attach_level,
     "output": _attach_output,
+    "parameter": attach_constants,
 }
 
 

@@ -119,6 +119,12 @@ _PLACES: dict[str, list[tuple[str, str, str, str | None]]] = {
         ("two_tanks", "output", "h1", None),
         ("two_tanks", "output", "h2", None),
     ],
+    # a constant the file holds fixed is off: the piston's dead volumes (lines the
+    # datasheet does not count), the supply (a regulator set lower, a sagging line)
+    "constant": [
+        ("pneumatic_piston", "parameter", "v_dead", None),
+        ("pneumatic_piston", "parameter", "p_supply", None),
+    ],
     # physics outside the named library: the data-driven fallback must find the term
     "sparse": [("mass_spring_damper", "state", "v", None)],
 }
@@ -261,6 +267,11 @@ def _true_state_params(eff: Effect, m: float, sc: Scales, model, sign: float) ->
     raise AssertionError(eff.id)
 
 
+def _true_constant_params(eff: Effect, m: float, sc: Scales, model, sign: float) -> dict:
+    """A constant of the file off by the factor ``(1 + m) ** sign`` (at most 2x)."""
+    return {"value": float(model.params[eff.target]) * (1.0 + m) ** sign}
+
+
 #: attach kind -> the true parameters of a concealed effect of that kind
 _TRUE_PARAMS = {
     "velocity": _true_velocity_params,
@@ -269,6 +280,7 @@ _TRUE_PARAMS = {
     "level": _true_level_params,
     "output": _true_output_params,
     "state": _true_state_params,
+    "parameter": _true_constant_params,
 }
 
 

@@ -66,6 +66,7 @@ from pdmkit.models.mismatch._sampling import (
     converged_n_sub,
     decimate,
 )
+from pdmkit.models.mismatch._screen_constants import promising_constants
 from pdmkit.models.mismatch._select import (
     Significance,
     _adds_companion,
@@ -425,11 +426,42 @@ def _prepare(model, data, validation, *, data_name, validation_name, input_hold)
     )
 
 
+#: starts of the nominal fit: the file's values and this many more, each free
+#: parameter drawn within a factor of ``NOMINAL_SPREAD`` of the file's value (log-uniform,
+#: fixed seed). They run in one batch, so they cost little more wall time than one: a
+#: fixed-step simulation of a switching model (end stops, valves) is a rough function of
+#: its parameters, and one start can stall where another gets through.
+NOMINAL_EXTRA_STARTS, NOMINAL_SPREAD = 5, 2.0
+
+
+def nominal_starts(model, values: dict[str, float]) -> list[dict[str, float]]:
+    """The file's values, then :data:`NOMINAL_EXTRA_STARTS` spread around them.
+
+    Free parameters at zero (a friction the file leaves at zero) keep their value.
+    """
+    rng = np.random.default_rng(0)
+    starts = [dict(values)]
+    if not model.free:
+        return starts
+    for _ in range(NOMINAL_EXTRA_STARTS):
+        v = dict(values)
+        for p in model.free:
+            k = f"p:{p}"
+            v[k] = v[k] * float(NOMINAL_SPREAD ** rng.uniform(-1.0, 1.0))
+        starts.append(v)
+    return starts
+
+
 def _fit_nominal(model, s: _Setup, data_name: str) -> tuple[_Problem, _Job]:
     """Step 1: the nominal model's free parameters and initial state."""
     problem = _Problem(model, s.rec, s.n_fit, s.w, s.n_sub, *(s.pieces or (None, None)))
-    nom = _make_jobs(model, (), None, [{}], s.values0, s.x_scale, tag="nominal")
+    nom = [
+        job
+        for values in nominal_starts(model, s.values0)
+        for job in _make_jobs(model, (), None, [{}], values, s.x_scale, tag="nominal")
+    ]
     _lm(problem, nom, 80)
+    nom = [min(nom, key=lambda j: j.cost)]
     if s.step_checked:  # recheck the simulated step at the fitted parameters
         n_sub2 = converged_n_sub(model, s.rec, nom[0].values(), s.n_sub)
     else:
@@ -682,6 +714,9 @@ def _discover(model, data, validation, stages: _Stages, o: _Options) -> Mismatch
     stages.enter("screening")
     clipped = clipped_outputs(s.rec.outputs)
     cands = attach_candidates(model, sc, o.effects, extra=o.candidates, clipped=clipped)
+    constants = [e for e in cands if e.candidate.attach == "parameter"]
+    cands = [e for e in cands if e.candidate.attach != "parameter"]
+    cands += promising_constants(problem, nominal, constants)
     jobs, ranked, kept = _screen(
         model, problem, sc, x_scale, nominal, cands, o.screen_iter, o.keep
     )

@@ -68,7 +68,6 @@ class _Job:
     layout: _Layout
     fixed: dict[str, float]  # every parameter value not in layout
     theta: np.ndarray
-    sign: dict[str, float]  # sign of log-space values (negative nominal parameters)
     x0: np.ndarray  # (K, nx) initial state of each fitted piece
     x0_scale: np.ndarray  # (nx,) typical magnitude of each state (finite differences)
     x0_lo: np.ndarray  # (nx,) lower bound of each state (0 for levels)
@@ -92,8 +91,7 @@ class _Job:
         th = self.theta if theta is None else theta
         vals = dict(self.fixed)
         dec = self.layout.decode(th)
-        for k, v in dec.items():
-            vals[k] = v * self.sign.get(k, 1.0)
+        vals.update(dec)
         for j, name in enumerate(self.state_names):
             vals[f"x0:{name}"] = float(self.x0[0, j])
         return vals
@@ -112,19 +110,21 @@ def _param_layout(
     values: Mapping[str, float],
     fit_effects: bool = True,
 ):
-    names, log, lo, hi, sc, sign = [], [], [], [], [], {}
+    names, log, lo, hi, sc = [], [], [], [], []
     if fit_free:
         for p in model.free:
             v = values[f"p:{p}"]
             nominal = model.params[p]
             ref = abs(nominal) if nominal != 0 else max(abs(v), 1.0)
             names.append(f"p:{p}")
-            if nominal != 0:
+            # a positive parameter (a mass, a coefficient) is fitted as its logarithm,
+            # within a factor 1e3 of the file's value; a negative one is a signed
+            # quantity (an offset), free to cross zero
+            if nominal > 0:
                 log.append(True)
                 lo.append(math.log(ref) - math.log(1e3))
                 hi.append(math.log(ref) + math.log(1e3))
                 sc.append(1.0)
-                sign[f"p:{p}"] = math.copysign(1.0, nominal)
             else:
                 log.append(False)
                 lo.append(-math.inf)
@@ -151,7 +151,7 @@ def _param_layout(
         np.array(hi, dtype=float),
         np.array(sc, dtype=float),
     )
-    return layout, sign
+    return layout
 
 
 # ---------------------------------------------------------------------------- batch sim
@@ -244,10 +244,7 @@ class _Problem:
             for e in job.effects:
                 if e not in union:
                     union.append(e)
-        theta = [
-            {p: np.full(B, float(e.candidate.neutral[p])) for p in e.param_names}
-            for e in union
-        ]
+        theta = [{p: np.full(B, float(e.neutral[p])) for p in e.param_names} for e in union]
         masks = [np.zeros(B, dtype=bool) for _ in union]
         P = {k: np.full(B, v) for k, v in model.params.items()}
         index = {e: i for i, e in enumerate(union)}
@@ -454,16 +451,15 @@ def _make_jobs(
             for k, v in start.items():
                 if k.startswith(e.key + "."):
                     vals[k] = v
-        layout, sign = _param_layout(model, effects, scales, fit_free, vals, fit_effects)
+        layout = _param_layout(model, effects, scales, fit_free, vals, fit_effects)
         fixed = {k: v for k, v in vals.items() if k not in layout.names}
-        enc = {k: vals[k] * sign.get(k, 1.0) for k in layout.names}
+        enc = {k: vals[k] for k in layout.names}
         jobs.append(
             _Job(
                 tuple(effects),
                 layout,
                 fixed,
                 layout.encode(enc),
-                sign,
                 x0=np.array(x0, dtype=float, copy=True),
                 x0_scale=x0_scale,
                 x0_lo=x0_lo,
@@ -480,7 +476,7 @@ def _effect_starts(effects: Sequence[Effect], scales: Scales) -> list[dict[str, 
     starts: list[dict[str, float]] = [{}]
     for e in effects:
         guesses = list(e.candidate.guesses(e, scales))
-        neutral = {p: float(e.candidate.neutral[p]) for p in e.param_names}
+        neutral = {p: float(e.neutral[p]) for p in e.param_names}
         if e.candidate.start_neutral and neutral not in guesses:
             guesses.append(neutral)
         new = []

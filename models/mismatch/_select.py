@@ -161,16 +161,19 @@ def _friction_step(job: _Job, ts: float, n_sub: int) -> int:
 
 
 def _choose(scored: list[_Scored], tol: float, min_gain: float, ts: float) -> _Scored:
-    """Lowest validation RMSE; within ``tol`` of it, the lowest BIC.
+    """Lowest validation RMSE; within ``tol`` of it, a named effect, then the lowest BIC.
 
-    A hypothesis that nests a simpler one on the same target (Stribeck friction
-    contains Coulomb friction, drift contains offset) must beat it by ``min_gain``,
+    A re-estimated constant of the file (``constant``) yields to a named effect that
+    does as well: adding viscous friction and raising a fixed damping constant are the
+    same model, and the named term says more. A hypothesis that nests a simpler one
+    on the same target (Stribeck friction contains Coulomb friction, drift contains
+    offset) must beat it by ``min_gain``,
     with values the simulation resolves (``Candidate.resolved``; ``ts`` the sample
     interval).
     """
     best = min(scored, key=lambda s: s.rmse_val)
     close = [s for s in scored if s.rmse_val <= best.rmse_val * (1.0 + tol)]
-    chosen = min(close, key=lambda s: (s.bic, s.rmse_val))
+    chosen = min(close, key=lambda s: (_is_constant(s), s.bic, s.rmse_val))
     e = chosen.effects[0]
     simpler = e.candidate.nests
     if simpler is not None:
@@ -182,6 +185,11 @@ def _choose(scored: list[_Scored], tol: float, min_gain: float, ts: float) -> _S
                 if unresolved or chosen.rmse_val > s.rmse_val * (1.0 - min_gain):
                     return s
     return chosen
+
+
+def _is_constant(s: _Scored) -> bool:
+    """Whether a hypothesis only re-estimates constants of the model file."""
+    return all(e.candidate.attach == "parameter" for e in s.effects)
 
 
 #: a screened candidate is refit when it removes at least this share of what the best
@@ -218,6 +226,10 @@ def _grow(current: _Scored, singles: list[_Scored], top: int, wide: bool = False
     residual), every such single, refitted or only screened: effects that hide each
     other (a pump's threshold and an overflow) help little alone, so the best few alone
     need not hold the one that helps once another is in (the caller screens them).
+    A re-estimated constant of the file is a verdict on its own, never an addition:
+    beside an effect whose smooth form only approximates the truth (a rate limit, a
+    clip) a constant absorbs some of what is left, a gain that says nothing about the
+    file's value.
     """
     held = {(e.id, e.target) for e in current.effects}
     for e in current.effects:  # nor one that nests it or that it nests
@@ -232,7 +244,7 @@ def _grow(current: _Scored, singles: list[_Scored], top: int, wide: bool = False
     out: dict = {}
     for s in sorted(singles, key=lambda s: s.rmse_val):
         f = s.effects[0]
-        if (f.id, f.target) in held:
+        if (f.id, f.target) in held or f.candidate.attach == "parameter":
             continue
         companion = any(f.id in e.candidate.companions for e in current.effects)
         if (s.refit and len(out) < top) or companion or wide:
@@ -311,10 +323,8 @@ def inactive_params(problem: _Problem, s: _Scored, rtol: float = 1e-6) -> frozen
     rows, names = [], []
     for e in s.effects:
         for p in e.param_names:
-            if p in e.candidate.neutral:
-                rows.append(
-                    (s.job, {**vals, f"{e.key}.{p}": e.candidate.neutral[p]}, s.job.x0)
-                )
+            if p in e.neutral:
+                rows.append((s.job, {**vals, f"{e.key}.{p}": e.neutral[p]}, s.job.x0))
                 names.append(f"{e.key}.{p}")
     if not rows:
         return frozenset()

@@ -266,8 +266,8 @@ def _at_bounds(job: _Job) -> list[str]:
     neutral = {}
     for e in job.effects:
         for p in e.param_names:
-            if p in e.candidate.neutral:
-                neutral[f"{e.key}.{p}"] = float(e.candidate.neutral[p])
+            if p in e.neutral:
+                neutral[f"{e.key}.{p}"] = float(e.neutral[p])
     vals = job.values()
     for i, name in enumerate(lay.names):
         if name.startswith("x0:"):

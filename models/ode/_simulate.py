@@ -159,6 +159,7 @@ def integrate_batch(
         raise ModelError("the stiff integrator (ros2) runs in numpy only.")
     ts = float(t[1] - t[0])
     h = ts / n_sub
+    params = _with_constants(effects, theta, params)
     M = _row_masks(masks, xp)
     U, transforms, Useq = _input_sequences(
         effects, theta, M, useq, inputs, B, N, ts, xp, whole=segments is None
@@ -194,6 +195,21 @@ def integrate_batch(
         Yt = Yt.reshape(B // K, K * N, Yt.shape[2])
         Xt = Xt.reshape(B // K, K * N, nx)
     return Yt, (Xt if want_states else None)
+
+
+def _with_constants(effects, theta, params: Mapping[str, Any]) -> Mapping[str, Any]:
+    """``params`` with the model constants that effects re-estimate replaced.
+
+    An effect attached to ``"parameter"`` (a constant the model file holds fixed,
+    :class:`pdmkit.models.mismatch.FileConstant`) carries the constant's value in every
+    row, the file's value in rows without it.
+    """
+    swaps = {
+        e.target: th["value"]
+        for e, th in zip(effects, theta, strict=True)
+        if e.candidate.attach == "parameter"
+    }
+    return {**params, **swaps} if swaps else params
 
 
 def _row_masks(masks: Sequence[Any], xp) -> list:

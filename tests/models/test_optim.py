@@ -201,3 +201,18 @@ def test_half_squares_is_inf_for_a_diverged_trial():
     assert half_squares(np.array([1e200, 1e200])) == math.inf
     assert half_squares(np.array([np.nan])) == math.inf
     assert half_squares(np.array([1.0, 2.0])) == 2.5
+
+
+def test_a_jacobian_whose_squares_overflow_gives_a_failed_step_not_an_error():
+    # far out in a diverging trial a finite-difference column can reach 1e200: its
+    # normal equations overflow; the step must be NaN (a rejected trial), not raise
+    # LinAlgError('SVD did not converge') from the batched pseudo-inverse
+    from pdmkit.models._optim import _NormalEquations
+
+    J = np.ones((6, 2))
+    Jx = np.full((2, 3, 1), 1e200)
+    r = np.ones(6)
+    dth, dx = _NormalEquations(J, r, Jx)._step(1e-2)
+    assert np.all(np.isnan(dth)) and np.all(np.isnan(dx))
+    dth, dx = _NormalEquations(np.full((6, 2), 1e200), r)._step(1e-2)
+    assert np.all(np.isnan(dth)) and dx is None
