@@ -92,6 +92,7 @@ from pdmkit.models.mismatch._verdict import (
     build_verdict,
     candidate_table,
 )
+from pdmkit.models.ode import PARAMETER_ATTACH
 
 if TYPE_CHECKING:
     from pdmkit.models.ode import OdeModel
@@ -688,8 +689,8 @@ def _discover(model, data, validation, stages: _Stages, o: _Options) -> Mismatch
     stages.enter("screening")
     clipped = clipped_outputs(s.rec.outputs)
     cands = attach_candidates(model, sc, o.effects, extra=o.candidates, clipped=clipped)
-    constants = [e for e in cands if e.candidate.attach == "parameter"]
-    cands = [e for e in cands if e.candidate.attach != "parameter"]
+    constants = [e for e in cands if e.candidate.attach == PARAMETER_ATTACH]
+    cands = [e for e in cands if e.candidate.attach != PARAMETER_ATTACH]
     cands += promising_constants(problem, nominal, constants)
     jobs, ranked, kept = _screen(
         model, problem, sc, x_scale, nominal, cands, o.screen_iter, o.keep

@@ -21,6 +21,7 @@ import math
 from collections.abc import Mapping
 
 from pdmkit.models.mismatch._candidate_base import Candidate, Effect, _g, _lin, _log
+from pdmkit.models.ode import PARAMETER_ATTACH
 
 __all__ = ["FileConstant"]
 
@@ -43,7 +44,7 @@ class FileConstant(Candidate):
     """
 
     id = "constant"
-    attach = "parameter"
+    attach = PARAMETER_ATTACH
     param_names = ("value",)
     start_neutral = True
     physics = (

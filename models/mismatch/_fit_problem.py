@@ -155,8 +155,9 @@ def _param_layout(
 
 
 # ---------------------------------------------------------------------------- batch sim
-class _NoEffects:
-    """A row of :meth:`_Problem.simulate` for the model alone."""
+@dataclasses.dataclass(frozen=True)
+class _Row:
+    """A row of :meth:`_Problem.simulate` that is no job: the model with ``effects``."""
 
     effects: tuple = ()
 
@@ -213,7 +214,7 @@ class _Problem:
         fallback = np.asarray(x0_first, dtype=float)
         if values is not None and self.n_pieces > 1:
             n = int(self.starts[-1]) + 1
-            row = (_NoEffects(), values, fallback[None, :])
+            row = (_Row(), values, fallback[None, :])
             X = self.simulate([row], n=n, states=True)[0]
             if np.all(np.isfinite(X[self.starts])):
                 fallback = X[self.starts]
@@ -223,7 +224,7 @@ class _Problem:
 
     def states(self, values: Mapping[str, float], x0: np.ndarray) -> np.ndarray:
         """States along the fitted samples, ``(K * L, nx)``, pieces from ``x0``."""
-        row = (_NoEffects(), values, np.asarray(x0, dtype=float))
+        row = (_Row(), values, np.asarray(x0, dtype=float))
         return self.simulate([row], states=True)[0]
 
     def with_step(self, n_sub: int) -> _Problem:

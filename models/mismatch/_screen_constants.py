@@ -21,7 +21,6 @@ Reference: Rao's score test; in nonlinear least squares, e.g. Seber & Wild,
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
@@ -33,6 +32,7 @@ from pdmkit.models.mismatch._fit_problem import (
     _fd_rows,
     _Job,
     _Problem,
+    _Row,
 )
 
 __all__ = ["constant_gains", "promising_constants"]
@@ -45,13 +45,6 @@ CONSTANT_MIN_GAIN = 1e-3
 #: the second, smaller relative step of a constant's residual column (the first is
 #: ``FD_LARGE``, which steps over the staircase of a fixed-step switching simulation)
 FD_SMALL_CONSTANT = 1e-4
-
-
-@dataclasses.dataclass(frozen=True)
-class _Row:
-    """A simulation row holding some effects (the ``job`` of :meth:`_Problem.simulate`)."""
-
-    effects: tuple[Effect, ...]
 
 
 def constant_gains(

@@ -24,7 +24,7 @@ from pdmkit.models._optim import half_squares
 from pdmkit.models._residuals import dm_test, whiteness_test
 from pdmkit.models.mismatch._fit_problem import _Job, _lm, _make_jobs, _Problem
 from pdmkit.models.mismatch._recording import Recording, data_states
-from pdmkit.models.ode import DERIVATIVE_ATTACH
+from pdmkit.models.ode import DERIVATIVE_ATTACH, PARAMETER_ATTACH
 
 __all__ = ["dm_test"]
 
@@ -189,7 +189,7 @@ def _choose(scored: list[_Scored], tol: float, min_gain: float, ts: float) -> _S
 
 def _is_constant(s: _Scored) -> bool:
     """Whether a hypothesis only re-estimates constants of the model file."""
-    return all(e.candidate.attach == "parameter" for e in s.effects)
+    return all(e.candidate.attach == PARAMETER_ATTACH for e in s.effects)
 
 
 #: a screened candidate is refit when it removes at least this share of what the best
@@ -244,7 +244,7 @@ def _grow(current: _Scored, singles: list[_Scored], top: int, wide: bool = False
     out: dict = {}
     for s in sorted(singles, key=lambda s: s.rmse_val):
         f = s.effects[0]
-        if (f.id, f.target) in held or f.candidate.attach == "parameter":
+        if (f.id, f.target) in held or f.candidate.attach == PARAMETER_ATTACH:
             continue
         companion = any(f.id in e.candidate.companions for e in current.effects)
         if (s.refit and len(out) < top) or companion or wide:

@@ -30,6 +30,7 @@ from pdmkit.models.ode._response import ResponseData
 from pdmkit.models.ode._showcases import SHOWCASE_NAMES, showcase_model, showcase_source
 from pdmkit.models.ode._simulate import (
     DERIVATIVE_ATTACH,
+    PARAMETER_ATTACH,
     integrate_batch,
     simulate_ode,
     stable_substeps,
@@ -40,6 +41,7 @@ __all__ = [
     "DERIVATIVE_ATTACH",
     "KINDS",
     "MODEL_TIMEOUT",
+    "PARAMETER_ATTACH",
     "SHOWCASE_NAMES",
     "LinearModel",
     "OdeModel",

@@ -29,6 +29,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DERIVATIVE_ATTACH",
+    "PARAMETER_ATTACH",
     "integrate_batch",
     "simulate_ode",
     "stable_substeps",
@@ -75,6 +76,8 @@ def _check_time(time) -> tuple[np.ndarray, float]:
 #: the ``attach`` kinds of augmentations whose ``derivs`` hook adds to the state
 #: derivatives (the others transform inputs or outputs)
 DERIVATIVE_ATTACH = ("velocity", "velocity_position", "level", "state")
+#: the attach kind of an effect that replaces a model parameter (a file's constant)
+PARAMETER_ATTACH = "parameter"
 
 
 def integrate_batch(
@@ -207,7 +210,7 @@ def _with_constants(effects, theta, params: Mapping[str, Any]) -> Mapping[str, A
     swaps = {
         e.target: th["value"]
         for e, th in zip(effects, theta, strict=True)
-        if e.candidate.attach == "parameter"
+        if e.candidate.attach == PARAMETER_ATTACH
     }
     return {**params, **swaps} if swaps else params
 
