@@ -163,7 +163,10 @@ def _add_mismatch_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--validation",
         type=Path,
-        help="second recording for validation (default: the last third of DATA)",
+        nargs="+",
+        metavar="VALIDATION",
+        help="recording(s) for validation only, each from its own initial state "
+        "(default: the last third of DATA)",
     )
     p.add_argument(
         "--reference",

@@ -56,7 +56,8 @@ def mismatch_summary(result: MismatchResult, **sources: Any) -> dict:
         "candidates": d["candidates"],
         "fit": d["fit"],
         "sources": {
-            k: (os.fspath(v) if v is not None else None) for k, v in sources.items()
+            k: (v if v is None or isinstance(v, list) else os.fspath(v))
+            for k, v in sources.items()
         },
         "diagnostics": {
             "regions": d["regions"],
@@ -327,7 +328,7 @@ def run_mismatch(
     model_path: str | os.PathLike,
     data_path: str | os.PathLike,
     *,
-    validation_path: str | os.PathLike | None = None,
+    validation_path: str | os.PathLike | Sequence[str | os.PathLike] | None = None,
     out_dir: str | os.PathLike,
     json_path: str | os.PathLike | None = None,
     effects: Sequence[str] | None = None,
@@ -350,8 +351,9 @@ def run_mismatch(
     data_path : path
         CSV or Parquet: ``time`` (s, uniform), the model's inputs and outputs. Without
         ``validation_path`` its last third is the validation part.
-    validation_path : path, optional
-        A second recording used for validation only (initial state re-estimated).
+    validation_path : path or list of paths, optional
+        Recording(s) used for validation only, each from its own re-estimated initial
+        state; several are scored together (one RMSE, one significance test over all).
     out_dir : path
         Receives ``report.html``, ``summary.json`` and ``candidates.csv`` (all at once,
         only when everything succeeded); anything else in the folder is left as it is
@@ -409,12 +411,13 @@ def run_mismatch(
         return _run_diagnosis(
             model_path, data_path, reference_path, out_dir, json_path, model_timeout
         )
-    inputs = [model_path, data_path, validation_path]
+    validation_paths = _paths(validation_path)
+    inputs = [model_path, data_path, *validation_paths]
     with OutputRun(out_dir, "mismatch", inputs=inputs, json_path=json_path) as run:
         result, summary, title, units = _discover(
             model_path,
             data_path,
-            validation_path,
+            validation_paths,
             effects,
             model_timeout,
             input_hold,
@@ -428,25 +431,38 @@ def run_mismatch(
     return summary
 
 
+def _paths(paths) -> list:
+    """None, one path or several, as a list."""
+    if paths is None:
+        return []
+    if isinstance(paths, str | os.PathLike):
+        return [paths]
+    return list(paths)
+
+
 def _discover(
-    model_path, data_path, validation_path, effects, model_timeout, input_hold, max_seconds
+    model_path, data_path, validation_paths, effects, model_timeout, input_hold, max_seconds
 ):
     """(result, summary, report title, output units) of :func:`run_mismatch`."""
     data = _read(data_path, "data")
     model = load_model_file(model_path, data=data, model_timeout=model_timeout)
-    validation = None if validation_path is None else _read(validation_path, "validation")
+    validation = [_read(v, "validation") for v in validation_paths] or None
     result = discover_mismatch(
         model,
         data,
         validation,
         effects=effects,
         data_name=os.fspath(data_path),
-        validation_name=os.fspath(validation_path) if validation_path is not None else "",
+        validation_name=[os.fspath(v) for v in validation_paths],
         input_hold=input_hold,
         max_seconds=max_seconds,
     )
+    sources = [os.fspath(v) for v in validation_paths]
     summary = mismatch_summary(
-        result, model=model_path, data=data_path, validation=validation_path
+        result,
+        model=model_path,
+        data=data_path,
+        validation=(sources[0] if len(sources) == 1 else sources) or None,
     )
     title = f"Mismatch discovery: {Path(model_path).name} vs {Path(data_path).name}"
     return result, summary, title, output_units(model)

@@ -48,18 +48,19 @@ from pdmkit.models.mismatch._cases import (
     generate_concealed_case,
     score_concealed_cases,
 )
-from pdmkit.models.mismatch._discover import (
-    MismatchResult,
-    choose_input_hold,
-    discover_mismatch,
-)
+from pdmkit.models.mismatch._discover import MismatchResult, discover_mismatch
 from pdmkit.models.mismatch._fit import FitResult, fit_model, nominal_scales
 from pdmkit.models.mismatch._locate import (
     region_statistics,
     residual_spectrum,
     residual_windows,
 )
-from pdmkit.models.mismatch._recording import Recording, make_recording
+from pdmkit.models.mismatch._recording import (
+    Recording,
+    choose_input_hold,
+    join_recordings,
+    make_recording,
+)
 from pdmkit.models.mismatch._reference import ChangeResult, diagnose_change
 from pdmkit.models.mismatch._sampling import choose_decimation, choose_pieces, decimate
 from pdmkit.models.mismatch._sparse import (
@@ -95,6 +96,7 @@ __all__ = [
     "example_result",
     "fit_model",
     "generate_concealed_case",
+    "join_recordings",
     "library_terms",
     "make_recording",
     "nominal_scales",

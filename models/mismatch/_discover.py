@@ -41,12 +41,10 @@ import warnings
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from pdmkit._progress import progress_bar
 from pdmkit.errors import ConvergenceWarning, ModelError
 from pdmkit.models.mismatch._candidates import SPARSE_ID, Scales, attach_candidates
-from pdmkit.models.mismatch._fit import _initial_values, measured_scales, nominal_starts
+from pdmkit.models.mismatch._fit import nominal_starts
 from pdmkit.models.mismatch._fit_problem import (
     DEADLINE,
     _effect_starts,
@@ -56,15 +54,12 @@ from pdmkit.models.mismatch._fit_problem import (
     _Problem,
 )
 from pdmkit.models.mismatch._locate import clipped_outputs
-from pdmkit.models.mismatch._recording import Recording, make_recording, part
+from pdmkit.models.mismatch._recording import Recording
 from pdmkit.models.mismatch._sampling import (
     PIECES_FROM,
     _choose_n_sub,
     _nominal_scales,
-    choose_pieces,
-    choose_sampling,
     converged_n_sub,
-    decimate,
 )
 from pdmkit.models.mismatch._screen_constants import promising_constants
 from pdmkit.models.mismatch._select import (
@@ -84,6 +79,7 @@ from pdmkit.models.mismatch._select import (
     inactive_params,
     p_value,
 )
+from pdmkit.models.mismatch._setup import Setup, prepare
 from pdmkit.models.mismatch._sparse import fit_sparse
 from pdmkit.models.mismatch._verdict import (
     MismatchResult,
@@ -97,35 +93,10 @@ from pdmkit.models.ode import PARAMETER_ATTACH
 if TYPE_CHECKING:
     from pdmkit.models.ode import OdeModel
 
-__all__ = ["MismatchResult", "choose_input_hold", "discover_mismatch"]
+__all__ = ["MismatchResult", "discover_mismatch"]
 
 
 # ---------------------------------------------------------------------------- public
-def choose_input_hold(rec: Recording) -> str:
-    """``"zoh"`` when the inputs are held, else ``"foh"`` (a sampled continuous signal).
-
-    Held inputs: most samples repeat the one before (steps, a digital controller's output).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from pdmkit.models.mismatch._fit import Recording
-    >>> t = np.arange(100) * 0.01
-    >>> steps = np.repeat([0.0, 1.0, -1.0, 0.5], 25)
-    >>> choose_input_hold(Recording(t, 0.01, {"u": steps}, {}))
-    'zoh'
-    >>> choose_input_hold(Recording(t, 0.01, {"u": np.sin(7 * t)}, {}))
-    'foh'
-    """
-    if not rec.inputs:
-        return "zoh"
-    repeats = [
-        float(np.mean(np.diff(np.asarray(u, dtype=float)) == 0))
-        for u in rec.inputs.values()
-    ]
-    return "zoh" if max(repeats) > 0.3 else "foh"
-
-
 def discover_mismatch(
     model: OdeModel,
     data: Any,
@@ -142,7 +113,7 @@ def discover_mismatch(
     pair_candidates: int = 3,
     max_effects: int = 4,
     data_name: str = "data",
-    validation_name: str = "validation",
+    validation_name: str | Sequence[str] = "validation",
     input_hold: str = "auto",
     max_seconds: float | None = None,
     progress: bool | None = None,
@@ -157,9 +128,11 @@ def discover_mismatch(
     data : DataFrame, mapping or Recording
         ``time``, the model's inputs and outputs. Without ``validation``, its last
         third is the validation part.
-    validation : DataFrame, mapping or Recording, optional
-        A second recording used only for validation (its initial state is
-        re-estimated).
+    validation : DataFrame, mapping or Recording, or a list of them, optional
+        Recording(s) used only for validation, each from its own re-estimated initial
+        state. Several are scored together: one RMSE and one significance test over
+        all of them, so an effect that shows in a few events of each recording gains
+        the power of all.
     effects : sequence of str, optional
         Restrict the candidate ids (default: the whole library, ``sparse`` included).
     min_improvement : float
@@ -180,8 +153,10 @@ def discover_mismatch(
     max_effects : int
         Most effects in one explanation: after a pair, the effect that helps most is
         added while it helps significantly (forward selection).
-    data_name, validation_name : str
-        Names used in error messages (e.g. the file names).
+    data_name : str
+        The data's name in error messages (e.g. its file name).
+    validation_name : str or list of str
+        The validation recording's name, or one per recording.
     input_hold : {"auto", "zoh", "foh"}
         What the inputs do between samples: held (``"zoh"``: steps, a digital
         controller's output) or straight lines (``"foh"``: a sampled continuous
@@ -261,7 +236,7 @@ class _Options:
     pair_candidates: int
     max_effects: int
     data_name: str
-    validation_name: str
+    validation_name: str | Sequence[str]
     input_hold: str
     candidates: tuple
 
@@ -349,85 +324,7 @@ class _Stages:
             self._bar.close()
 
 
-@dataclasses.dataclass
-class _Setup:
-    """The recordings as the fits see them, and the settings taken from them."""
-
-    rec: Recording
-    rec_val: Recording | None
-    hold: str
-    factor: int  # decimation applied
-    n_fit: int  # training samples of ``rec``
-    y_all: np.ndarray  # measured outputs of ``rec`` (N, n_out)
-    w: np.ndarray  # output weights (1 / std on the training part)
-    values0: dict
-    n_sub: int
-    x_scale: dict
-    pieces: tuple | None
-    step_checked: bool = False  # n_sub chosen by simulation agreement, not the fastest mode
-
-
-def _prepare(model, data, validation, *, data_name, validation_name, input_hold):
-    """The model as fitted (its integrator chosen) and the :class:`_Setup`.
-
-    The setup: recordings, input hold, decimation, training part, weights and pieces.
-    """
-    rec = data if isinstance(data, Recording) else make_recording(model, data, data_name)
-    rec_val = None
-    if validation is not None:
-        rec_val = (
-            validation
-            if isinstance(validation, Recording)
-            else make_recording(model, validation, validation_name)
-        )
-        if abs(rec_val.ts - rec.ts) > 1e-3 * rec.ts:  # as uniform_step's tolerance
-            raise ModelError(
-                f"discover_mismatch: {validation_name} is sampled every {rec_val.ts:g} s, "
-                f"{data_name} every {rec.ts:g} s; resample them to the same step."
-            )
-    hold = choose_input_hold(rec) if input_hold == "auto" else input_hold
-    if hold not in ("zoh", "foh"):
-        raise ModelError(
-            f"discover_mismatch: input_hold must be 'auto', 'zoh' or 'foh'; got "
-            f"{input_hold!r}."
-        )
-    rec = dataclasses.replace(rec, hold=hold)
-    if rec_val is not None:
-        rec_val = dataclasses.replace(rec_val, hold=hold)
-    # a stiff model is integrated with ROS2; an oversampled record is decimated first
-    # (the model and the inputs say how far)
-    sampling = choose_sampling(model, rec, _initial_values(model, rec))
-    model, factor = sampling.model, sampling.factor
-    if factor > 1:
-        rec = decimate(rec, factor)
-        rec_val = decimate(rec_val, factor) if rec_val is not None else None
-    n_fit = rec.n if rec_val is not None else round(rec.n * 2 / 3)
-    y_all = rec.y(model)
-    w = 1.0 / np.maximum(np.std(y_all[:n_fit], axis=0), 1e-12)
-    values0 = _initial_values(model, rec)
-    n_sub = sampling.n_sub
-    x_scale = measured_scales(model, rec)
-    # a long record is fitted in pieces, each from its own fitted initial state
-    pieces = choose_pieces(model, rec, n_fit, values0, n_sub)
-    if pieces is not None and rec_val is None:  # validate on the tail, restarted
-        rec_val = part(rec, n_fit)
-    return model, _Setup(
-        rec,
-        rec_val,
-        hold,
-        factor,
-        n_fit,
-        y_all,
-        w,
-        values0,
-        n_sub,
-        x_scale,
-        pieces,
-        sampling.checked,
-    )
-
-
-def _fit_nominal(model, s: _Setup, data_name: str) -> tuple[_Problem, _Job]:
+def _fit_nominal(model, s: Setup, data_name: str) -> tuple[_Problem, _Job]:
     """Step 1: the nominal model's free parameters and initial state."""
     problem = _Problem(model, s.rec, s.n_fit, s.w, s.n_sub, *(s.pieces or (None, None)))
     nom = [
@@ -640,7 +537,7 @@ def _sparse_terms(f: _Fits, nominal: _Job, base: _Scored, ref: _Scored, signific
     return scored, None, significant(cand, ref)
 
 
-def _single_effects(f: _Fits, s: _Setup, nominal, ranked, kept, n_sub_of, o: _Options):
+def _single_effects(f: _Fits, s: Setup, nominal, ranked, kept, n_sub_of, o: _Options):
     """Step 3: validation scores of the nominal and every screened effect.
 
     With the best single effect. Returns ``(base, singles, chosen, accepted or None)``.
@@ -668,7 +565,7 @@ def _single_effects(f: _Fits, s: _Setup, nominal, ranked, kept, n_sub_of, o: _Op
 def _discover(model, data, validation, stages: _Stages, o: _Options) -> MismatchResult:
     """:func:`discover_mismatch`'s steps (arguments checked there, budget set)."""
     t = {"start": stages.start}
-    model, s = _prepare(
+    model, s = prepare(
         model,
         data,
         validation,

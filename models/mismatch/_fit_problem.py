@@ -14,7 +14,7 @@ from __future__ import annotations
 import contextvars
 import dataclasses
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -106,30 +106,37 @@ def _param_layout(
     model,
     effects: Sequence[Effect],
     scales: Scales | None,
-    fit_free: bool,
+    fit_free: bool | Collection[str],
     values: Mapping[str, float],
     fit_effects: bool = True,
 ):
+    """The fitted parameters' names, log flags, bounds and scales.
+
+    ``fit_free``: every free parameter (True), none (False) or those named.
+    """
     names, log, lo, hi, sc = [], [], [], [], []
-    if fit_free:
-        for p in model.free:
-            v = values[f"p:{p}"]
-            nominal = model.params[p]
-            ref = abs(nominal) if nominal != 0 else max(abs(v), 1.0)
-            names.append(f"p:{p}")
-            # a positive parameter (a mass, a coefficient) is fitted as its logarithm,
-            # within a factor 1e3 of the file's value; a negative one is a signed
-            # quantity (an offset), free to cross zero
-            if nominal > 0:
-                log.append(True)
-                lo.append(math.log(ref) - math.log(1e3))
-                hi.append(math.log(ref) + math.log(1e3))
-                sc.append(1.0)
-            else:
-                log.append(False)
-                lo.append(-math.inf)
-                hi.append(math.inf)
-                sc.append(ref)
+    if fit_free is True or fit_free is False:
+        fitted = model.free if fit_free else []
+    else:
+        fitted = [p for p in model.free if p in fit_free]
+    for p in fitted:
+        v = values[f"p:{p}"]
+        nominal = model.params[p]
+        ref = abs(nominal) if nominal != 0 else max(abs(v), 1.0)
+        names.append(f"p:{p}")
+        # a positive parameter (a mass, a coefficient) is fitted as its logarithm,
+        # within a factor 1e3 of the file's value; a negative one is a signed
+        # quantity (an offset), free to cross zero
+        if nominal > 0:
+            log.append(True)
+            lo.append(math.log(ref) - math.log(1e3))
+            hi.append(math.log(ref) + math.log(1e3))
+            sc.append(1.0)
+        else:
+            log.append(False)
+            lo.append(-math.inf)
+            hi.append(math.inf)
+            sc.append(ref)
     for e in effects if fit_effects else ():
         specs = e.candidate.specs(e, scales)
         for p in e.param_names:

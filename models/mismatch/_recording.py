@@ -7,6 +7,8 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -19,10 +21,13 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Recording",
+    "choose_input_hold",
     "data_states",
+    "join_recordings",
     "make_recording",
     "measured_states",
     "part",
+    "segments",
     "state_reading",
 ]
 
@@ -65,6 +70,9 @@ class Recording:
     #: the time from which a drift counts (None: the first sample; a part of a longer
     #: record keeps the record's start)
     t_origin: float | None = None
+    #: first sample of each recording joined into this one (:func:`join_recordings`);
+    #: each starts from its own state
+    starts: tuple[int, ...] = (0,)
 
     @property
     def n(self) -> int:
@@ -217,4 +225,87 @@ def part(rec: Recording, start: int = 0, stop: int | None = None) -> Recording:
         time=rec.time[cut],
         inputs={k: v[cut] for k, v in rec.inputs.items()},
         outputs={k: v[cut] for k, v in rec.outputs.items()},
+        starts=(0,),
     )
+
+
+def join_recordings(recs: Sequence[Recording], name: str | None = None) -> Recording:
+    """Recordings one after another, each still starting from its own state.
+
+    The time continues from one to the next (one sample step between them); the
+    starts are kept (:func:`segments` cuts them apart again). All must share the
+    sample step and the input hold.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(4) * 0.5
+    >>> a = Recording(t, 0.5, {"u": t}, {"y": t})
+    >>> b = Recording(10 + t, 0.5, {"u": -t}, {"y": t})
+    >>> both = join_recordings([a, b])
+    >>> both.time.tolist(), both.starts
+    ([0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5], (0, 4))
+    >>> [float(seg.time[0]) for seg in segments(both)]
+    [0.0, 2.0]
+    """
+    recs = list(recs)
+    if len(recs) == 1:
+        return recs[0]
+    ts = recs[0].ts
+    for r in recs[1:]:
+        if abs(r.ts - ts) > 1e-3 * ts or r.hold != recs[0].hold:
+            raise DataError(
+                f"{r.name}: sampled every {r.ts:g} s with hold {r.hold!r}; the first "
+                f"recording ({recs[0].name}) every {ts:g} s with {recs[0].hold!r}."
+            )
+    starts = tuple(int(k) for k in np.cumsum([0] + [r.n for r in recs[:-1]]))
+    n = sum(r.n for r in recs)
+    return Recording(
+        time=recs[0].time[0] + ts * np.arange(n),
+        ts=ts,
+        inputs={k: np.concatenate([r.inputs[k] for r in recs]) for k in recs[0].inputs},
+        outputs={k: np.concatenate([r.outputs[k] for r in recs]) for k in recs[0].outputs},
+        name=name or ", ".join(r.name for r in recs),
+        hold=recs[0].hold,
+        starts=starts,
+    )
+
+
+def segments(rec: Recording) -> list[Recording]:
+    """The recordings :func:`join_recordings` put together, each on its own.
+
+    A recording that was not joined is its one segment, unchanged (a part of a longer
+    record keeps that record's start for a drift).
+    """
+    if len(rec.starts) == 1:
+        return [rec]
+    bounds = [*rec.starts, rec.n]
+    out = []
+    for a, b in itertools.pairwise(bounds):
+        seg = part(rec, a, b)
+        out.append(dataclasses.replace(seg, t_origin=float(rec.time[a])))
+    return out
+
+
+def choose_input_hold(rec: Recording) -> str:
+    """``"zoh"`` when the inputs are held, else ``"foh"`` (a sampled continuous signal).
+
+    Held inputs: most samples repeat the one before (steps, a digital controller's output).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(100) * 0.01
+    >>> steps = np.repeat([0.0, 1.0, -1.0, 0.5], 25)
+    >>> choose_input_hold(Recording(t, 0.01, {"u": steps}, {}))
+    'zoh'
+    >>> choose_input_hold(Recording(t, 0.01, {"u": np.sin(7 * t)}, {}))
+    'foh'
+    """
+    if not rec.inputs:
+        return "zoh"
+    repeats = [
+        float(np.mean(np.diff(np.asarray(u, dtype=float)) == 0))
+        for u in rec.inputs.values()
+    ]
+    return "zoh" if max(repeats) > 0.3 else "foh"

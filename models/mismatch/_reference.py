@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pdmkit.errors import ModelError
-from pdmkit.models.mismatch._fit import _initial_values, measured_scales
+from pdmkit.models.mismatch._fit import _initial_values, measured_scales, nominal_starts
 from pdmkit.models.mismatch._fit_problem import _lm, _make_jobs, _Problem
 from pdmkit.models.mismatch._recording import Recording, make_recording
 from pdmkit.models.mismatch._sampling import (
@@ -170,36 +170,48 @@ class _Fit:
     log: np.ndarray
 
 
-def _covariance(job, problem: _Problem) -> np.ndarray | None:
-    """Covariance of the job's parameters (optimiser space), the initial state profiled.
+def _covariances(jobs, problem: _Problem) -> list[np.ndarray | None]:
+    """Covariance of each job's parameters (optimiser space), the initial state profiled.
 
-    A finite-difference Jacobian at the fitted point (one batch: the point, each
-    parameter and each initial state nudged); ``s^2 (J^T J)^-1`` with the initial
-    state eliminated (Schur complement), inflated by the AR(1) factor of the residual.
+    A finite-difference Jacobian at the fitted point (one batch for every job: the
+    point, each parameter and each initial state nudged); ``s^2 (J^T J)^-1`` with the
+    initial state eliminated (Schur complement), inflated by the AR(1) factor of the
+    residual.
     """
-    n = job.layout.n
+    rows, spans = [], []
+    for job in jobs:
+        vals = job.values()
+        x0 = np.asarray(job.x0, dtype=float)
+        first = len(rows)
+        rows.append((job, vals, x0))
+        steps = []
+        for name, log in zip(job.layout.names, job.layout.log, strict=True):
+            v = dict(vals)
+            h = 1e-6 if log else 1e-6 * max(abs(vals[name]), 1e-12)
+            v[name] = vals[name] * math.exp(h) if log else vals[name] + h
+            rows.append((job, v, x0))
+            steps.append(h)
+        for j in range(x0.shape[1]):
+            x1 = x0.copy()
+            h = 1e-6 * max(float(job.x0_scale[j]), 1e-12)
+            x1[:, j] += h
+            rows.append((job, vals, x1))
+            steps.append(h)
+        spans.append((first, np.asarray(steps)))
+    R = problem.residuals(problem.simulate(rows))  # (rows, m)
+    return [
+        _covariance(job, R[first : first + 1 + steps.size], steps)
+        for job, (first, steps) in zip(jobs, spans, strict=True)
+    ]
+
+
+def _covariance(job, R: np.ndarray, steps: np.ndarray) -> np.ndarray | None:
+    """One job's covariance from its residual ``R[0]`` and nudged residuals ``R[1:]``."""
+    n, nx = job.layout.n, np.asarray(job.x0).shape[1]
     if n == 0:
         return None
-    vals = job.values()
-    x0 = np.asarray(job.x0, dtype=float)
-    rows = [(job, vals, x0)]
-    steps = []
-    for name, log in zip(job.layout.names, job.layout.log, strict=True):
-        v = dict(vals)
-        h = 1e-6 if log else 1e-6 * max(abs(vals[name]), 1e-12)
-        v[name] = vals[name] * math.exp(h) if log else vals[name] + h
-        rows.append((job, v, x0))
-        steps.append(h)
-    nx = x0.shape[1]
-    for j in range(nx):
-        x1 = x0.copy()
-        h = 1e-6 * max(float(job.x0_scale[j]), 1e-12)
-        x1[:, j] += h
-        rows.append((job, vals, x1))
-        steps.append(h)
-    R = problem.residuals(problem.simulate(rows))  # (1 + n + nx, m)
     r = R[0]
-    J = ((R[1:] - r[None, :]) / np.asarray(steps)[:, None]).T  # (m, n + nx)
+    J = ((R[1:] - r[None, :]) / steps[:, None]).T  # (m, n + nx)
     ok = np.isfinite(r) & np.all(np.isfinite(J), axis=1)
     if ok.sum() <= n + nx + 2:
         return None
@@ -216,33 +228,52 @@ def _covariance(job, problem: _Problem) -> np.ndarray | None:
     return np.linalg.pinv(A) * s2 * (1 + rho) / (1 - rho)
 
 
-def _fit(
-    model, rec: Recording, start: dict[str, float], max_iter: int, n_sub: int | None
-) -> _Fit:
-    """Fit the model's free parameters and initial state on ``rec`` from ``start``.
+def _fits(
+    model,
+    rec: Recording,
+    specs: Sequence[tuple[bool | Sequence[str], Sequence[dict[str, float]]]],
+    max_iter: int,
+    n_sub: int | None,
+) -> list[_Fit]:
+    """Fits of the model on ``rec``, all in one batch; the best start of each.
 
-    ``n_sub``: RK4 steps per sample (None: from the model's fastest mode).
+    ``specs``: ``(fitted, starts)`` per fit: the free parameters it fits (True: all,
+    False: none, or their names; the initial state always) and the values it starts
+    from (several: the one that ends lowest is kept). ``n_sub``: RK4 steps per
+    sample (None: from the model's fastest mode at the first start).
     """
     y = rec.y(model)
     w = 1.0 / np.maximum(np.std(y, axis=0), 1e-12)
     if n_sub is None:
-        n_sub = _choose_n_sub(model, rec, start)
+        n_sub = _choose_n_sub(model, rec, specs[0][1][0])
     problem = _Problem(model, rec, rec.n, w, n_sub)
-    jobs = _make_jobs(model, (), None, [{}], start, measured_scales(model, rec))
-    _lm(problem, jobs, max_iter, budgeted=False)
-    job = jobs[0]
-    vals = job.values()
-    Y = problem.simulate([(job, vals, job.x0)], n=rec.n)[0]
-    err = (Y - y) if y.shape[1] == 1 else (Y - y) * w
-    return _Fit(
-        values=vals,
-        cost=float(job.cost),
-        rmse=float(np.sqrt(np.mean(err**2))),
-        y=Y,
-        cov=_covariance(job, problem),
-        names=list(job.layout.names),
-        log=np.asarray(job.layout.log, dtype=bool),
-    )
+    scales = measured_scales(model, rec)
+    groups = [
+        [
+            job
+            for start in starts
+            for job in _make_jobs(model, (), None, [{}], start, scales, fit_free=fitted)
+        ]
+        for fitted, starts in specs
+    ]
+    _lm(problem, [j for g in groups for j in g], max_iter, budgeted=False)
+    best = [min(g, key=lambda j: j.cost) for g in groups]
+    Y = problem.simulate([(j, j.values(), j.x0) for j in best], n=rec.n)
+    fits = []
+    for job, Yj, cov in zip(best, Y, _covariances(best, problem), strict=True):
+        err = (Yj - y) if y.shape[1] == 1 else (Yj - y) * w
+        fits.append(
+            _Fit(
+                values=job.values(),
+                cost=float(job.cost),
+                rmse=float(np.sqrt(np.mean(err**2))),
+                y=Yj,
+                cov=cov,
+                names=list(job.layout.names),
+                log=np.asarray(job.layout.log, dtype=bool),
+            )
+        )
+    return fits
 
 
 def _interval(fit: _Fit, name: str, value: float) -> tuple[float, float, float]:
@@ -270,12 +301,15 @@ def _reference_fit(model, rec_ref: Recording, rec: Recording, decimation, max_it
     n_sub = sampling.n_sub if sampling.checked and decimation == sampling.factor else None
     if decimation > 1:
         rec_ref, rec = decimate(rec_ref, decimation), decimate(rec, decimation)
-    ref = _fit(model, rec_ref, _initial_values(model, rec_ref), max_iter, n_sub)
+    # from several starts, as a discovery's nominal fit: a switching model's fit from
+    # the file's values alone can stop in a local minimum
+    starts = nominal_starts(model, _initial_values(model, rec_ref))
+    (ref,) = _fits(model, rec_ref, [(True, starts)], max_iter, n_sub)
     if n_sub is not None:
         n_checked = converged_n_sub(model, rec_ref, ref.values, n_sub)
         if n_checked > n_sub:
             n_sub = n_checked
-            ref = _fit(model, rec_ref, ref.values, max_iter, n_sub)
+            (ref,) = _fits(model, rec_ref, [(True, [ref.values])], max_iter, n_sub)
     return model, rec_ref, rec, decimation, n_sub, ref
 
 
@@ -356,12 +390,14 @@ def diagnose_change(
     )
     ref_params = {k[2:]: v for k, v in ref.values.items() if k.startswith("p:")}
     start = {**_initial_values(model, rec), **{f"p:{k}": v for k, v in ref_params.items()}}
-    frozen = _model_with(model, [], ref_params)
-    same = _fit(frozen, rec, start, max_iter, n_sub)
-    full = _fit(_model_with(model, model.free, ref_params), rec, start, max_iter, n_sub)
+    # every fit on the new recording in one batch: the reference parameters (only the
+    # initial state fitted), all free parameters, and each alone
+    specs = [(False, [start]), (True, [start])] + [([p], [start]) for p in model.free]
+    same, full, *alones = _fits(
+        _model_with(model, model.free, ref_params), rec, specs, max_iter, n_sub
+    )
     rows = []
-    for name in model.free:
-        alone = _fit(_model_with(model, [name], ref_params), rec, start, max_iter, n_sub)
+    for name, alone in zip(model.free, alones, strict=True):
         share = 1.0 - alone.cost / same.cost if same.cost > 0 else 0.0
         value = alone.values[f"p:{name}"]
         r_lo, r_hi, r_sd = _interval(ref, name, ref_params[name])

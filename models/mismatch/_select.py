@@ -23,7 +23,7 @@ import numpy as np
 from pdmkit.models._optim import half_squares
 from pdmkit.models._residuals import dm_test, whiteness_test
 from pdmkit.models.mismatch._fit_problem import _Job, _lm, _make_jobs, _Problem
-from pdmkit.models.mismatch._recording import Recording, data_states
+from pdmkit.models.mismatch._recording import Recording, data_states, segments
 from pdmkit.models.ode import DERIVATIVE_ATTACH, PARAMETER_ATTACH
 
 __all__ = ["dm_test"]
@@ -103,11 +103,35 @@ def _validate_one(model, problem, rec_val, scored, x_scale, max_iter) -> None:
     else:  # the fitted pieces; samples between them are not simulated (NaN)
         Ytr = np.full((len(rows), rec.n, len(model.outputs)), np.nan)
         Ytr[:, problem.sample_index()] = problem.simulate(rows)
-    # the initial state is estimated on the record's first samples, then the whole
-    # record is simulated once: the initial state only shapes the start (a long record
-    # would otherwise be simulated at every iteration of this small fit)
+    # each validation recording's initial state is estimated on its first samples, then
+    # the whole recording is simulated once: the initial state only shapes the start (a
+    # long record would otherwise be simulated at every iteration of this small fit)
     n0 = VALIDATION_X0_SAMPLES if problem.n_pieces == 1 else problem.length
-    pv = _Problem(model, rec_val, min(rec_val.n, n0), w, problem.n_sub)
+    Y = np.concatenate(
+        [
+            _validation_outputs(model, seg, scored, w, problem.n_sub, n0, x_scale, max_iter)
+            for seg in segments(rec_val)
+        ],
+        axis=1,
+    )
+    y = rec_val.y(model)
+    fitted, y_fit = problem.sample_index(), rec.y(model)[problem.sample_index()]
+    for s, Yi, Yt in zip(scored, Y, Ytr, strict=True):
+        s.y_train = Yt
+        s.e_train = (Yt[fitted] - y_fit) * w
+        s.y_val = Yi
+        err = Yi - y
+        s.e_val = np.where(np.isfinite(err * w), err * w, 1e3)
+        s.rmse_val = _rmse(np.where(np.isfinite(err), err, np.inf), w)
+
+
+def _validation_outputs(model, rec_val, scored, w, n_sub, n0, x_scale, max_iter):
+    """Every scored structure simulated on one validation recording, ``(S, N, n_out)``.
+
+    Its initial state fitted on the first ``n0`` samples (from the data where they
+    measure a state, else from the structure's fitted initial state).
+    """
+    pv = _Problem(model, rec_val, min(rec_val.n, n0), w, n_sub)
     jobs = []
     for s in scored:
         x0 = data_states(model, rec_val, np.array([0]), s.job.x0[0])
@@ -123,16 +147,7 @@ def _validate_one(model, problem, rec_val, scored, x_scale, max_iter) -> None:
             x0=x0,
         )
     _lm(pv, jobs, max_iter, ftol=X0_FTOL, budgeted=False)
-    Y = pv.simulate([(j, j.values(), j.x0) for j in jobs], n=rec_val.n)
-    y = rec_val.y(model)
-    fitted, y_fit = problem.sample_index(), rec.y(model)[problem.sample_index()]
-    for s, Yi, Yt in zip(scored, Y, Ytr, strict=True):
-        s.y_train = Yt
-        s.e_train = (Yt[fitted] - y_fit) * w
-        s.y_val = Yi
-        err = Yi - y
-        s.e_val = np.where(np.isfinite(err * w), err * w, 1e3)
-        s.rmse_val = _rmse(np.where(np.isfinite(err), err, np.inf), w)
+    return pv.simulate([(j, j.values(), j.x0) for j in jobs], n=rec_val.n)
 
 
 def _friction_step(job: _Job, ts: float, n_sub: int) -> int:

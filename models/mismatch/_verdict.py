@@ -565,7 +565,7 @@ def add_warnings(verdict: dict, job: _Job, budget: dict | None) -> None:
 def _fit_summary(model, s, problem, nominal, base, final) -> dict:
     """RMSEs before / after (validation and training), free values, how it was fitted.
 
-    ``s`` holds the discovery's recordings and weights (``_discover._Setup``).
+    ``s`` holds the discovery's recordings and weights (``_setup.Setup``).
     """
     fitted = problem.sample_index()  # the training samples simulated
     train_err_nom = s.y_all[fitted] - base.y_train[fitted]
@@ -584,7 +584,7 @@ def _fit_summary(model, s, problem, nominal, base, final) -> dict:
             if final is not None
             else None
         ),
-        "validation": "separate recording" if s.rec_val is not None else "last third",
+        "validation": s.validation,
         "n_sub": problem.n_sub,
         "integrator": problem.model.integrator
         if problem.model.integrator != "auto"

@@ -17,8 +17,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from pdmkit.models.mismatch._cases import generate_concealed_case
-from pdmkit.models.mismatch._discover import choose_input_hold, discover_mismatch
-from pdmkit.models.mismatch._recording import make_recording
+from pdmkit.models.mismatch._discover import discover_mismatch
+from pdmkit.models.mismatch._recording import choose_input_hold, make_recording
 from pdmkit.models.mismatch._verdict import _signatures
 from pdmkit.models.ode import OdeModel, load_model_file, showcase_model
 from pdmkit.models.ode._simulate import simulate_ode
