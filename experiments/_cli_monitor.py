@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from pdmkit.experiments._cli_common import add_output_options, fraction, positive_int
+from pdmkit.experiments._monitor_db import db_target
 
 __all__ = ["add_parsers"]
 
@@ -69,6 +70,17 @@ def _unit_time(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _db_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--db",
+        type=db_target,
+        required=True,
+        metavar="PATH|URL",
+        help="the history: an SQLite file, or a database URL such as "
+        "postgresql+psycopg://user@host/db (SQLAlchemy; pip install 'pdmkit[db]')",
+    )
+
+
 def add_parsers(sub: argparse._SubParsersAction) -> None:
     """Register ``monitor`` and its sub-commands."""
     monitor = sub.add_parser("monitor", help="health baselines, alarms, asset histories")
@@ -113,7 +125,7 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     p = steps.add_parser("score", help="score a feature table into the history")
     p.add_argument("--model", type=Path, required=True, help="model.pdmkit of monitor fit")
     p.add_argument("--features", type=Path, required=True, help="feature table")
-    p.add_argument("--db", type=Path, required=True, help="the SQLite history file")
+    _db_option(p)
     _unit_time(p)
     add_output_options(p, "monitor_score")
     p.set_defaults(func=_cmd_score)
@@ -121,7 +133,7 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     p = steps.add_parser("watch", help="score every new table landing in a folder")
     p.add_argument("folder", type=Path, help="the folder to watch")
     p.add_argument("--model", type=Path, required=True, help="model.pdmkit of monitor fit")
-    p.add_argument("--db", type=Path, required=True, help="the SQLite history file")
+    _db_option(p)
     _unit_time(p)
     p.add_argument(
         "--interval", type=float, default=10.0, help="seconds between passes (default 10)"

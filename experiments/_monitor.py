@@ -389,9 +389,11 @@ def run_monitor_score(
         ``model.pdmkit`` from :func:`run_monitor_fit`.
     features : path
         The rows to judge (the model's indicator columns, matched by name).
-    db : path
-        The SQLite history (created when missing); a table already scored (same
-        SHA-256) is not added again.
+    db : path or str
+        The history: an SQLite file (created when missing) or a database URL
+        (``postgresql+psycopg://...``, through SQLAlchemy: ``pip install
+        'pdmkit[db]'``); a table already scored (same SHA-256) is not added again.
+        A URL's password is never written to the summary or the log.
     out_dir : path
         Receives ``summary.json`` and ``report.html``.
     unit, time : str
@@ -430,8 +432,9 @@ def run_monitor_score(
             scored = score_file(model, features, history, unit=unit, time=time)
             units = _units_summary(history)
             history_frame = history.history()
+            db_name = history.name  # a URL's password masked
         n = 0 if scored is None else len(scored)
-        summary = {"model_file": str(model_path), "db": str(db), "n_scored": n}
+        summary = {"model_file": str(model_path), "db": db_name, "n_scored": n}
         summary["units"] = units
         alarmed = {u: v["first_alarm"] for u, v in units.items() if v["first_alarm"]}
         say(
@@ -509,5 +512,5 @@ def watch_folder(
                     return done
                 _time.sleep(interval)
         except KeyboardInterrupt:
-            say(f"stopped; {done} file(s) scored into {db}")
+            say(f"stopped; {done} file(s) scored into {history.name}")
     return done

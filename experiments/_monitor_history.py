@@ -1,10 +1,15 @@
-"""Each asset's health history in an embedded SQLite database.
+"""Each asset's health history in an embedded SQLite database (or one named by a URL).
 
 A plant scores recordings as they arrive; the history must survive crashes and
 restarts and be readable by anyone with the ``sqlite3`` tool. Every scored file is
 recorded by its SHA-256 in the *same transaction* as its rows, so a file is scored
 exactly once: a crash before the commit leaves no trace of it, and a restart scores it
 again; after the commit, it is skipped.
+
+A plain path is an SQLite file (the standard library's ``sqlite3``); a database URL
+(``sqlite:///h.sqlite``, ``postgresql+psycopg://user@host/db``) goes through
+SQLAlchemy (``pdmkit[db]``) with the same schema, SQL and semantics
+(:mod:`pdmkit.experiments._monitor_db` is the layer under both).
 
 Schema (``docs/monitoring.md`` shows queries)::
 
@@ -24,11 +29,9 @@ single batch of the same rows gives.
 
 from __future__ import annotations
 
-import contextlib
 import datetime as _dt
 import json
 import os
-import sqlite3
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -37,40 +40,64 @@ import numpy as np
 import pandas as pd
 
 from pdmkit.errors import DataError
+from pdmkit.experiments._monitor_db import SQLAlchemyURL, SQLiteFile, is_url, mask_url
 from pdmkit.models.diagnosis import alarm_runs
 
 __all__ = ["SCHEMA_VERSION", "HealthHistory"]
 
 SCHEMA_VERSION = "1"
 
-_SCHEMA = """
-CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT);
-CREATE TABLE IF NOT EXISTS sources (
-    sha256 TEXT PRIMARY KEY, path TEXT, scored_at TEXT, n_rows INTEGER);
-CREATE TABLE IF NOT EXISTS scores (
-    unit TEXT NOT NULL, time REAL NOT NULL, time_text TEXT, member TEXT NOT NULL,
-    score REAL, health_index REAL, exceeds INTEGER, run_length INTEGER,
-    alarm INTEGER, top_indicators TEXT, source_sha256 TEXT,
-    PRIMARY KEY (unit, time, member));
-CREATE TABLE IF NOT EXISTS units (
-    unit TEXT PRIMARY KEY, last_time REAL, run_length INTEGER, alarm INTEGER,
-    first_alarm REAL, first_alarm_text TEXT);
-"""
+#: table -> its columns (name, kind: text, real or integer), in order
+TABLES: dict[str, tuple[tuple[str, str], ...]] = {
+    "meta": (("key", "text"), ("value", "text")),
+    "sources": (
+        ("sha256", "text"), ("path", "text"), ("scored_at", "text"),
+        ("n_rows", "integer"),
+    ),
+    "scores": (
+        ("unit", "text"), ("time", "real"), ("time_text", "text"), ("member", "text"),
+        ("score", "real"), ("health_index", "real"), ("exceeds", "integer"),
+        ("run_length", "integer"), ("alarm", "integer"), ("top_indicators", "text"),
+        ("source_sha256", "text"),
+    ),
+    "units": (
+        ("unit", "text"), ("last_time", "real"), ("run_length", "integer"),
+        ("alarm", "integer"), ("first_alarm", "real"), ("first_alarm_text", "text"),
+    ),
+}  # fmt: skip
+#: table -> its primary key
+KEYS = {
+    "meta": ("key",),
+    "sources": ("sha256",),
+    "scores": ("unit", "time", "member"),
+    "units": ("unit",),
+}
+#: the state a unit carries from batch to batch (``units`` less its key)
+_STATE = ("last_time", "run_length", "alarm", "first_alarm", "first_alarm_text")
 
 #: columns a batch handed to :meth:`HealthHistory.record` must have
 ROW_COLUMNS = ("unit", "time", "member", "score", "health_index", "exceeds")
 
 
 class HealthHistory:
-    """The health history of a fleet in one SQLite file.
+    """The health history of a fleet in one SQLite file, or a database by URL.
 
     Parameters
     ----------
-    path : path
-        The database file (created with its schema when missing).
+    path : path or str
+        The database file (created with its schema when missing), or a SQLAlchemy
+        database URL (a string with ``://``; needs ``pdmkit[db]``): the same tables
+        are created there when missing.
     model_sha256 : str, optional
         The health model's file hash: a database started with one model refuses
         rows scored by another (their thresholds differ), naming both.
+
+    Attributes
+    ----------
+    name : str
+        The file, or the URL with its password masked: what messages print.
+    path : pathlib.Path or None
+        The file (None for a URL).
 
     Examples
     --------
@@ -89,38 +116,49 @@ class HealthHistory:
     """
 
     def __init__(self, path: str | os.PathLike, model_sha256: str | None = None) -> None:
-        self.path = Path(path)
+        url = is_url(path)
+        backend = SQLAlchemyURL if url else SQLiteFile
+        self.path = None if url else Path(path)
+        self.name = mask_url(str(path)) if url else str(path)
         try:
-            self._db = sqlite3.connect(self.path, timeout=30.0, isolation_level=None)
-            self._db.executescript(_SCHEMA)
-            meta = dict(self._db.execute("SELECT key, value FROM meta").fetchall())
-        except sqlite3.DatabaseError as exc:
+            self._db = backend(path)
+            self.name = self._db.name
+            self._db.create(TABLES, KEYS)
+            with self._db.transaction():
+                self._check_meta(model_sha256)
+        except backend.errors as exc:
             raise DataError(
-                f"{self.path} is not a pdmkit health history (SQLite said: {exc})"
+                f"{self.name} is not a pdmkit health history ({backend.said} said: {exc})"
             ) from None
+
+    def _check_meta(self, model_sha256: str | None) -> None:
+        """Refuse another schema version or model; record ours where absent."""
+        meta = dict(self._db.query(self._db.sql("SELECT {key}, {value} FROM {meta}"))[1])
         version = meta.get("schema_version")
         if version is not None and version != SCHEMA_VERSION:
             raise DataError(
-                f"{self.path} holds schema version {version}; this pdmkit writes "
+                f"{self.name} holds schema version {version}; this pdmkit writes "
                 f"{SCHEMA_VERSION}"
             )
         known = meta.get("model_sha256")
         if known and model_sha256 and known != model_sha256:
             raise DataError(
-                f"{self.path} holds scores of the model {known[:12]}...; this model is "
+                f"{self.name} holds scores of the model {known[:12]}...; this model is "
                 f"{model_sha256[:12]}...: start another --db for another model"
             )
-        with self._transaction():
-            self._db.execute(
-                "INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)", (SCHEMA_VERSION,)
-            )
-            if model_sha256:
-                self._db.execute(
-                    "INSERT OR IGNORE INTO meta VALUES ('model_sha256', ?)", (model_sha256,)
-                )
+        mine = {"schema_version": SCHEMA_VERSION, "model_sha256": model_sha256}
+        new = [{"key": k, "value": v} for k, v in mine.items() if v and k not in meta]
+        self._db.execute(self._insert("meta"), new)
+
+    def _insert(self, table: str) -> str:
+        """``INSERT INTO table (every column) VALUES (:every column)``."""
+        names = [name for name, _ in TABLES[table]]
+        columns = ", ".join("{" + name + "}" for name in names)
+        values = ", ".join(":" + name for name in names)
+        return self._db.sql(f"INSERT INTO {{{table}}} ({columns}) VALUES ({values})")
 
     def close(self) -> None:
-        """Close the connection (the file stays as committed)."""
+        """Close the connection (the database stays as committed)."""
         self._db.close()
 
     def __enter__(self) -> HealthHistory:
@@ -129,21 +167,10 @@ class HealthHistory:
     def __exit__(self, *exc: Any) -> None:
         self.close()
 
-    @contextlib.contextmanager
-    def _transaction(self):
-        """One IMMEDIATE transaction: committed when the block ends, else rolled back."""
-        self._db.execute("BEGIN IMMEDIATE")
-        try:
-            yield
-        except BaseException:
-            self._db.execute("ROLLBACK")
-            raise
-        self._db.execute("COMMIT")
-
     def seen(self, sha256: str) -> bool:
         """Whether a file with this hash has been scored (and committed)."""
-        row = self._db.execute("SELECT 1 FROM sources WHERE sha256 = ?", (sha256,))
-        return row.fetchone() is not None
+        sql = self._db.sql("SELECT {sha256} FROM {sources} WHERE {sha256} = :sha256")
+        return bool(self._db.query(sql, {"sha256": sha256})[1])
 
     def record(
         self,
@@ -179,7 +206,7 @@ class HealthHistory:
             top_json=list(top_indicators) if top_indicators is not None else None
         )
         rows = rows.sort_values(["unit", "time"], kind="stable").reset_index(drop=True)
-        with self._transaction():
+        with self._db.transaction():
             if source is not None and self.seen(source[0]):
                 return None
             out = [self._record_unit(str(u), part, persistence, source) for u, part in
@@ -187,9 +214,10 @@ class HealthHistory:
             if source is not None:
                 now = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
                 self._db.execute(
-                    "INSERT INTO sources VALUES (?, ?, ?, ?)",
-                    (source[0], str(source[1]), now, len(rows)),
-                )
+                    self._insert("sources"),
+                    {"sha256": source[0], "path": str(source[1]), "scored_at": now,
+                     "n_rows": len(rows)},
+                )  # fmt: skip
         return (
             pd.concat(out).drop(columns="top_json")
             if out
@@ -197,12 +225,14 @@ class HealthHistory:
         )
 
     def _record_unit(self, unit: str, part: pd.DataFrame, persistence: int, source):
-        state = self._db.execute(
-            "SELECT last_time, run_length, alarm, first_alarm, first_alarm_text "
-            "FROM units WHERE unit = ?",
-            (unit,),
-        ).fetchone()
-        last, run, alarm, first, first_text = state or (-np.inf, 0, 0, None, None)
+        columns = ", ".join("{" + name + "}" for name in _STATE)
+        state = self._db.query(
+            self._db.sql(f"SELECT {columns} FROM {{units}} WHERE {{unit}} = :unit"),
+            {"unit": unit},
+        )[1]
+        last, run, alarm, first, first_text = (
+            state[0] if state else (-np.inf, 0, 0, None, None)
+        )
         times = part["time"].to_numpy(dtype=float)
         if times[0] <= last:
             raise DataError(
@@ -215,31 +245,36 @@ class HealthHistory:
         if alarms.any() and not alarm:
             k = int(np.argmax(alarms))
             first, first_text = float(times[k]), str(np.asarray(texts)[k])
-        run, alarm = int(runs[-1]), int(alarms[-1])
         part = part.assign(run_length=runs, alarm=alarms)
-        self._db.executemany(
-            "INSERT INTO scores VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        self._db.execute(
+            self._insert("scores"),
             [
-                (
-                    unit,
-                    float(r.time),
-                    str(text),
-                    str(r.member),
-                    float(r.score),
-                    float(r.health_index),
-                    int(bool(r.exceeds)),
-                    int(r.run_length),
-                    int(r.alarm),
-                    None if r.top_json is None else json.dumps(r.top_json),
-                    None if source is None else source[0],
-                )
+                {
+                    "unit": unit,
+                    "time": float(r.time),
+                    "time_text": str(text),
+                    "member": str(r.member),
+                    "score": float(r.score),
+                    "health_index": float(r.health_index),
+                    "exceeds": int(bool(r.exceeds)),
+                    "run_length": int(r.run_length),
+                    "alarm": int(r.alarm),
+                    "top_indicators": None
+                    if r.top_json is None
+                    else json.dumps(r.top_json),
+                    "source_sha256": None if source is None else source[0],
+                }
                 for r, text in zip(part.itertuples(), texts, strict=True)
             ],
         )
-        self._db.execute(
-            "INSERT OR REPLACE INTO units VALUES (?, ?, ?, ?, ?, ?)",
-            (unit, float(times[-1]), int(run), int(alarm), first, first_text),
-        )
+        carried = dict(zip(_STATE, (float(times[-1]), int(runs[-1]), int(alarms[-1]),
+                                    first, first_text), strict=True))  # fmt: skip
+        if state:  # check, then update or insert: portable where REPLACE is not
+            assign = ", ".join(f"{{{name}}} = :{name}" for name in _STATE)
+            update = f"UPDATE {{units}} SET {assign} WHERE {{unit}} = :unit"
+            self._db.execute(self._db.sql(update), {"unit": unit, **carried})
+        else:
+            self._db.execute(self._insert("units"), {"unit": unit, **carried})
         return part
 
     def history(self, unit: str | None = None) -> pd.DataFrame:
@@ -249,12 +284,12 @@ class HealthHistory:
         --------
         See :class:`HealthHistory`.
         """
-        query = "SELECT * FROM scores"
-        args: tuple = ()
-        if unit is not None:
-            query, args = query + " WHERE unit = ?", (str(unit),)
-        frame = pd.read_sql_query(query + " ORDER BY unit, time, member", self._db,
-                                  params=args)  # fmt: skip
+        where, args = ("", {}) if unit is None else (" WHERE {unit} = :unit",
+                                                     {"unit": str(unit)})  # fmt: skip
+        sql = self._db.sql("SELECT * FROM {scores}" + where +
+                           " ORDER BY {unit}, {time}, {member}")  # fmt: skip
+        columns, rows = self._db.query(sql, args)
+        frame = pd.DataFrame.from_records(rows, columns=columns, coerce_float=True)
         for col in ("exceeds", "alarm"):
             frame[col] = frame[col].astype(bool)
         return frame
@@ -268,6 +303,6 @@ class HealthHistory:
         --------
         See :class:`HealthHistory`.
         """
-        col = "first_alarm_text" if text else "first_alarm"
-        rows = self._db.execute(f"SELECT unit, {col} FROM units ORDER BY unit")
-        return {u: v for u, v in rows.fetchall()}
+        col = "{first_alarm_text}" if text else "{first_alarm}"
+        sql = self._db.sql("SELECT {unit}, " + col + " FROM {units} ORDER BY {unit}")
+        return dict(self._db.query(sql)[1])

@@ -76,5 +76,5 @@ def test_torch_and_dask_are_extras():
     assert "torch" not in core and "dask" not in core
     assert any(r.startswith("torch") for r in extras["neural"])
     assert any(r.startswith("dask[distributed]") for r in extras["dask"])
-    assert extras["all"] == ["pdmkit[neural,dask,designer]"]
+    assert extras["all"] == ["pdmkit[neural,dask,designer,db]"]
     assert "pdmkit[all]" in extras["dev"]  # make test runs the whole suite
