@@ -379,7 +379,7 @@ def _fd_rows(job: _Job, theta: np.ndarray, x0: np.ndarray):
             rows.append((job, job.values(th2), x0))
     dx = None
     if job.fit_x0:
-        dx = 1e-6 * np.maximum(np.abs(x0), job.x0_scale[None, :])
+        dx = X0_FD_REL * np.maximum(np.abs(x0), job.x0_scale[None, :])
         vals = job.values(theta)
         for j in range(x0.shape[1]):
             x2 = x0.copy()
@@ -419,7 +419,31 @@ def _fd_jacobians(R: np.ndarray, r0: int, job: _Job, steps, dx):
         D = D.reshape(nx, K, -1).transpose(1, 2, 0)  # (K, m / K, nx)
         Jx = D / dx[:, None, :]
         Jx = np.where(np.isfinite(Jx), Jx, 0.0)
+        Jx = _hold_negligible_states(Jx, r.reshape(K, -1), dx / X0_FD_REL)
     return r, J, Jx
+
+
+#: relative finite-difference step of the initial states
+X0_FD_REL = 1e-6
+#: an initial state whose typical change moves a piece's residual by less than this
+#: share of it is held (its Jacobian column zeroed)
+X0_NEGLIGIBLE = 1e-3
+
+
+def _hold_negligible_states(Jx: np.ndarray, r: np.ndarray, scale: np.ndarray):
+    """``Jx`` with the columns of states that hardly move the residual zeroed.
+
+    A state the data cannot see at a piece's start (a lever resting on its stop: its
+    velocity; a chamber's pressure the valve resets at once) has a column near zero,
+    and a Gauss-Newton step divides by it: LM then proposes an initial velocity of
+    metres per second, every trial fails and the parameters never move. Such a state
+    is held where its typical change (``scale``: its value or its measured scale)
+    moves the piece's residual by less than :data:`X0_NEGLIGIBLE` of its norm.
+    """
+    effect = np.linalg.norm(Jx, axis=1) * scale  # (K, nx)
+    size = np.linalg.norm(r, axis=1)[:, None]  # (K, 1)
+    held = effect < X0_NEGLIGIBLE * size
+    return np.where(held[:, None, :], 0.0, Jx)
 
 
 #: ``time.perf_counter()`` after which budgeted fits stop where they are (a discovery's
