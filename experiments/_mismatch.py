@@ -219,9 +219,16 @@ def _add_traces(rep: Report, result: MismatchResult, units: dict) -> None:
             ).strip(),
         )
         if "val_time" in result.signals:
+            several = result.fit.get("validation", "").endswith("recordings")
+            where = (
+                "the separate validation recordings, one after another (each from its "
+                "own initial state; the time axis continues across them)"
+                if several
+                else "the separate validation recording"
+            )
             rep.add_figure(
                 _validation_figure(result, o, units.get(o)),
-                caption=f"{o} on the separate validation recording. "
+                caption=f"{o} on {where}. "
                 + envelope_note(len(result.signals["val_time"])),
             )
 
