@@ -277,12 +277,26 @@ def _fits(
 
 
 def _interval(fit: _Fit, name: str, value: float) -> tuple[float, float, float]:
-    """``(low, high, sd)`` of a parameter, sd in the optimiser's space."""
+    """``(low, high, sd)`` of a parameter, sd in the optimiser's space.
+
+    A parameter the data do not determine (a huge sd) spans ``(0, inf)`` in log space.
+
+    Examples
+    --------
+    >>> fit = _Fit({}, 0.0, 0.0, None, np.diag([0.01, 1e6]), ["p:a", "p:b"],
+    ...            np.array([True, True]))
+    >>> [round(v, 3) for v in _interval(fit, "a", 2.0)]
+    [1.644, 2.433, 0.1]
+    >>> _interval(fit, "b", 2.0)[:2]
+    (0.0, inf)
+    """
     if fit.cov is None or f"p:{name}" not in fit.names:
         return (math.nan, math.nan, math.nan)
     i = fit.names.index(f"p:{name}")
     sd = math.sqrt(max(float(fit.cov[i, i]), 0.0))
     if fit.log[i]:
+        if _Z * sd > 700.0:  # exp overflows past ~709: not determined at all
+            return (0.0, math.inf, sd)
         return (value * math.exp(-_Z * sd), value * math.exp(_Z * sd), sd)
     return (value - _Z * sd, value + _Z * sd, sd)
 
