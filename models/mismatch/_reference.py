@@ -34,7 +34,13 @@ import numpy as np
 
 from pdmkit.errors import ModelError
 from pdmkit.models.mismatch._fit import _initial_values, measured_scales, nominal_starts
-from pdmkit.models.mismatch._fit_problem import _lm, _make_jobs, _Problem
+from pdmkit.models.mismatch._fit_problem import (
+    _fd_jacobians,
+    _fd_rows,
+    _lm,
+    _make_jobs,
+    _Problem,
+)
 from pdmkit.models.mismatch._recording import Recording, make_recording
 from pdmkit.models.mismatch._sampling import (
     _choose_n_sub,
@@ -173,53 +179,38 @@ class _Fit:
 def _covariances(jobs, problem: _Problem) -> list[np.ndarray | None]:
     """Covariance of each job's parameters (optimiser space), the initial state profiled.
 
-    A finite-difference Jacobian at the fitted point (one batch for every job: the
-    point, each parameter and each initial state nudged); ``s^2 (J^T J)^-1`` with the
-    initial state eliminated (Schur complement), inflated by the AR(1) factor of the
-    residual.
+    The fit's own finite-difference Jacobian at the fitted point (:func:`_fd_rows`, one
+    batch for every job); ``s^2 (J^T J)^-1`` with the initial state eliminated (Schur
+    complement), inflated by the AR(1) factor of the residual.
     """
-    rows, spans = [], []
+    rows, plans = [], []
     for job in jobs:
-        vals = job.values()
-        x0 = np.asarray(job.x0, dtype=float)
-        first = len(rows)
-        rows.append((job, vals, x0))
-        steps = []
-        for name, log in zip(job.layout.names, job.layout.log, strict=True):
-            v = dict(vals)
-            h = 1e-6 if log else 1e-6 * max(abs(vals[name]), 1e-12)
-            v[name] = vals[name] * math.exp(h) if log else vals[name] + h
-            rows.append((job, v, x0))
-            steps.append(h)
-        for j in range(x0.shape[1]):
-            x1 = x0.copy()
-            h = 1e-6 * max(float(job.x0_scale[j]), 1e-12)
-            x1[:, j] += h
-            rows.append((job, vals, x1))
-            steps.append(h)
-        spans.append((first, np.asarray(steps)))
-    R = problem.residuals(problem.simulate(rows))  # (rows, m)
-    return [
-        _covariance(job, R[first : first + 1 + steps.size], steps)
-        for job, (first, steps) in zip(jobs, spans, strict=True)
-    ]
+        frows, steps, dx = _fd_rows(job, job.theta, np.asarray(job.x0, dtype=float))
+        plans.append((len(rows), steps, dx))
+        rows += frows
+    R = problem.residuals(problem.simulate(rows))
+    out = []
+    for job, (r0, steps, dx) in zip(jobs, plans, strict=True):
+        r, J, Jx = _fd_jacobians(R, r0, job, steps, dx)
+        out.append(_covariance(job, r, J, None if Jx is None else Jx.reshape(r.size, -1)))
+    return out
 
 
-def _covariance(job, R: np.ndarray, steps: np.ndarray) -> np.ndarray | None:
-    """One job's covariance from its residual ``R[0]`` and nudged residuals ``R[1:]``."""
-    n, nx = job.layout.n, np.asarray(job.x0).shape[1]
+def _covariance(job, r, J, Jx) -> np.ndarray | None:
+    """One job's covariance from its residual ``r`` and Jacobians ``J``, ``Jx``."""
+    n = job.layout.n
+    nx = 0 if Jx is None else Jx.shape[1]
     if n == 0:
         return None
-    r = R[0]
-    J = ((R[1:] - r[None, :]) / steps[:, None]).T  # (m, n + nx)
+    J = J if Jx is None else np.hstack([J, Jx])
     ok = np.isfinite(r) & np.all(np.isfinite(J), axis=1)
     if ok.sum() <= n + nx + 2:
         return None
     r, J = r[ok], J[ok]
     Jp, Jx = J[:, :n], J[:, n:]
     A = Jp.T @ Jp
-    if job.fit_x0:
-        G = Jx.T @ Jx + 1e-12 * np.trace(Jx.T @ Jx) * np.eye(nx)
+    if job.fit_x0 and nx:
+        G = Jx.T @ Jx + (1e-12 * np.trace(Jx.T @ Jx) + 1e-300) * np.eye(nx)
         A = A - Jp.T @ Jx @ np.linalg.solve(G, Jx.T @ Jp)
     s2 = float(r @ r) / max(r.size - n - nx, 1)
     rho = float(np.clip(np.corrcoef(r[:-1], r[1:])[0, 1], 0.0, 0.999))
