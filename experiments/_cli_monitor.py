@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from pdmkit.experiments._cli_common import add_output_options, fraction, positive_int
+from pdmkit.experiments._messages import say
 from pdmkit.experiments._monitor_db import db_target
 
 __all__ = ["add_parsers"]
@@ -40,6 +41,7 @@ def _cmd_score(args: argparse.Namespace) -> int:
         unit=args.unit,
         time=args.time,
         json_path=args.json,
+        rul_model=args.rul,
     )
     return 0
 
@@ -56,7 +58,16 @@ def _cmd_watch(args: argparse.Namespace) -> int:
         interval=args.interval,
         once=args.once,
         pattern=args.pattern,
+        rul_model=args.rul,
     )
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from pdmkit.experiments._monitor_rul import export_history
+
+    n = export_history(args.db, args.csv)
+    say(f"{n} rows of {args.db} written to {args.csv} (unit, time, score, health_index)")
     return 0
 
 
@@ -81,11 +92,21 @@ def _db_option(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _rul_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--rul",
+        type=Path,
+        metavar="MODEL",
+        help="an RUL model (model.pdmkit of pdmkit rul, trained on health histories: "
+        "unit, time, score, health_index): each touched unit's RUL is kept in the history",
+    )
+
+
 def add_parsers(sub: argparse._SubParsersAction) -> None:
     """Register ``monitor`` and its sub-commands."""
     monitor = sub.add_parser("monitor", help="health baselines, alarms, asset histories")
     steps = monitor.add_subparsers(
-        dest="step", required=True, metavar="STEP", help="fit, score or watch"
+        dest="step", required=True, metavar="STEP", help="fit, score, watch or export"
     )
     p = steps.add_parser("fit", help="fit a health baseline on healthy rows")
     p.add_argument("--features", type=Path, required=True, help="feature table")
@@ -127,6 +148,7 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--features", type=Path, required=True, help="feature table")
     _db_option(p)
     _unit_time(p)
+    _rul_option(p)
     add_output_options(p, "monitor_score")
     p.set_defaults(func=_cmd_score)
 
@@ -142,4 +164,14 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--once", action="store_true", help="one pass over the folder, then stop"
     )
+    _rul_option(p)
     p.set_defaults(func=_cmd_watch)
+
+    p = steps.add_parser(
+        "export", help="the history as a table (unit, time, score, health_index)"
+    )
+    _db_option(p)
+    p.add_argument(
+        "--csv", type=Path, required=True, help="the CSV to write (must not exist)"
+    )
+    p.set_defaults(func=_cmd_export)

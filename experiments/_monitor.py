@@ -24,7 +24,12 @@ from pdmkit.ensembles import read_table
 from pdmkit.errors import DataError, ModelError
 from pdmkit.experiments._messages import finish, say
 from pdmkit.experiments._monitor_history import HealthHistory
-from pdmkit.experiments._monitor_report import alarm_table, plot_health_history
+from pdmkit.experiments._monitor_report import (
+    alarm_table,
+    plot_health_history,
+    plot_rul_history,
+)
+from pdmkit.experiments._monitor_rul import RULAttachment
 from pdmkit.experiments._report import Report
 from pdmkit.models.diagnosis import HealthModel, calibration_split
 
@@ -293,8 +298,12 @@ def _load_health_model(path: PathLike):
     return model
 
 
-def score_file(model, path: PathLike, history, *, unit: str | None, time: str):
-    """Score one feature table into ``history`` (None when it was scored before)."""
+def score_file(model, path: PathLike, history, *, unit: str | None, time: str, rul=None):
+    """Score one feature table into ``history`` (None when it was scored before).
+
+    ``rul`` (a :class:`~pdmkit.experiments._monitor_rul.RULAttachment`) adds each
+    touched unit's RUL after these rows, in the same transaction.
+    """
     sha = file_sha256(Path(path))
     if history.seen(sha):
         return None
@@ -318,17 +327,33 @@ def score_file(model, path: PathLike, history, *, unit: str | None, time: str):
             "exceeds": assessed["above_threshold"].to_numpy(),
         }
     )
+    answers = None
+    if rul is not None:
+        past = pd.concat([history.history(u) for u in pd.unique(rows["unit"])])
+        answers = rul.after(past, rows)
     return history.record(
         rows,
         persistence=int(model.persistence),
         source=(sha, str(path)),
         top_indicators=tops,
+        rul=answers,
     )
+
+
+def _rul_words(history, unit: str, rul) -> str:
+    """``; RUL 30 h [20, 45]`` for an alarm line (empty without an RUL answer)."""
+    ruls = history.rul_history(unit) if rul is not None else None
+    if ruls is None or ruls.empty:
+        return ""
+    last = ruls.iloc[-1]
+    lower, upper = ("open" if np.isnan(v) else f"{v:.3g}" for v in last[["lower", "upper"]])
+    return f"; RUL {last['rul']:.3g} {rul.time_unit or ''} [{lower}, {upper}]"
 
 
 def _units_summary(history) -> dict:
     frame = history.history()
     first = history.first_alarms(text=True)
+    ruls = history.rul_history().groupby("unit").tail(1).set_index("unit")
     out: dict[str, Any] = {}
     for u, part in frame.groupby("unit", sort=True):
         out[str(u)] = {
@@ -338,10 +363,16 @@ def _units_summary(history) -> dict:
             "last_health_index": float(part["health_index"].iloc[-1]),
             "alarm": bool(part["alarm"].iloc[-1]),
         }
+        if u in ruls.index:  # the last RUL answer (None for an open bound)
+            last = ruls.loc[u]
+            out[str(u)]["rul"] = {
+                k: None if np.isnan(last[k]) else float(last[k])
+                for k in ("rul", "lower", "upper", "level")
+            } | {"time": str(last["time_text"]), "note": str(last["note"])}
     return out
 
 
-def _score_report(frame: pd.DataFrame, summary: dict) -> Report:
+def _score_report(frame: pd.DataFrame, summary: dict, ruls=None) -> Report:
     report = Report("pdmkit monitor score")
     n_alarm = sum(1 for v in summary["units"].values() if v["first_alarm"])
     report.add_summary_box(
@@ -368,6 +399,15 @@ def _score_report(frame: pd.DataFrame, summary: dict) -> Report:
     report.add_table(
         alarm_table(frame), caption="Per unit: first alarm and the indicators that drove it"
     )
+    if ruls is not None and len(ruls):
+        level = float(ruls["level"].iloc[-1])
+        report.add_heading("Remaining useful life")
+        report.add_figure(
+            plot_rul_history(ruls, time_unit=summary.get("rul_time_unit")),
+            caption=f"Per unit: the attached RUL model's estimate after each scored "
+            f"file, with its {level:.0%} interval (an open bound is drawn to the "
+            "panel's edge)",
+        )
     return report
 
 
@@ -380,6 +420,7 @@ def run_monitor_score(
     unit: str | None = None,
     time: str,
     json_path: PathLike | None = None,
+    rul_model: PathLike | None = None,
 ) -> dict:
     """Score a feature table against a saved health model; add it to the history.
 
@@ -400,13 +441,19 @@ def run_monitor_score(
         As for :func:`run_monitor_fit`.
     json_path : path, optional
         Also write the summary here.
+    rul_model : path, optional
+        An RUL model (``model.pdmkit`` of ``pdmkit rul``) trained on health
+        histories (:func:`~pdmkit.experiments._monitor_rul.history_table`): each
+        touched unit's RUL after these rows is added to the history.
 
     Returns
     -------
     dict
         ``units``: per unit ``first_alarm`` (the time as the table writes it, or
-        None), ``n_rows``, ``last_health_index``, ``alarm``; ``n_scored`` (0 when
-        the file was scored before).
+        None), ``n_rows``, ``last_health_index``, ``alarm`` and, with an RUL model
+        in the history, ``rul`` (the last answer: ``rul``, ``lower``, ``upper``,
+        ``level``, ``time``, ``note``); ``n_scored`` (0 when the file was scored
+        before).
 
     Examples
     --------
@@ -426,15 +473,20 @@ def run_monitor_score(
     ('253.0', None)
     """
     model = _load_health_model(model_path)
-    inputs = [model_path, features, db]
+    rul = None if rul_model is None else RULAttachment(rul_model)
+    inputs = [model_path, features, db] + ([] if rul_model is None else [rul_model])
     with OutputRun(out_dir, "monitor-score", inputs=inputs, json_path=json_path) as run:
         with HealthHistory(db, model_sha256=file_sha256(Path(model_path))) as history:
-            scored = score_file(model, features, history, unit=unit, time=time)
+            scored = score_file(model, features, history, unit=unit, time=time, rul=rul)
             units = _units_summary(history)
             history_frame = history.history()
+            ruls = history.rul_history()
             db_name = history.name  # a URL's password masked
         n = 0 if scored is None else len(scored)
         summary = {"model_file": str(model_path), "db": db_name, "n_scored": n}
+        if rul is not None:
+            summary["rul_model_file"] = str(rul_model)
+            summary["rul_time_unit"] = rul.time_unit
         summary["units"] = units
         alarmed = {u: v["first_alarm"] for u, v in units.items() if v["first_alarm"]}
         say(
@@ -444,7 +496,7 @@ def run_monitor_score(
             + (": " + ", ".join(f"{u} since {t}" for u, t in alarmed.items()))
             * bool(alarmed)
         )
-        finish(run, summary, _score_report(history_frame, summary))
+        finish(run, summary, _score_report(history_frame, summary, ruls))
     return summary
 
 
@@ -458,13 +510,15 @@ def watch_folder(
     interval: float = 10.0,
     once: bool = False,
     pattern: str = "*.csv",
+    rul_model: PathLike | None = None,
 ) -> int:
     """Score every new feature table that lands in ``folder``, each once.
 
     Polls every ``interval`` seconds (``once``: one pass, then return); a file is
     taken when its size has not changed since the previous pass (still being
-    written otherwise). Each new alarm is logged as one line. Ctrl-C stops cleanly
-    between files. Returns the number of files scored.
+    written otherwise). Each new alarm is logged as one line (with the unit's RUL
+    when ``rul_model`` is attached, as in :func:`run_monitor_score`). Ctrl-C stops
+    cleanly between files. Returns the number of files scored.
 
     Examples
     --------
@@ -487,6 +541,7 @@ def watch_folder(
     if not 0.1 <= interval <= 3600:
         raise DataError(f"--interval must be 0.1 to 3600 seconds; got {interval}")
     model = _load_health_model(model_path)
+    rul = None if rul_model is None else RULAttachment(rul_model)
     folder = Path(folder)
     if not folder.is_dir():
         raise DataError(f"{folder} is not a folder to watch")
@@ -501,13 +556,14 @@ def watch_folder(
                         sizes[path] = size  # seen growing: take it next pass
                         continue
                     before = history.first_alarms()
-                    rows = score_file(model, path, history, unit=unit, time=time)
+                    rows = score_file(model, path, history, unit=unit, time=time, rul=rul)
                     if rows is None:
                         continue
                     done += 1
                     for u, t in history.first_alarms(text=True).items():
                         if t is not None and before.get(u) is None:
-                            say(f"ALARM {u} since {t} ({path.name})")
+                            tail = _rul_words(history, u, rul)
+                            say(f"ALARM {u} since {t} ({path.name}){tail}")
                 if once:
                     return done
                 _time.sleep(interval)

@@ -115,9 +115,13 @@ class SQLiteFile(_Backend):
     said = "SQLite"
     errors = (sqlite3.DatabaseError,)
 
-    def __init__(self, path: str | os.PathLike) -> None:
+    def __init__(self, path: str | os.PathLike, read_only: bool = False) -> None:
         self.name = str(path)
-        self._db = sqlite3.connect(path, timeout=30.0, isolation_level=None)
+        if read_only:  # never creates the file nor writes to it
+            uri = Path(path).resolve().as_uri() + "?mode=ro"
+            self._db = sqlite3.connect(uri, uri=True, timeout=30.0, isolation_level=None)
+        else:
+            self._db = sqlite3.connect(path, timeout=30.0, isolation_level=None)
 
     def create(self, tables: Tables, keys: Keys) -> None:
         """Create the tables that are missing (``CREATE TABLE IF NOT EXISTS``)."""
@@ -183,7 +187,8 @@ class SQLAlchemyURL(_Backend):
     (an absent driver module: :class:`~pdmkit.errors.MissingExtraError`).
     """
 
-    def __init__(self, url: str) -> None:
+    def __init__(self, url: str, read_only: bool = False) -> None:
+        # read_only: the history only reads (tables are not created, nothing written)
         self.name = mask_url(url)
         span = _password(url)
         secret = "" if span is None else url[span[0] : span[1]]
@@ -191,7 +196,12 @@ class SQLAlchemyURL(_Backend):
         self._sa = _import_sqlalchemy(self.name)
         self._conn: Any = None
         with self._errors("opening it"):
-            sqlite = self._sa.engine.make_url(url).get_backend_name() == "sqlite"
+            parsed = self._sa.engine.make_url(url)
+            sqlite = parsed.get_backend_name() == "sqlite"
+        if read_only and sqlite and parsed.database not in (None, "", ":memory:"):
+            if not Path(parsed.database).is_file():  # connecting would create it
+                raise DataError(f"{self.name}: no such health history file")
+        with self._errors("opening it"):
             args = {"connect_args": {"timeout": 30.0}} if sqlite else {}
             try:
                 self._engine = self._sa.create_engine(url, **args)

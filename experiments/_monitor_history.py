@@ -20,11 +20,19 @@ Schema (``docs/monitoring.md`` shows queries)::
            top_indicators TEXT, source_sha256 TEXT, PRIMARY KEY (unit, time, member))
     units(unit TEXT PRIMARY KEY, last_time REAL, run_length INTEGER, alarm INTEGER,
           first_alarm REAL, first_alarm_text TEXT)
+    rul(unit TEXT, time REAL, time_text TEXT, rul REAL, lower REAL, upper REAL,
+        level REAL, note TEXT, source_sha256 TEXT, PRIMARY KEY (unit, time))
 
 ``alarm`` latches once ``run_length`` (consecutive rows above the threshold) reaches
 the model's persistence; it is computed row by row in time order per unit, carried
 across batches by the ``units`` table, so scoring files one by one gives the history a
 single batch of the same rows gives.
+
+``rul`` holds, when an RUL model is attached (``pdmkit monitor score --rul``), each
+unit's remaining useful life after every scored file that added rows to it: the
+estimate at the unit's last time, its interval's bounds and level, in the RUL model's
+time unit. It is written in the same transaction as the rows it follows. (A version-1
+history from before this table gets it, empty, the first time it is opened.)
 """
 
 from __future__ import annotations
@@ -43,7 +51,7 @@ from pdmkit.errors import DataError
 from pdmkit.experiments._monitor_db import SQLAlchemyURL, SQLiteFile, is_url, mask_url
 from pdmkit.models.diagnosis import alarm_runs
 
-__all__ = ["SCHEMA_VERSION", "HealthHistory"]
+__all__ = ["RUL_COLUMNS", "SCHEMA_VERSION", "HealthHistory"]
 
 SCHEMA_VERSION = "1"
 
@@ -64,6 +72,11 @@ TABLES: dict[str, tuple[tuple[str, str], ...]] = {
         ("unit", "text"), ("last_time", "real"), ("run_length", "integer"),
         ("alarm", "integer"), ("first_alarm", "real"), ("first_alarm_text", "text"),
     ),
+    "rul": (
+        ("unit", "text"), ("time", "real"), ("time_text", "text"), ("rul", "real"),
+        ("lower", "real"), ("upper", "real"), ("level", "real"), ("note", "text"),
+        ("source_sha256", "text"),
+    ),
 }  # fmt: skip
 #: table -> its primary key
 KEYS = {
@@ -71,7 +84,10 @@ KEYS = {
     "sources": ("sha256",),
     "scores": ("unit", "time", "member"),
     "units": ("unit",),
+    "rul": ("unit", "time"),
 }
+#: columns of :meth:`HealthHistory.rul_history` (the ``rul`` table less its source)
+RUL_COLUMNS = tuple(name for name, _ in TABLES["rul"] if name != "source_sha256")
 #: the state a unit carries from batch to batch (``units`` less its key)
 _STATE = ("last_time", "run_length", "alarm", "first_alarm", "first_alarm_text")
 
@@ -91,6 +107,9 @@ class HealthHistory:
     model_sha256 : str, optional
         The health model's file hash: a database started with one model refuses
         rows scored by another (their thresholds differ), naming both.
+    read_only : bool, default False
+        Only read (a viewer): a missing file is an error instead of a new history,
+        no table is created and nothing is written.
 
     Attributes
     ----------
@@ -115,23 +134,37 @@ class HealthHistory:
     {'pump1': 3.0}
     """
 
-    def __init__(self, path: str | os.PathLike, model_sha256: str | None = None) -> None:
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        model_sha256: str | None = None,
+        *,
+        read_only: bool = False,
+    ) -> None:
         url = is_url(path)
         backend = SQLAlchemyURL if url else SQLiteFile
         self.path = None if url else Path(path)
         self.name = mask_url(str(path)) if url else str(path)
+        self.read_only = read_only
+        if read_only and not url and not Path(path).is_file():
+            raise DataError(f"{self.name}: no such health history file")
         try:
-            self._db = backend(path)
+            self._db = backend(path, read_only=read_only)
             self.name = self._db.name
-            self._db.create(TABLES, KEYS)
-            with self._db.transaction():
-                self._check_meta(model_sha256)
+            self._has_rul = True
+            if read_only:
+                self._check_meta(None, write=False)
+                self._has_rul = self._table_exists("rul")  # not in an older history
+            else:
+                self._db.create(TABLES, KEYS)
+                with self._db.transaction():
+                    self._check_meta(model_sha256)
         except backend.errors as exc:
             raise DataError(
                 f"{self.name} is not a pdmkit health history ({backend.said} said: {exc})"
             ) from None
 
-    def _check_meta(self, model_sha256: str | None) -> None:
+    def _check_meta(self, model_sha256: str | None, write: bool = True) -> None:
         """Refuse another schema version or model; record ours where absent."""
         meta = dict(self._db.query(self._db.sql("SELECT {key}, {value} FROM {meta}"))[1])
         version = meta.get("schema_version")
@@ -146,9 +179,18 @@ class HealthHistory:
                 f"{self.name} holds scores of the model {known[:12]}...; this model is "
                 f"{model_sha256[:12]}...: start another --db for another model"
             )
+        if not write:
+            return
         mine = {"schema_version": SCHEMA_VERSION, "model_sha256": model_sha256}
         new = [{"key": k, "value": v} for k, v in mine.items() if v and k not in meta]
         self._db.execute(self._insert("meta"), new)
+
+    def _table_exists(self, table: str) -> bool:
+        try:
+            self._db.query(self._db.sql(f"SELECT 1 FROM {{{table}}} WHERE 1 = 0"))
+        except (DataError, *type(self._db).errors):
+            return False
+        return True
 
     def _insert(self, table: str) -> str:
         """``INSERT INTO table (every column) VALUES (:every column)``."""
@@ -179,6 +221,7 @@ class HealthHistory:
         persistence: int,
         source: tuple[str, str] | None = None,
         top_indicators: Iterable[Any] | None = None,
+        rul: pd.DataFrame | None = None,
     ) -> pd.DataFrame | None:
         """Add scored rows (one transaction); return them with ``run_length``, ``alarm``.
 
@@ -194,6 +237,10 @@ class HealthHistory:
             returns None and adds nothing.
         top_indicators : iterable, optional
             Per row, what drove its score (stored as JSON).
+        rul : pandas.DataFrame, optional
+            The RUL model's answers after these rows, one per unit: columns
+            :data:`RUL_COLUMNS` (``time`` the unit's last time); recorded in the same
+            transaction.
 
         Returns
         -------
@@ -211,6 +258,8 @@ class HealthHistory:
                 return None
             out = [self._record_unit(str(u), part, persistence, source) for u, part in
                    rows.groupby("unit", sort=False)]  # fmt: skip
+            if rul is not None and len(rul):
+                self._record_rul(rul, source)
             if source is not None:
                 now = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
                 self._db.execute(
@@ -276,6 +325,54 @@ class HealthHistory:
         else:
             self._db.execute(self._insert("units"), {"unit": unit, **carried})
         return part
+
+    def _record_rul(self, rul: pd.DataFrame, source) -> None:
+        missing = [c for c in RUL_COLUMNS if c not in rul.columns]
+        if missing:
+            raise DataError(f"RUL rows to record lack the columns {missing}")
+
+        def number(v):
+            return None if v is None or not np.isfinite(float(v)) else float(v)
+
+        self._db.execute(
+            self._insert("rul"),
+            [
+                {"unit": str(r.unit), "time": float(r.time), "time_text": str(r.time_text),
+                 "rul": number(r.rul), "lower": number(r.lower), "upper": number(r.upper),
+                 "level": number(r.level), "note": str(r.note or ""),
+                 "source_sha256": None if source is None else source[0]}
+                for r in rul.itertuples()
+            ],
+        )  # fmt: skip
+
+    def rul_history(self, unit: str | None = None) -> pd.DataFrame:
+        """Each unit's RUL after every scored file (empty when no RUL model was attached).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns :data:`RUL_COLUMNS`, per unit in time order; a missing bound
+            (an interval open at that side) is NaN.
+
+        Examples
+        --------
+        >>> import tempfile, pathlib
+        >>> db = HealthHistory(pathlib.Path(tempfile.mkdtemp()) / "h.sqlite")
+        >>> db.rul_history().columns.tolist()
+        ['unit', 'time', 'time_text', 'rul', 'lower', 'upper', 'level', 'note']
+        """
+        where, args = ("", {}) if unit is None else (" WHERE {unit} = :unit",
+                                                     {"unit": str(unit)})  # fmt: skip
+        if not self._has_rul:
+            return pd.DataFrame({c: [] for c in RUL_COLUMNS})
+        names = ", ".join("{" + c + "}" for c in RUL_COLUMNS)
+        sql = self._db.sql(f"SELECT {names} FROM {{rul}}" + where +
+                           " ORDER BY {unit}, {time}")  # fmt: skip
+        columns, rows = self._db.query(sql, args)
+        frame = pd.DataFrame.from_records(rows, columns=columns, coerce_float=True)
+        for col in ("time", "rul", "lower", "upper", "level"):
+            frame[col] = pd.to_numeric(frame[col]).astype(float)
+        return frame
 
     def history(self, unit: str | None = None) -> pd.DataFrame:
         """The scored rows, per unit in time order (one unit, or all).

@@ -15,7 +15,7 @@ import pandas as pd
 
 from pdmkit._checks import parse_timestamps
 
-__all__ = ["alarm_table", "plot_health_history"]
+__all__ = ["alarm_table", "plot_health_history", "plot_rul_history"]
 
 #: units drawn in the figure (the least healthy first when there are more)
 MAX_UNITS_DRAWN = 12
@@ -91,6 +91,23 @@ def _units_to_draw(frame: pd.DataFrame) -> list:
     return sorted(least.index[:MAX_UNITS_DRAWN].tolist(), key=str)
 
 
+def _panels(units: list, ax, sharey: bool):
+    """(figure, one axes per unit): a grid of panels, or ``ax`` for every unit."""
+    import matplotlib.pyplot as plt
+
+    if ax is not None:
+        return ax.figure, [ax] * len(units)
+    ncols = 1 if len(units) < 4 else 2
+    nrows = max(1, -(-len(units) // ncols))
+    fig, axes = plt.subplots(
+        nrows, ncols, figsize=(6.0 * ncols, 2.2 * nrows), squeeze=False, sharey=sharey
+    )
+    axes = axes.ravel()
+    for extra in axes[len(units) :]:
+        extra.set_visible(False)
+    return fig, axes
+
+
 def plot_health_history(frame: pd.DataFrame, ax=None):
     """Each unit's health index over time, the threshold and its alarm.
 
@@ -120,20 +137,9 @@ def plot_health_history(frame: pd.DataFrame, ax=None):
     'health index (1 = healthy)'
     """
     import matplotlib.dates as mdates
-    import matplotlib.pyplot as plt
 
     units = _units_to_draw(frame)
-    if ax is None:
-        ncols = 1 if len(units) < 4 else 2
-        nrows = -(-len(units) // ncols)
-        fig, axes = plt.subplots(
-            nrows, ncols, figsize=(6.0 * ncols, 2.2 * nrows), squeeze=False, sharey=True
-        )
-        axes = axes.ravel()
-        for extra in axes[len(units) :]:
-            extra.set_visible(False)
-    else:
-        fig, axes = ax.figure, [ax] * len(units)
+    fig, axes = _panels(units, ax, sharey=True)
     for a, unit in zip(axes, units, strict=False):
         part = frame[frame["unit"] == unit]
         t, label = _axis_times(part)
@@ -153,6 +159,59 @@ def plot_health_history(frame: pd.DataFrame, ax=None):
             a.xaxis.set_major_formatter(mdates.ConciseDateFormatter(locator))
         if ax is None:
             a.set_title(f"{unit}" + (" (alarm)" if alarm.any() else ""), fontsize=9)
+    if ax is not None and units:
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def plot_rul_history(frame: pd.DataFrame, ax=None, time_unit: str | None = None):
+    """Each unit's RUL after every scored file, with its interval.
+
+    Parameters
+    ----------
+    frame : DataFrame
+        ``HealthHistory.rul_history()`` (``unit``, ``time``, ``time_text``, ``rul``,
+        ``lower``, ``upper``); a NaN bound (an open interval) is drawn to the
+        panel's edge.
+    ax : matplotlib Axes, optional
+        Draw all units on this one axes; by default one panel per unit (at most
+        ``MAX_UNITS_DRAWN``, the shortest last RUL first).
+    time_unit : str, optional
+        The RUL model's time unit, for the axis label.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import numpy as np, pandas as pd
+    >>> r = pd.DataFrame({"unit": ["a"] * 3, "time": [0.0, 1.0, 2.0],
+    ...     "time_text": ["0", "1", "2"], "rul": [9.0, 8.0, 7.5],
+    ...     "lower": [5.0, 6.0, np.nan], "upper": [12.0, 10.0, 9.0]})
+    >>> plot_rul_history(r, time_unit="h").axes[0].get_ylabel()
+    'RUL (h)'
+    """
+    last = frame.groupby("unit")["rul"].last().sort_values(kind="stable")
+    units = sorted(last.index[:MAX_UNITS_DRAWN].tolist(), key=str)
+    fig, axes = _panels(units, ax, sharey=False)
+    label = f"RUL ({time_unit})" if time_unit else "RUL"
+    for a, unit in zip(axes, units, strict=False):
+        part = frame[frame["unit"] == unit]
+        t, xlabel = _axis_times(part)
+        line = a.plot(t, part["rul"], lw=1.0, marker=".", ms=3, label=str(unit))[0]
+        top = np.nanmax(part[["rul", "upper"]].to_numpy(dtype=float)) * 1.1
+        lower = part["lower"].fillna(0.0)
+        upper = part["upper"].fillna(top if np.isfinite(top) else 0.0)
+        a.fill_between(t, lower, upper, color=line.get_color(), alpha=0.2, lw=0)
+        a.set_ylim(bottom=0.0)
+        a.set_ylabel(label)
+        a.set_xlabel(xlabel)
+        if ax is None:
+            a.set_title(str(unit), fontsize=9)
     if ax is not None and units:
         ax.legend(fontsize=8)
     fig.tight_layout()

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from starlette.applications import Starlette
+from starlette.concurrency import run_in_threadpool
 from starlette.requests import Request
 from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Route
@@ -48,6 +49,8 @@ __all__ = ["create_app", "plotly_js", "serve"]
 STATIC = Path(__file__).with_name("static")
 #: most rows of the member table sent at once
 MAX_ROWS = 500
+#: the endpoints that work without an ensemble (``--history`` alone)
+NO_SESSION = {"/api/state", "/api/history", "/api/history/unit"}
 
 
 def plotly_js() -> Path:
@@ -94,10 +97,10 @@ def _levels(column) -> list[str] | None:
 
 
 class _Api:
-    """The JSON endpoints of one session."""
+    """The JSON endpoints of one session (``session`` None: a monitoring history only)."""
 
-    def __init__(self, session: Session, token: str) -> None:
-        self.session, self.token = session, token
+    def __init__(self, session: Session | None, token: str, history: Any = None) -> None:
+        self.session, self.token, self.history = session, token, history
 
     def routes(self) -> list[Route]:
         get, post = ["GET"], ["POST"]
@@ -113,6 +116,8 @@ class _Api:
             Route("/api/export/model.pdmkit", self.model_file, methods=get),
             Route("/api/project", self.project, methods=get),
             Route("/api/project", self.open_project, methods=post),
+            Route("/api/history", self.history_units, methods=get),
+            Route("/api/history/unit", self.history_unit, methods=get),
         ]
 
     def guard(self, endpoint):
@@ -125,6 +130,11 @@ class _Api:
                 return _error(
                     "missing or wrong session token; open the URL pdmkit printed", 403
                 )
+            if self.session is None and request.url.path not in NO_SESSION:
+                return _error(
+                    "this designer shows a monitoring history only: start it with "
+                    "--dataset, --ensemble, --members or --features for the other steps"
+                )
             try:
                 return await endpoint(request)
             except (DataError, ValueError, TypeError, KeyError, OSError) as exc:
@@ -134,6 +144,9 @@ class _Api:
 
     async def state(self, request: Request) -> Response:
         s = self.session
+        history = None if self.history is None else self.history.name
+        if s is None:
+            return JSONResponse({"kind": None, "source": None, "history": history})
         conditions = s.source.conditions
         columns = [
             {
@@ -175,6 +188,7 @@ class _Api:
                 "train": None if s.result is None else train_summary(s.result),
                 "sensors": None if s.sensors is None else _rows(s.sensors.to_pandas()),
                 "jobs": [j.status() for j in s.jobs.values() if j.state == "running"],
+                "history": history,
             }
         )
 
@@ -302,6 +316,36 @@ class _Api:
         job = s.start("replay", project)
         return JSONResponse(job.status())
 
+    def _history(self) -> Any:
+        if self.history is None:
+            raise DataError(
+                "this designer was started without a monitoring history: "
+                "pdmkit designer --history PATH|URL"
+            )
+        return self.history
+
+    async def history_units(self, request: Request) -> Response:
+        """A page of the alarm table: ``?offset=&limit=&alarmed=1&contains=TEXT``."""
+        q = request.query_params
+        query = {
+            "offset": int(q.get("offset", 0)),
+            "limit": int(q.get("limit", 100)),
+            "alarmed_only": q.get("alarmed", "") in ("1", "true"),
+            "contains": q.get("contains", ""),
+        }
+        source = self._history()
+        return JSONResponse(await run_in_threadpool(lambda: source.units(**query)))
+
+    async def history_unit(self, request: Request) -> Response:
+        """One unit's health index (and RUL) over time: ``?unit=NAME&points=N``."""
+        unit = request.query_params.get("unit", "")
+        if not unit:
+            raise DataError("name the unit: /api/history/unit?unit=NAME")
+        points = request.query_params.get("points")
+        source = self._history()
+        args = (unit,) if points is None else (unit, int(points))
+        return JSONResponse(await run_in_threadpool(source.unit, *args))
+
 
 def _option_word(value: Any) -> str:
 
@@ -324,8 +368,13 @@ def _rows(frame) -> list[dict]:
     return [{str(k): _plain(v) for k, v in row.items()} for row in frame.to_dict("records")]
 
 
-def create_app(session: Session, token: str) -> Starlette:
+def create_app(session: Session | None, token: str, history: Any = None) -> Starlette:
     """The Starlette application of a designer session.
+
+    ``session`` None (``pdmkit designer --history`` alone) serves the History page
+    only; ``history`` is the monitoring history it shows (a
+    :class:`~pdmkit.experiments.designer._history.HistorySource`; that module is
+    imported only when one is named, as it loads scipy and scikit-learn).
 
     Examples
     --------
@@ -340,7 +389,7 @@ def create_app(session: Session, token: str) -> Starlette:
     >>> client.get("/api/state", headers={"x-designer-token": "t0k"}).json()["n_members"]
     2
     """
-    api = _Api(session, token)
+    api = _Api(session, token, history)
     index = (STATIC / "index.html").read_text(encoding="utf-8")
 
     async def page(request: Request) -> Response:
@@ -371,7 +420,7 @@ def create_app(session: Session, token: str) -> Starlette:
     return Starlette(routes=routes)
 
 
-def _session_from(args: argparse.Namespace) -> Session:
+def _session_from(args: argparse.Namespace) -> Session | None:
     project = None
     if getattr(args, "project", None) is not None:
         path = Path(args.project)
@@ -386,10 +435,12 @@ def _session_from(args: argparse.Namespace) -> Session:
         kind, value = given[0]
     elif project is not None:
         kind, value = project["source"]["kind"], project["source"]["value"]
+    elif getattr(args, "history", None) is not None:
+        return None  # the History page alone
     else:
         raise DataError(
             "name the members: --dataset NAME, --ensemble DIR, --members FILES, "
-            "--features FILE or --project FILE"
+            "--features FILE or --project FILE (or a monitoring history: --history PATH)"
         )
     value = value if kind != "members" else list(value)
     session = Session(open_source(kind, value, member_reading(args)))
@@ -417,20 +468,29 @@ def serve(args: argparse.Namespace) -> int:
     """
     import uvicorn
 
+    history = None
+    if getattr(args, "history", None) is not None:  # checked before serving
+        from pdmkit.experiments.designer._history import HistorySource
+
+        history = HistorySource(args.history)
     session = _session_from(args)
-    _warm_up()
+    if session is not None:
+        _warm_up()
     token = secrets.token_urlsafe(16)
-    app = create_app(session, token)
+    app = create_app(session, token, history)
     sock = socket.socket(socket.AF_INET6 if ":" in args.host else socket.AF_INET)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
         sock.bind((args.host, args.port))
+        sock.listen()  # before the URL is printed: a browser's first request waits
     except OSError as exc:
         raise DataError(f"cannot bind {args.host}:{args.port} ({exc.strerror})") from None
     port = sock.getsockname()[1]
     host = f"[{args.host}]" if ":" in args.host else args.host
     url = f"http://{host}:{port}/?token={token}"
-    print(f"pdmkit designer on {session.source.describe()}", flush=True)
+    shown = [session.source.describe()] if session is not None else []
+    shown += [] if history is None else [f"the monitoring history {history.name}"]
+    print(f"pdmkit designer on {' and '.join(shown)}", flush=True)
     print(f"pdmkit designer: open {url}  (Ctrl-C stops it)", flush=True)
     if args.host not in ("127.0.0.1", "localhost", "::1"):
         print(

@@ -30,6 +30,11 @@ def add_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     ...      "12000", "--frame", "0.1s", "--hop", "600"])
     >>> args.resample, args.frame, args.hop, str(args.labels)
     (12000.0, '0.1s', '600', 'labels.csv')
+
+    A monitoring history, alone or beside the members:
+
+    >>> designer.parse_args(["--history", "fleet.sqlite"]).history
+    'fleet.sqlite'
     """
     p = sub.add_parser("designer", help="the interactive feature designer in the browser")
     source = p.add_mutually_exclusive_group()
@@ -45,6 +50,13 @@ def add_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
         type=Path,
         help="a saved designer project (JSON): re-open it where it was (its members "
         "unless one of the options above names others)",
+    )
+    p.add_argument(
+        "--history",
+        metavar="PATH|URL",
+        help="a monitoring history (pdmkit monitor score --db): the History page shows "
+        "its alarms and each unit's health over time, read-only; alone or beside the "
+        "members",
     )
     p.add_argument("--host", default="127.0.0.1", help="address to bind (127.0.0.1)")
     p.add_argument("--port", type=int, default=0, help="port (0: a free one)")

@@ -73,7 +73,9 @@ def ensemble():
     )
 
 
-def _wait_for_workers(c, n=2, timeout=120.0):  # nannies restart slowly under load
+def _wait_for_workers(c, n=2, timeout=300.0):
+    # nannies restart killed workers slowly when the machine is loaded (a CI run beside
+    # other work took over 120 s); the tests that kill every worker need only one back
     c.wait_for_workers(n, timeout=timeout)
     deadline = time.monotonic() + timeout
     while len(c.scheduler_info()["workers"]) < n and time.monotonic() < deadline:
@@ -125,7 +127,7 @@ def test_a_resumable_run_survives_a_killed_worker(client, ensemble, tmp_path):
 
 
 def test_a_task_that_kills_every_worker_ends_in_one_error(client):
-    _wait_for_workers(client)
+    _wait_for_workers(client, n=1)
     start = time.monotonic()
     with warnings.catch_warnings(), pytest.raises(WorkerLostError) as info:
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -137,12 +139,12 @@ def test_a_task_that_kills_every_worker_ends_in_one_error(client):
     assert "smaller batch size" in message
     assert isinstance(info.value, ConnectionError)  # the CLI: one line, exit status 2
     assert time.monotonic() - start < 60
-    _wait_for_workers(client)  # the nannies started new workers: the cluster still works
+    _wait_for_workers(client, n=1)  # a nanny started a new worker: the cluster works
     assert dask_map(abs, [-1, -2], client=client) == [1, 2]
 
 
 def test_the_scheduler_giving_up_on_a_task_is_one_error(client):
-    _wait_for_workers(client)
+    _wait_for_workers(client, n=1)
     with warnings.catch_warnings(), pytest.raises(WorkerLostError) as info:
         warnings.simplefilter("ignore", RuntimeWarning)
         # a number is not scattered: the scheduler re-runs the task itself, up to
@@ -151,5 +153,5 @@ def test_the_scheduler_giving_up_on_a_task_is_one_error(client):
     message = str(info.value)
     assert "\n" not in message
     assert message.startswith("task 0 killed every Dask worker that ran it")
-    _wait_for_workers(client)
+    _wait_for_workers(client, n=1)
     assert dask_map(abs, [-3], client=client) == [3]

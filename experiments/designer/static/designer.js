@@ -342,10 +342,152 @@ async function openProject(file) {
   say(`project opened: ${job.result.replayed.join(", ") || "no steps"} repeated`);
 }
 
+// ------------------------------------------------------------------ history (pdmkit monitor)
+const HISTORY_PAGE = 50;
+const HISTORY_COLUMNS = [["unit", "unit"], ["rows", "rows"], ["first_alarm", "first alarm"],
+  ["health_index_at_alarm", "HI at alarm"], ["drivers_at_alarm", "drivers at alarm"],
+  ["last_health_index", "last HI"]];
+const monitor = { offset: 0, unit: null, timer: null, busy: false };
+
+function cellText(v) {
+  if (v === null || v === undefined) return "";
+  return typeof v === "number" && !Number.isInteger(v) ? String(Number(v.toPrecision(3))) : String(v);
+}
+
+function boundText(v) { return v === null ? "open" : String(Number(v.toPrecision(4))); }
+
+async function loadHistory() {
+  if (monitor.busy) return;
+  monitor.busy = true;
+  try {
+    const q = new URLSearchParams({ offset: monitor.offset, limit: HISTORY_PAGE,
+      alarmed: $("history-alarmed").checked ? "1" : "", contains: $("history-filter").value });
+    const res = await api(`/api/history?${q}`);
+    const withRul = Object.keys(res.last_rul).length > 0;
+    $("history-units").tHead.innerHTML = "<tr>" + HISTORY_COLUMNS.map((c) => `<th>${c[1]}</th>`).join("")
+      + (withRul ? "<th>last RUL [interval]</th>" : "") + "</tr>";
+    const tbody = $("history-units").tBodies[0];
+    tbody.innerHTML = "";
+    for (const row of res.rows) {
+      const tr = document.createElement("tr");
+      tr.dataset.unit = row.unit;
+      tr.classList.toggle("alarmed", row.first_alarm !== "");
+      tr.classList.toggle("picked", row.unit === monitor.unit);
+      for (const [key] of HISTORY_COLUMNS) {
+        const td = document.createElement("td"); td.textContent = cellText(row[key]); tr.appendChild(td);
+      }
+      if (withRul) {
+        const r = res.last_rul[row.unit], td = document.createElement("td");
+        td.textContent = r ? `${cellText(r.rul)} [${r.lower === null ? "open" : cellText(r.lower)}, ${r.upper === null ? "open" : cellText(r.upper)}]` : "";
+        tr.appendChild(td);
+      }
+      tr.addEventListener("click", guarded(() => drawUnit(row.unit)));
+      tbody.appendChild(tr);
+    }
+    $("history-count").textContent = `${res.n_alarmed} of ${res.n_units} units alarmed · ${res.history} read at ${new Date().toLocaleTimeString()}`;
+    const last = Math.min(res.total, monitor.offset + HISTORY_PAGE);
+    $("history-page").textContent = res.total ? `${monitor.offset + 1}–${last} of ${res.total}` : "none";
+    $("history-prev").disabled = monitor.offset === 0;
+    $("history-next").disabled = last >= res.total;
+    if (!monitor.unit && res.rows.length) monitor.unit = res.rows[0].unit;  // the first alarm
+    if (monitor.unit) await drawUnit(monitor.unit);
+  } finally { monitor.busy = false; }
+}
+
+async function drawUnit(unit) {
+  const s = await api(`/api/history/unit?unit=${encodeURIComponent(unit)}`);
+  monitor.unit = unit;
+  for (const tr of $("history-units").tBodies[0].rows) tr.classList.toggle("picked", tr.dataset.unit === unit);
+  const fa = s.first_alarm;
+  const custom = s.time_text.map((t, i) => [t, s.score[i] === null ? "–" : s.score[i].toPrecision(4), s.drivers[i] || "–"]);
+  const traces = [{ x: s.x, y: s.health_index, type: "scatter", mode: "lines", name: "health index",
+    line: { width: 1.2, color: "#1f77b4" }, customdata: custom,
+    hovertemplate: "%{customdata[0]}<br>health index %{y:.3f}<br>score %{customdata[1]}<br>drivers: %{customdata[2]}<extra></extra>" }];
+  const shapes = [{ type: "line", xref: "paper", x0: 0, x1: 1, y0: s.threshold, y1: s.threshold,
+    line: { color: "#333", width: 1, dash: "dash" } }];
+  if (fa) {
+    shapes.push({ type: "rect", xref: "x", yref: "paper", x0: fa.x, x1: s.x_end, y0: 0, y1: 1,
+      fillcolor: "#d62728", opacity: 0.12, line: { width: 0 }, layer: "below" });
+    traces.push({ x: [fa.x], y: [fa.health_index], type: "scatter", mode: "markers", name: "first alarm",
+      marker: { color: "#d62728", size: 9, symbol: "diamond" },
+      hovertemplate: `first alarm ${escapeHtml(fa.time_text)}<br>health index %{y:.3f}<br>drivers: ${escapeHtml(fa.drivers || "–")}<extra></extra>` });
+  }
+  const date = s.x_kind === "date";
+  const layout = { ...layoutBase, shapes, showlegend: false,
+    title: titled(`${unit}: health index` + (fa ? `, alarm since ${fa.time_text}` : ", no alarm")),
+    xaxis: { type: date ? "date" : "linear", title: { text: s.x_label }, range: [s.x[0], s.x_end] },
+    yaxis: { title: { text: "health index (1 = healthy)" }, range: [-0.02, 1.05] },
+    annotations: [{ xref: "paper", x: 1, y: s.threshold, yanchor: "bottom", xanchor: "right",
+      text: "alarm threshold (0.5)", showarrow: false, font: { size: 11, color: "#333" } }] };
+  await Plotly.react("plot-health", traces, layout, plotConfig);
+  $("plot-health").dataset.unit = unit;
+  $("health-note").textContent = `${s.n_rows} rows` + (s.decimated
+    ? `, ${s.n_points} drawn (min/max of each bucket, every alarm change kept)` : "")
+    + (fa ? `; shaded: in alarm from the first alarm on` : "");
+  await drawRul(unit, s.rul, date, [s.x[0], s.x_end], fa);
+}
+
+async function drawRul(unit, r, date, range, fa) {
+  $("plot-rul").hidden = !r;
+  if (!r) {
+    Plotly.purge("plot-rul");
+    $("rul-note").textContent = "No RUL estimates for this unit (no RUL model attached to the history).";
+    return;
+  }
+  const finite = [...r.rul, ...r.lower, ...r.upper].filter((v) => v !== null);
+  const top = 1.15 * Math.max(0, ...finite) || 1, bottom = Math.min(0, ...finite);
+  const level = r.level.find((v) => v !== null);
+  const band = level ? `${Math.round(100 * level)} % interval` : "interval";
+  const custom = r.time_text.map((t, i) => [t, boundText(r.lower[i]), boundText(r.upper[i]), r.note[i]]);
+  const traces = [
+    { x: r.x, y: r.lower.map((v) => (v === null ? bottom : v)), type: "scatter", mode: "lines",
+      line: { width: 0 }, showlegend: false, hoverinfo: "skip" },
+    { x: r.x, y: r.upper.map((v) => (v === null ? top : v)), type: "scatter", mode: "lines",
+      fill: "tonexty", fillcolor: "rgba(42,111,219,0.18)", line: { width: 0 }, name: band, hoverinfo: "skip" },
+    { x: r.x, y: r.rul, type: "scatter", mode: "lines+markers", name: "RUL", line: { color: "#2a6fdb" },
+      cliponaxis: false,
+      customdata: custom, hovertemplate: "%{customdata[0]}<br>RUL %{y:.4g}<br>interval %{customdata[1]} … %{customdata[2]}<br>%{customdata[3]}<extra></extra>" }];
+  const shapes = fa ? [{ type: "line", xref: "x", yref: "paper", x0: fa.x, x1: fa.x, y0: 0, y1: 1,
+    line: { color: "#d62728", width: 1 } }] : [];
+  const layout = { ...layoutBase, shapes, showlegend: false,
+    title: titled(`${unit}: remaining useful life (line) and its ${band} (shaded)`),
+    xaxis: { type: date ? "date" : "linear", title: { text: r.x_label }, range },
+    yaxis: { title: { text: "RUL (the RUL model's time unit)" }, range: [bottom, top] } };
+  await Plotly.react("plot-rul", traces, layout, plotConfig);
+  $("rul-note").textContent = `${r.n_rows} estimates, one after each scored file`
+    + (fa ? "; red line: the first alarm" : "") + ". An open bound (none computed) is drawn to the chart's edge.";
+}
+
+function showHistoryOnly(info) {
+  for (const tab of ["data", "indicators", "train", "export"]) $(`tab-${tab}`).hidden = true;
+  $("save-project").hidden = true;
+  $("open-project").parentElement.hidden = true;
+  $("source").textContent = `monitoring history ${info.history} (read-only)`;
+  say("Units by alarm, the earliest first; click a unit to draw its health index over time.");
+  switchTab("history");
+}
+
+function wireHistory() {
+  const reload = guarded(async () => { monitor.offset = 0; await loadHistory(); });
+  $("history-refresh").addEventListener("click", guarded(loadHistory));
+  $("history-alarmed").addEventListener("change", reload);
+  $("history-filter").addEventListener("change", reload);
+  $("history-prev").addEventListener("click", guarded(async () => { monitor.offset = Math.max(0, monitor.offset - HISTORY_PAGE); await loadHistory(); }));
+  $("history-next").addEventListener("click", guarded(async () => { monitor.offset += HISTORY_PAGE; await loadHistory(); }));
+  $("history-auto").addEventListener("change", () => {
+    clearInterval(monitor.timer);
+    monitor.timer = $("history-auto").checked ? setInterval(() => {
+      if ($("pane-history").classList.contains("active")) guarded(loadHistory)();
+    }, 10000) : null;
+  });
+}
+
 // ------------------------------------------------------------------ start
 async function refresh() {
   const info = await api("/api/state");
   state.info = info;
+  $("tab-history").hidden = !info.history;
+  if (info.kind === null) return info;  // --history alone: no ensemble
   state.filter = info.data.filter || {};
   $("source").textContent = info.source;
   const signals = info.signals.map((s) => s.name);
@@ -376,6 +518,7 @@ function switchTab(name) {
   for (const b of document.querySelectorAll(".tab")) b.classList.toggle("active", b.dataset.tab === name);
   for (const p of document.querySelectorAll(".pane")) p.classList.toggle("active", p.id === `pane-${name}`);
   if (name === "export") guarded(loadExport)();
+  if (name === "history") guarded(loadHistory)();
   window.dispatchEvent(new Event("resize"));
 }
 
@@ -419,8 +562,10 @@ function wire() {
 }
 
 wire();
+wireHistory();
 guarded(async () => {
   const info = await refresh();
+  if (info.kind === null) { showHistoryOnly(info); return; }
   if (info.kind !== "features") {
     await Promise.all([loadMembers(), plotSignals([])]);
   }
