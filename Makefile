@@ -29,7 +29,7 @@ demo: $(CORE_STAMP)
 	$(BIN)/pdmkit demo --out results/demo
 
 test: $(DEV_STAMP)
-	$(BIN)/python -m pytest -q -n auto --dist worksteal --durations=25
+	$(BIN)/python -m pytest -q -n auto --dist worksteal --durations=60
 
 lint: $(DEV_STAMP)
 	$(BIN)/ruff check . && $(BIN)/ruff format --check .

@@ -496,6 +496,16 @@ def _diagnosis_text(summary: dict) -> str:
     )
     if summary["verdict"] == "no change":
         return f"Verdict: no change. No free parameter must move significantly. {head}"
+    if summary["verdict"] == "unattributed":
+        first = sorted(summary["parameters"], key=lambda r: -r["share"])[:3]
+        shares = ", ".join(f"{r['parameter']} {r['share']:.2f}" for r in first)
+        return (
+            "Verdict: changed, not attributed. Refitting every free parameter lowers "
+            "the RMSE markedly, but no single parameter explains the change with a move "
+            "outside both fits' intervals: it is spread over several at once, or lies "
+            f"outside what the free parameters express (largest shares alone: {shares}). "
+            + head
+        )
     parts = [
         f"{c['parameter']} {c['reference']:.4g} -> {c['value']:.4g} "
         f"(95 % interval {c['interval'][0]:.4g} to {c['interval'][1]:.4g}; explains "

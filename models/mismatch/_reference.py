@@ -20,7 +20,10 @@ The method, for a model with free parameters ``theta``:
    mismatch and its refitted value lies outside the combined interval of both fits.
    The whole recording has changed only when refitting all parameters lowers the RMSE
    by at least ``min_gain``; otherwise the verdict is "no change". Changed
-   parameters are listed by the share they explain, most first.
+   parameters are listed by the share they explain, most first. A recording that has
+   changed while no single parameter qualifies is "unattributed": the change is
+   spread over several parameters at once, or lies outside what the free parameters
+   can express; it is never reported as "no change".
 """
 
 from __future__ import annotations
@@ -67,7 +70,9 @@ class ChangeResult:
     Attributes
     ----------
     verdict : str
-        ``"changed"`` or ``"no change"``.
+        ``"changed"``, ``"no change"``, or ``"unattributed"`` (refitting every free
+        parameter gains at least ``min_gain``, yet no single parameter explains the
+        change with a move outside both fits' intervals).
     changed_parameters : list of dict
         ``{"parameter", "reference", "value", "interval", "share"}``, most significant
         first: the reference fit's value, the value refitted alone on the new
@@ -437,7 +442,9 @@ def diagnose_change(
         if r["changed"]
     ]
     return ChangeResult(
-        verdict="changed" if changed else "no change",
+        verdict="changed"
+        if changed
+        else ("unattributed" if gain >= min_gain else "no change"),
         changed_parameters=changed,
         parameters=rows,
         rmse_reference_params=same.rmse,

@@ -115,3 +115,26 @@ def test_a_healthy_repeat_is_no_change(files, tmp_path):
     summary = _diagnose(files, tmp_path, "healthy_again")
     assert summary["verdict"] == "no change"
     assert summary["changed_parameters"] == []
+
+
+def test_a_change_no_single_parameter_carries_is_unattributed_not_no_change(files):
+    # the throttled record has changed (refitting gains far more than 20 %); when no
+    # parameter may be named (a share above 1 is impossible), the verdict must still
+    # say that it changed, and the text says so
+    from pdmkit.experiments._mismatch import _diagnosis_text
+    from pdmkit.models import diagnose_change
+    from pdmkit.models.ode import load_model_source
+
+    model = load_model_source(MODEL)
+    faulty = pd.read_csv(files / "upper_throttled.csv")
+    healthy = pd.read_csv(files / "healthy.csv")
+    res = diagnose_change(model, faulty, healthy, min_share=1.01)
+    assert res.rmse_refitted < 0.8 * res.rmse_reference_params
+    assert res.verdict == "unattributed" and res.changed_parameters == []
+    text = _diagnosis_text(
+        {"verdict": res.verdict, "parameters": res.parameters,
+         "fit": {"rmse_reference_params": res.rmse_reference_params,
+                 "rmse_refitted": res.rmse_refitted,
+                 "rmse_reference": res.rmse_reference}}
+    )  # fmt: skip
+    assert text.startswith("Verdict: changed, not attributed") and "k1" in text
