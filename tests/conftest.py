@@ -98,3 +98,18 @@ def headless_chrome():
         return webdriver.Chrome(service=Service(driver), options=options)
 
     return start
+
+
+def pytest_collection_modifyitems(config, items):
+    """Modules holding a ``slow`` test run first, each module's tests kept together.
+
+    The suite runs on every core (``-n auto --dist worksteal``): a worker that runs
+    out of tests takes half of another's queue, but never a test already running, so
+    a long test that starts last keeps one core busy while the others idle. Starting
+    the slow modules first leaves only short tests for the end. Within a module the
+    order is unchanged (its fixtures are set up once).
+    """
+    slow_modules = {item.module.__name__ for item in items
+                    if item.get_closest_marker("slow") is not None}  # fmt: skip
+    order = {id(item): k for k, item in enumerate(items)}
+    items.sort(key=lambda it: (it.module.__name__ not in slow_modules, order[id(it)]))

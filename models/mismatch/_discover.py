@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING, Any
 from pdmkit._progress import progress_bar
 from pdmkit.errors import ConvergenceWarning, ModelError
 from pdmkit.models.mismatch._candidates import SPARSE_ID, Scales, attach_candidates
-from pdmkit.models.mismatch._fit import nominal_starts
+from pdmkit.models.mismatch._fit import nominal_starts, polish_whole
 from pdmkit.models.mismatch._fit_problem import (
     DEADLINE,
     _effect_starts,
@@ -355,7 +355,7 @@ def _fit_nominal(model, s: Setup, data_name: str) -> tuple[_Problem, _Job]:
             f"{model.name}: the nominal model cannot be simulated on {data_name} (the "
             "simulation diverges or gives NaN); check PARAMS, INITIAL and the units."
         )
-    return problem, nom[0]
+    return problem, polish_whole(model, problem, nom[0], s.x_scale)
 
 
 def _screen(model, problem, sc, x_scale, nominal, cands, screen_iter: int, keep: int):

@@ -24,6 +24,7 @@ from pdmkit.models.mismatch._fit_problem import (
     _lm,
     _make_jobs,
     _Problem,
+    _Row,
 )
 from pdmkit.models.mismatch._recording import Recording, make_recording, state_reading
 from pdmkit.models.mismatch._sampling import (
@@ -144,6 +145,57 @@ def nominal_starts(model, values: dict[str, float]) -> list[dict[str, float]]:
             v[k] = v[k] * float(NOMINAL_SPREAD ** rng.uniform(-1.0, 1.0))
         starts.append(v)
     return starts
+
+
+#: Levenberg-Marquardt iterations of :func:`polish_whole`, and its relative decrease
+#: to stop at (it starts close: on EMPS 6 iterations land where 20 do)
+POLISH_ITER = 6
+POLISH_FTOL = 1e-3
+#: ... and the relative RMSE gain on the whole span it must make to be kept
+POLISH_GAIN = 1e-3
+
+
+def _whole_rmse(whole: _Problem, values: Mapping[str, float], x0: np.ndarray) -> float:
+    """Weighted RMSE of the whole fitted span simulated from one initial state."""
+    Y = whole.simulate([(_Row(), values, np.asarray(x0, dtype=float)[None, :])])[0]
+    err = (Y - whole.rec.y(whole.model)[: whole.n_fit]) * whole.weights
+    return float(np.sqrt(np.mean(err**2))) if np.all(np.isfinite(err)) else np.inf
+
+
+def polish_whole(model, problem: _Problem, job: _Job, x_scale) -> _Job:
+    """A fit made in pieces, refined on the whole span simulated from one start.
+
+    Fitting a long record in pieces (each from its own fitted initial state) keeps the
+    fit from diverging, but its optimum is not the whole record's: parameters under
+    which the pieces drift cheaply (the viscous friction of an axis whose position
+    integrates its speed) simulate a whole record worse, and a validation recording
+    is simulated whole. The fit is refined on the whole fitted span from the first
+    piece's state and kept when it simulates that span better (by
+    :data:`POLISH_GAIN`). Returns a job on ``problem`` with the refined parameters
+    (every piece's initial state refitted, the parameters held, then evaluated with
+    them free), or ``job`` unchanged.
+
+    Measured on EMPS (examples/emps/model_coulomb.py, 6 pieces of 2337 samples): an
+    outside whole-record fit (scipy) validates at 5.44 mm, the pieces' fit at 6.92 mm,
+    refined 5.36 mm (Fv 202 -> 212 N s/m, the outside fit's 214), for 34 s CPU more.
+    """
+    if problem.n_pieces < 2 or not np.isfinite(job.cost):
+        return job
+    whole = _Problem(model, problem.rec, problem.n_fit, problem.weights, problem.n_sub)
+    x0 = job.x0[0]
+    before = _whole_rmse(whole, job.values(), x0)
+    (refined,) = _make_jobs(model, (), None, [{}], job.values(), x_scale,
+                            tag=job.tag, x0=job.x0[:1])  # fmt: skip
+    _lm(whole, [refined], POLISH_ITER, ftol=POLISH_FTOL)
+    if not _whole_rmse(whole, refined.values(), refined.x0[0]) < before * (1 - POLISH_GAIN):
+        return job
+    (held,) = _make_jobs(model, (), None, [{}], refined.values(), x_scale,
+                         fit_free=False, tag=job.tag)  # fmt: skip
+    _lm(problem, [held], POLISH_ITER, ftol=POLISH_FTOL)  # the pieces' states, held
+    (out,) = _make_jobs(model, (), None, [{}], refined.values(), x_scale, tag=job.tag,
+                        x0=held.x0)  # fmt: skip
+    _lm(problem, [out], 0)  # its cost, residuals and Jacobian on the pieces
+    return out
 
 
 def fit_model(
