@@ -509,7 +509,9 @@ def _diagnosis_text(summary: dict) -> str:
     parts = [
         f"{c['parameter']} {c['reference']:.4g} -> {c['value']:.4g} "
         f"(95 % interval {c['interval'][0]:.4g} to {c['interval'][1]:.4g}; explains "
-        f"{100 * c['share']:.0f} % of the mismatch alone)"
+        f"{100 * c['share']:.0f} % of the mismatch alone; held at its reference value "
+        f"with every other refitted, {100 * c.get('necessity', 0.0):.0f} % is left "
+        "that its move removes)"
         for c in summary["changed_parameters"]
     ]
     return f"Verdict: changed. {'; '.join(parts)}. {head}"

@@ -17,10 +17,16 @@ The method, for a model with free parameters ``theta``:
    parameter refitted *alone* (``C_j``): ``1 - C_j / C0`` is the share of the mismatch
    that moving parameter ``j`` alone explains.
 3. A parameter has changed when moving it alone explains at least ``min_share`` of the
-   mismatch and its refitted value lies outside the combined interval of both fits.
+   mismatch and its refitted value lies outside the combined interval of both fits;
+   or when it is *necessary*: held at its reference value while every other free
+   parameter is refitted (cost ``C_-j``), at least ``min_share`` of that mismatch is
+   what its move removes (``1 - C1 / C_-j``), significantly (an F test, the sample
+   count shrunk by the residual's autocorrelation). A fault that also shifts the
+   stroke's timing (the rig's damper codes, recorded on another day than the
+   reference) is explained "alone" by a valve coefficient that moves both, while the
+   damper is the most necessary. Changed parameters are listed by necessity, then share.
    The whole recording has changed only when refitting all parameters lowers the RMSE
-   by at least ``min_gain``; otherwise the verdict is "no change". Changed
-   parameters are listed by the share they explain, most first. A recording that has
+   by at least ``min_gain``; otherwise the verdict is "no change". A recording that has
    changed while no single parameter qualifies is "unattributed": the change is
    spread over several parameters at once, or lies outside what the free parameters
    can express; it is never reported as "no change".
@@ -272,6 +278,40 @@ def _fits(
     return fits
 
 
+def _necessity(full: _Fit, helds, y, n_free: int, alpha: float) -> list[tuple]:
+    """Per free parameter ``(necessity, necessary)`` from the all-but-one refits.
+
+    ``necessity = 1 - C_all / C_held``: the part of the mismatch left with the parameter
+    held at its reference value (every other refitted) that moving it removes;
+    ``necessary`` when ``(C_held - C_all) / (C_all / dof)`` exceeds the F(1, dof)
+    quantile at ``1 - alpha``, ``dof`` the residual count shrunk by the AR(1) factor
+    ``(1 - rho) / (1 + rho)`` of the all-refitted residual, less the parameters.
+
+    Examples
+    --------
+    >>> full = _Fit({}, 1.0, 0.0, np.sin(np.arange(400.0))[:, None], None, [], None)
+    >>> held = [dataclasses.replace(full, cost=c) for c in (2.0, 1.001)]
+    >>> [(round(n, 3), bool(s)) for n, s in _necessity(full, held, 0 * full.y, 2, 0.05)]
+    [(0.5, True), (0.001, False)]
+    """
+    from scipy.stats import f as f_dist
+
+    r = (full.y - y).ravel() if full.y is not None else np.zeros(0)
+    rho = 0.0
+    if r.size > 2 and np.std(r) > 0:
+        rho = float(np.clip(np.corrcoef(r[:-1], r[1:])[0, 1], 0.0, 0.999))
+    dof = max(r.size * (1 - rho) / (1 + rho) - n_free, 1.0)
+    out = []
+    for held in helds:
+        if not (full.cost > 0 and math.isfinite(held.cost)):
+            out.append((0.0, False))
+            continue
+        necessity = 1.0 - full.cost / held.cost if held.cost > 0 else 0.0
+        F = max(held.cost - full.cost, 0.0) / (full.cost / dof)
+        out.append((necessity, bool(alpha > 0 and f_dist.sf(F, 1, dof) < alpha)))
+    return out
+
+
 def _interval(fit: _Fit, name: str, value: float) -> tuple[float, float, float]:
     """``(low, high, sd)`` of a parameter, sd in the optimiser's space.
 
@@ -332,6 +372,7 @@ def diagnose_change(
     min_share: float = 0.2,
     max_iter: int = 60,
     decimation: int | None = None,
+    alpha: float = 0.05,
 ) -> ChangeResult:
     r"""Which free parameters must move from a healthy reference to explain ``data``.
 
@@ -347,7 +388,14 @@ def diagnose_change(
         Relative RMSE gain that refitting every free parameter on ``data`` must make
         over the reference parameters for anything to count as changed.
     min_share : float, default 0.2
-        Share of the mismatch a parameter must explain alone to be listed as changed.
+        Share of the mismatch a parameter must explain alone (its move outside both
+        fits' intervals) to be listed as changed; or its *necessity*, with the test
+        below: held at its reference value while every other parameter is refitted,
+        this share of the mismatch left is what its move removes.
+    alpha : float, default 0.05
+        Level of the necessity test: holding the parameter leaves a significantly
+        larger mismatch (an F test on the cost ratio, with the sample count shrunk by
+        the residual's lag-1 autocorrelation). 0 switches the test off.
     max_iter : int, default 60
         Levenberg-Marquardt iterations per fit.
     decimation : int, optional
@@ -401,13 +449,17 @@ def diagnose_change(
     ref_params = {k[2:]: v for k, v in ref.values.items() if k.startswith("p:")}
     start = {**_initial_values(model, rec), **{f"p:{k}": v for k, v in ref_params.items()}}
     # every fit on the new recording in one batch: the reference parameters (only the
-    # initial state fitted), all free parameters, and each alone
-    specs = [(False, [start]), (True, [start])] + [([p], [start]) for p in model.free]
-    same, full, *alones = _fits(
-        _model_with(model, model.free, ref_params), rec, specs, max_iter, n_sub
+    # initial state fitted), all free parameters, each alone, and all but each
+    free = list(model.free)
+    specs = [(False, [start]), (True, [start])] + [([p], [start]) for p in free]
+    specs += [([q for q in free if q != p], [start]) for p in free] * (len(free) > 1)
+    same, full, *rest = _fits(
+        _model_with(model, free, ref_params), rec, specs, max_iter, n_sub
     )
+    alones, helds = rest[: len(free)], rest[len(free) :] or [same]
+    needed = _necessity(full, helds, rec.y(model), len(free), alpha)
     rows = []
-    for name, alone in zip(model.free, alones, strict=True):
+    for name, alone, (necessity, necessary) in zip(free, alones, needed, strict=True):
         share = 1.0 - alone.cost / same.cost if same.cost > 0 else 0.0
         value = alone.values[f"p:{name}"]
         r_lo, r_hi, r_sd = _interval(ref, name, ref_params[name])
@@ -427,20 +479,18 @@ def diagnose_change(
                 "interval": [lo, hi],
                 "reference_interval": [r_lo, r_hi],
                 "share": share,
+                "necessity": necessity,
                 "changed": False,
-                "_outside": outside,
+                "_named": (necessary and necessity >= min_share)
+                or (share >= min_share and outside),
             }
         )
     gain = 1.0 - full.rmse / same.rmse if same.rmse > 0 else 0.0
     for r in rows:
-        r["changed"] = bool(gain >= min_gain and r["share"] >= min_share and r["_outside"])
-        del r["_outside"]
-    rows.sort(key=lambda r: -r["share"])
-    changed = [
-        {k: r[k] for k in ("parameter", "reference", "value", "interval", "share")}
-        for r in rows
-        if r["changed"]
-    ]
+        r["changed"] = bool(gain >= min_gain and r.pop("_named"))
+    rows.sort(key=lambda r: (-r["necessity"], -r["share"]))
+    keys = ("parameter", "reference", "value", "interval", "share", "necessity")
+    changed = [{k: r[k] for k in keys} for r in rows if r["changed"]]
     return ChangeResult(
         verdict="changed"
         if changed

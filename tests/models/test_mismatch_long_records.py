@@ -141,7 +141,7 @@ def test_the_time_budget_returns_the_best_verdict_so_far_marked_so():
 
 
 def test_asymmetric_viscous_friction_is_named_and_fitted():
-    case = generate_concealed_case("asymmetric_friction", 0.3, seed=3, n_samples=2000)
+    case = generate_concealed_case("asymmetric_friction", 0.3, seed=3, n_samples=1200)
     res = discover_mismatch(case.model, case.data)
     assert (res.verdict["effect"], res.verdict["target"]) == ("asymmetric_friction", "v")
     assert res.verdict["params"]["d"] == pytest.approx(case.params["d"], rel=0.05)
