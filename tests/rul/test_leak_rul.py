@@ -124,11 +124,12 @@ def test_unknown_dataset_option_is_named(tmp_path):
 @pytest.mark.slow
 def test_linear_degradation_meets_the_issue_target_on_the_default_leak_runs(tmp_path):
     # issue 6: linear-degradation RUL within 10 % over the last half of life for at
-    # least 80 % of test units, on the default air-leak runs (20 training / 40 test
-    # units, seed 0; about 45 s, most of it simulating the twin). The reading held:
-    # every last-half prediction within 10 % of the unit's life (docs/rul.md).
+    # least 80 % of test units, on the default air-leak runs with 20 test units instead
+    # of 40 (seed 0; the documented run on all 40 is
+    # benchmarks/leak_rul.py, docs/rul.md; here 0.90 of the 20, 111 s CPU, almost all
+    # of it simulating the twin's 40 units, against 157 s for 60).
     # the three models share one simulated fleet (the cache)
-    cache = {"cache_dir": tmp_path / "cache"}
+    cache = {"cache_dir": tmp_path / "cache", "n_test": 20}
     summary = run_rul(
         "pneumatic-leak",
         "linear-degradation",
@@ -137,7 +138,7 @@ def test_linear_degradation_meets_the_issue_target_on_the_default_leak_runs(tmp_
         dataset_options=cache,
     )
     assert summary["simulation"]["walk_shape"] == 16.0
-    assert summary["n_units"] == 40
+    assert summary["n_units"] == 20
     assert summary["within_10pct"]["of_life"] >= 0.8
     # the residual and pairwise similarity models are reported beside it
     for model in ("similarity", "pairwise"):
@@ -148,4 +149,4 @@ def test_linear_degradation_meets_the_issue_target_on_the_default_leak_runs(tmp_
             n_trajectories=0,
             dataset_options=cache,
         )
-        assert other["n_units"] == 40 and np.isfinite(other["rmse"])
+        assert other["n_units"] == 20 and np.isfinite(other["rmse"])
