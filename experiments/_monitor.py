@@ -350,10 +350,10 @@ def _rul_words(history, unit: str, rul) -> str:
     return f"; RUL {last['rul']:.3g} {rul.time_unit or ''} [{lower}, {upper}]"
 
 
-def _units_summary(history) -> dict:
-    frame = history.history()
+def _units_summary(history, frame: pd.DataFrame, ruls: pd.DataFrame) -> dict:
+    """Per unit its alarm and last state; ``frame`` and ``ruls`` as the history reads."""
     first = history.first_alarms(text=True)
-    ruls = history.rul_history().groupby("unit").tail(1).set_index("unit")
+    ruls = ruls.groupby("unit").tail(1).set_index("unit")
     out: dict[str, Any] = {}
     for u, part in frame.groupby("unit", sort=True):
         out[str(u)] = {
@@ -478,9 +478,9 @@ def run_monitor_score(
     with OutputRun(out_dir, "monitor-score", inputs=inputs, json_path=json_path) as run:
         with HealthHistory(db, model_sha256=file_sha256(Path(model_path))) as history:
             scored = score_file(model, features, history, unit=unit, time=time, rul=rul)
-            units = _units_summary(history)
             history_frame = history.history()
             ruls = history.rul_history()
+            units = _units_summary(history, history_frame, ruls)
             db_name = history.name  # a URL's password masked
         n = 0 if scored is None else len(scored)
         summary = {"model_file": str(model_path), "db": db_name, "n_scored": n}

@@ -30,9 +30,6 @@ from pdmkit.experiments._rul import _predict_rul
 
 __all__ = ["RULAttachment", "export_history", "history_table"]
 
-#: the columns an attached RUL model sees (and :func:`history_table` exports)
-HISTORY_COLUMNS = ("unit", "time", "score", "health_index")
-
 
 def _table_times(text: pd.Series) -> pd.Series:
     """The time as the user's table wrote it: numbers where all are numbers."""

@@ -158,7 +158,7 @@ POLISH_GAIN = 1e-3
 def _whole_rmse(whole: _Problem, values: Mapping[str, float], x0: np.ndarray) -> float:
     """Weighted RMSE of the whole fitted span simulated from one initial state."""
     Y = whole.simulate([(_Row(), values, np.asarray(x0, dtype=float)[None, :])])[0]
-    err = (Y - whole.rec.y(whole.model)[: whole.n_fit]) * whole.weights
+    err = (Y - whole._y) * whole.weights  # the fitted span's data, read once
     return float(np.sqrt(np.mean(err**2))) if np.all(np.isfinite(err)) else np.inf
 
 
