@@ -28,8 +28,10 @@ venv: $(DEV_STAMP)
 demo: $(CORE_STAMP)
 	$(BIN)/pdmkit demo --out results/demo
 
+# bytecode is written even where the environment says not to (PYTHONDONTWRITEBYTECODE):
+# every test worker and every child process would otherwise compile pdmkit again
 test: $(DEV_STAMP)
-	$(BIN)/python -m pytest -q -n auto --dist worksteal --durations=60
+	PYTHONDONTWRITEBYTECODE= $(BIN)/python -m pytest -q -n auto --dist worksteal --durations=60
 
 lint: $(DEV_STAMP)
 	$(BIN)/ruff check . && $(BIN)/ruff format --check .

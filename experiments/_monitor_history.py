@@ -391,6 +391,43 @@ class HealthHistory:
             frame[col] = frame[col].astype(bool)
         return frame
 
+    def key_rows(self, unit: str) -> tuple[int, pd.DataFrame]:
+        """A unit's row count and its key rows: the first alarmed row and the last.
+
+        Three indexed queries instead of the unit's whole history: what an alarm
+        table needs of a unit (:func:`~pdmkit.experiments._monitor_report.alarm_table`
+        reads no other row), in :meth:`history`'s order and columns (one row when
+        the first alarm is the last row or the unit never alarmed).
+
+        Examples
+        --------
+        >>> import tempfile, pathlib
+        >>> db = HealthHistory(pathlib.Path(tempfile.mkdtemp()) / "h.sqlite")
+        >>> _ = db.record(pd.DataFrame({"unit": "p1", "time": [1.0, 2.0, 3.0, 4.0],
+        ...     "member": "m", "score": 0.0, "health_index": [0.9, 0.2, 0.1, 0.3],
+        ...     "exceeds": [False, True, True, True]}), persistence=1)
+        >>> n, rows = db.key_rows("p1")
+        >>> n, rows["time"].tolist(), rows["alarm"].tolist()
+        (4, [2.0, 4.0], [True, True])
+        """
+        args = {"unit": str(unit)}
+        count = self._db.sql("SELECT COUNT(*) FROM {scores} WHERE {unit} = :unit")
+        n = int(self._db.query(count, args)[1][0][0])
+        parts = []
+        for condition, order in (
+            (" AND {alarm} = 1", "{time}, {member}"),
+            ("", "{time} DESC, {member} DESC"),
+        ):
+            sql = self._db.sql("SELECT * FROM {scores} WHERE {unit} = :unit" + condition
+                               + " ORDER BY " + order + " LIMIT 1")  # fmt: skip
+            cols, found = self._db.query(sql, args)
+            parts.append(pd.DataFrame.from_records(found, columns=cols, coerce_float=True))
+        frame = pd.concat([p for p in parts if len(p)] or parts[:1], ignore_index=True)
+        frame = frame.drop_duplicates(["time", "member"]).reset_index(drop=True)
+        for col in ("exceeds", "alarm"):
+            frame[col] = frame[col].astype(bool)
+        return n, frame
+
     def first_alarms(self, text: bool = False) -> dict:
         """Unit -> the time of its first alarm (None when it never alarmed).
 

@@ -90,7 +90,8 @@ class RULAttachment:
     def __init__(self, model_file: str | os.PathLike) -> None:
         self.model_file = Path(model_file)
         self.sha256 = file_sha256(self.model_file)
-        model = load_model(self.model_file, expect_sha256=self.sha256)
+        # loaded once: every scored file asks the same model (its hash checked here)
+        self.model = model = load_model(self.model_file, expect_sha256=self.sha256)
         if not hasattr(model, "predict_trajectory"):
             raise ModelError(
                 f"--rul {model_file}: holds a {type(model).__name__}, not an RUL model; "
@@ -120,9 +121,9 @@ class RULAttachment:
         answer = _predict_rul(
             self.model_file,
             history_table(both),
-            expect_sha256=self.sha256,
             unit="unit",
             time="time",
+            pipeline=self.model,
         )
         self.time_unit = answer["time_unit"]
         last = both.sort_values("time", kind="stable").groupby("unit").tail(1)

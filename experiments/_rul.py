@@ -333,10 +333,18 @@ def _names_of_training(table: pd.DataFrame, pipeline, where: str) -> pd.DataFram
 
 
 def _predict_rul(
-    model_file, history, expect_sha256=None, unit=None, time=None, time_unit=None
+    model_file,
+    history,
+    expect_sha256=None,
+    unit=None,
+    time=None,
+    time_unit=None,
+    *,
+    pipeline=None,
 ) -> dict[str, Any]:
-
-    pipeline = load_model(model_file, expect_sha256=expect_sha256)
+    """:func:`predict_rul`'s answer; ``pipeline``: the file's model, already loaded."""
+    if pipeline is None:
+        pipeline = load_model(model_file, expect_sha256=expect_sha256)
     if not hasattr(pipeline, "predict_trajectory"):
         raise ModelError(
             f"{model_file}: holds a {type(pipeline).__name__}, not a RUL model; train "

@@ -68,10 +68,11 @@ def _records(frame: pd.DataFrame) -> list[dict]:
 def fleet_alarm_table(history: HealthHistory) -> pd.DataFrame:
     """``alarm_table(history.history())``, read one unit at a time.
 
-    Memory holds one unit's rows, not the fleet's (a million rows read at once take
-    about 1 GB): of each unit only its first alarmed row and its last row go to
-    :func:`~pdmkit.experiments._monitor_report.alarm_table` (all it reads of them),
-    and its ``rows`` column is then set to the units' row counts.
+    Of each unit only its row count, its first alarmed row and its last row are read
+    (:meth:`HealthHistory.key_rows`: all that
+    :func:`~pdmkit.experiments._monitor_report.alarm_table` reads of them), not its
+    history: a million rows read at once take about 1 GB. The ``rows`` column is
+    then set to the units' row counts.
 
     Examples
     --------
@@ -86,13 +87,11 @@ def fleet_alarm_table(history: HealthHistory) -> pd.DataFrame:
     """
     kept, counts = [], {}
     for unit in history.first_alarms():
-        part = history.history(unit)
-        if part.empty:
+        n, part = history.key_rows(unit)
+        if n == 0:
             continue
-        counts[str(unit)] = len(part)
-        alarmed = np.flatnonzero(part["alarm"].to_numpy(dtype=bool))
-        rows = {len(part) - 1, *alarmed[:1].tolist()}
-        kept.append(part.iloc[sorted(rows)])
+        counts[str(unit)] = n
+        kept.append(part)
     if not kept:
         return alarm_table(history.history())
     table = alarm_table(pd.concat(kept, ignore_index=True))

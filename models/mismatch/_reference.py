@@ -8,10 +8,10 @@ coefficient drops; a damper set harder: its damping rises), and whether any must
 The method, for a model with free parameters ``theta``:
 
 1. Fit ``theta`` and the initial state on the reference (simulation error,
-   Levenberg-Marquardt); its covariance from the Jacobian, inflated for the
-   residual's autocorrelation (an AR(1) factor ``(1 + rho) / (1 - rho)``: the residual
-   of a real recording is never white, and an interval from white-noise theory would
-   call every wiggle a change).
+   Levenberg-Marquardt); its covariance from the Jacobian, inflated by the
+   residual's autocorrelation time (:func:`effective_samples`: the residual of a real
+   recording is never white, and an interval from white-noise theory would call every
+   wiggle a change).
 2. On the new recording: the reference parameters with only the initial state
    refitted (cost ``C0``); every free parameter refitted (``C1``); and each free
    parameter refitted *alone* (``C_j``): ``1 - C_j / C0`` is the share of the mismatch
@@ -203,16 +203,25 @@ def _covariances(jobs, problem: _Problem) -> list[np.ndarray | None]:
     out = []
     for job, (r0, steps, dx) in zip(jobs, plans, strict=True):
         r, J, Jx = _fd_jacobians(R, r0, job, steps, dx)
-        out.append(_covariance(job, r, J, None if Jx is None else Jx.reshape(r.size, -1)))
+        Jx = None if Jx is None else Jx.reshape(r.size, -1)
+        out.append(_covariance(job, r, J, Jx, problem.weights.size))
     return out
 
 
-def _covariance(job, r, J, Jx) -> np.ndarray | None:
-    """One job's covariance from its residual ``r`` and Jacobians ``J``, ``Jx``."""
+def _covariance(job, r, J, Jx, n_out: int = 1) -> np.ndarray | None:
+    """One job's covariance from its residual ``r`` and Jacobians ``J``, ``Jx``.
+
+    ``s^2 (J^T J)^-1`` inflated by the residual's autocorrelation time: the samples
+    over :func:`effective_samples` of the residual (``n_out`` interleaved columns),
+    the same count the necessity test uses.
+    """
     n = job.layout.n
     nx = 0 if Jx is None else Jx.shape[1]
     if n == 0:
         return None
+    cols = r[: r.size - r.size % n_out].reshape(-1, n_out)
+    cols = cols[np.all(np.isfinite(cols), axis=1)]
+    tau = cols.shape[0] / effective_samples(cols) if cols.shape[0] else 1.0
     J = J if Jx is None else np.hstack([J, Jx])
     ok = np.isfinite(r) & np.all(np.isfinite(J), axis=1)
     if ok.sum() <= n + nx + 2:
@@ -224,10 +233,7 @@ def _covariance(job, r, J, Jx) -> np.ndarray | None:
         G = Jx.T @ Jx + (1e-12 * np.trace(Jx.T @ Jx) + 1e-300) * np.eye(nx)
         A = A - Jp.T @ Jx @ np.linalg.solve(G, Jx.T @ Jp)
     s2 = float(r @ r) / max(r.size - n - nx, 1)
-    rho = float(np.clip(np.corrcoef(r[:-1], r[1:])[0, 1], 0.0, 0.999))
-    if not math.isfinite(rho):
-        rho = 0.0
-    return np.linalg.pinv(A) * s2 * (1 + rho) / (1 - rho)
+    return np.linalg.pinv(A) * s2 * tau
 
 
 def _fits(
@@ -344,6 +350,22 @@ def _necessity(full: _Fit, helds, y, n_free: int, alpha: float) -> list[tuple]:
         F = max(held.cost - full.cost, 0.0) / (full.cost / dof)
         out.append((necessity, bool(alpha > 0 and f_dist.sf(F, 1, dof) < alpha)))
     return out
+
+
+def _restarted(model, rec: Recording, full: _Fit, nested, max_iter: int, n_sub) -> _Fit:
+    """The all-free fit, refitted from the best nested fit when one ended lower.
+
+    Every fit with some parameters held is nested in the all-free one, so none can end
+    below it at the optimum; one that does shows the all-free fit stopped short (a
+    switching model's cost is rough), and a necessity measured against it would be
+    negative. The all-free fit is then restarted from that nested fit's values (and its
+    own) and the lower end kept.
+    """
+    best = min(nested, key=lambda f: f.cost)
+    if not best.cost < full.cost * (1.0 - 1e-9):
+        return full
+    (again,) = _fits(model, rec, [(True, [best.values, full.values])], max_iter, n_sub)
+    return again if again.cost < full.cost else full
 
 
 def _interval(fit: _Fit, name: str, value: float) -> tuple[float, float, float]:
@@ -487,10 +509,10 @@ def diagnose_change(
     free = list(model.free)
     specs = [(False, [start]), (True, [start])] + [([p], [start]) for p in free]
     specs += [([q for q in free if q != p], [start]) for p in free] * (len(free) > 1)
-    same, full, *rest = _fits(
-        _model_with(model, free, ref_params), rec, specs, max_iter, n_sub
-    )
+    model_now = _model_with(model, free, ref_params)
+    same, full, *rest = _fits(model_now, rec, specs, max_iter, n_sub)
     alones, helds = rest[: len(free)], rest[len(free) :] or [same]
+    full = _restarted(model_now, rec, full, helds, max_iter, n_sub)
     needed = _necessity(full, helds, rec.y(model), len(free), alpha)
     rows = []
     for name, alone, (necessity, necessary) in zip(free, alones, needed, strict=True):

@@ -127,7 +127,7 @@ def test_identify_missing_column_is_a_clear_error(tmp_path, capsys):
 def test_mismatch_cli_names_the_hidden_friction(tmp_path, capsys):
     from pdmkit.models import generate_concealed_case
 
-    case = generate_concealed_case("coulomb_friction", 0.3, seed=4)
+    case = generate_concealed_case("coulomb_friction", 0.3, seed=4, n_samples=800)
     paths = case.write(tmp_path)
     out = tmp_path / "out"
     code = _cli(
