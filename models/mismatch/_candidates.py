@@ -301,8 +301,9 @@ def _attach_velocity_position(c, model, scales: Scales, clipped) -> list[Effect]
     for s, k in model.states.items():
         if k in _VEL:
             p = _position_partner(model, s, scales)
-            if p is not None:
-                out.append(Effect(c, s, p, {}))
+            if p is not None:  # the nominal spring on the pair: what play would sit in
+                spring = {"spring": float(scales.stiffness.get((s, p), 0.0))}
+                out.append(Effect(c, s, p, {**spring, **_force_gain(model, s, scales)}))
     return out
 
 

@@ -336,6 +336,30 @@ class SpringBacklash(Candidate):
         k = specs["kappa"].scale
         return [{"kappa": k, "b": 0.1 * xs}, {"kappa": k, "b": 0.3 * xs}]
 
+    #: the sentence on a plant without a spring on the pair (the term is then no play)
+    physics_no_spring = (
+        "A force along {partner} that grows over ±b = ±{b} of its zero and stays at "
+        "±{level} per unit mass beyond (fitted as `backlash`: the model has no spring "
+        "on {partner} for play to sit in, so the term is a position-dependent force, "
+        "such as a cable or hose, a seal or a guide whose drag varies along the travel)."
+    )
+
+    def explain(self, eff, values):
+        if eff.options.get("spring", 1.0) != 0.0:
+            return super().explain(eff, values)
+        level = float(values["kappa"]) * float(values["b"])
+        text = self.physics_no_spring.format(
+            partner=eff.partner, b=_g(values["b"]), level=_g(level)
+        )
+        gain = eff.options.get("force_gain")
+        if gain:
+            unit = eff.options.get("force_unit", "")
+            text += (
+                f" In the units of the input {eff.options['force_input']}: "
+                f"±{_g(level / gain)} {unit}."
+            )
+        return text
+
     def derivs(self, xp, eff, th, t, x, u, dx):
         b = th["b"]
         dx[eff.target] = dx[eff.target] + th["kappa"] * _sclip(

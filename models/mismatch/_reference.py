@@ -192,7 +192,7 @@ def _covariances(jobs, problem: _Problem) -> list[np.ndarray | None]:
 
     The fit's own finite-difference Jacobian at the fitted point (:func:`_fd_rows`, one
     batch for every job); ``s^2 (J^T J)^-1`` with the initial state eliminated (Schur
-    complement), inflated by the AR(1) factor of the residual.
+    complement), inflated by the residual's autocorrelation time.
     """
     rows, plans = [], []
     for job in jobs:

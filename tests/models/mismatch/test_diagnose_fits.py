@@ -89,3 +89,34 @@ def test_intervals_on_white_noise_are_white_noise_theory(tank):
     half = 0.5 * (hi - lo)
     assert half == pytest.approx(1.959964 * sd_a, rel=0.25)
     assert lo < 0.4 < hi
+
+
+def test_backlash_on_a_plant_without_a_spring_is_said_to_be_a_position_force():
+    """On an axis with no spring (EMPS), the `backlash` term adds kappa clip(q, ±b) to
+    the acceleration: no play, a force that depends on position; the sentence says so,
+    in N through the force input's gain (1 / m). On a mass-spring-damper it is play."""
+    from pdmkit.models.mismatch._candidates import _dummy_scales, attach_candidates
+    from pdmkit.models.ode import load_model_source, showcase_model
+
+    axis = load_model_source(
+        'import numpy as np\nSTATES = {"q": "position", "v": "velocity"}\n'
+        'INPUTS = {"F": "force"}\nOUTPUTS = ["q"]\nPARAMS = {"M": 95.0, "Fv": 200.0}\n'
+        'FREE = ["M"]\nINITIAL = {"q": 0.0, "v": 0.0}\n'
+        "def rhs(t, x, u, p):\n"
+        '    return {"q": x["v"], "v": (u["F"] - p["Fv"] * x["v"]) / p["M"]}\n'
+    )
+    import dataclasses
+
+    scales = _dummy_scales(axis)
+    scales = dataclasses.replace(scales, input_gain={("v", "F"): 1 / 95.0})
+    (eff,) = [e for e in attach_candidates(axis, scales, ["backlash"]) if e.target == "v"]
+    assert eff.options["spring"] == 0.0 and eff.options["force_input"] == "F"
+    text = eff.candidate.explain(eff, {"kappa": 0.957, "b": 0.0379})
+    assert "position-dependent force" in text and "play" not in text.split("(")[0]
+    assert "±3.45 N" in text  # 0.957 * 0.0379 * 95 kg
+    msd = showcase_model("mass_spring_damper")
+    scales = dataclasses.replace(_dummy_scales(msd), stiffness={("v", "x"): 4.0})
+    (eff,) = [e for e in attach_candidates(msd, scales, ["backlash"]) if e.target == "v"]
+    assert eff.options["spring"] == 4.0
+    text = eff.candidate.explain(eff, {"kappa": 2.0, "b": 0.1})
+    assert text.startswith("Backlash (play)")
