@@ -501,10 +501,10 @@ def _diagnosis_text(summary: dict) -> str:
         shares = ", ".join(f"{r['parameter']} {r['share']:.2f}" for r in first)
         return (
             "Verdict: changed, not attributed. Refitting every free parameter lowers "
-            "the RMSE markedly, but no single parameter explains the change with a move "
-            "outside both fits' intervals: it is spread over several at once, or lies "
-            f"outside what the free parameters express (largest shares alone: {shares}). "
-            + head
+            "the RMSE markedly, but no single parameter is necessary to the change "
+            "(each held, the others make up for it): it is spread over several at "
+            "once, or lies outside what the free parameters express (largest shares "
+            f"alone: {shares}). " + head
         )
     parts = [
         f"{c['parameter']} {c['reference']:.4g} -> {c['value']:.4g} "
@@ -557,9 +557,11 @@ def _run_diagnosis(model_path, data_path, reference_path, out_dir, json_path, ti
         rep.add_text(_diagnosis_text(summary))
         rep.add_text(
             f"Model {Path(model_path).name}; its free parameters were fitted on the "
-            "reference recording, then refitted on this one: all together, and each "
-            "alone (the share of the mismatch it explains). A parameter has changed "
-            "when it explains a large share alone and leaves both fits' 95 % intervals."
+            "reference recording, then refitted on this one: all together, each alone "
+            "(the share of the mismatch it explains), and all but each. A parameter "
+            "has changed when it is necessary: held at its reference value with every "
+            "other refitted, at least 20 % of the mismatch left is what its move "
+            "removes, significantly."
         )
         rep.add_heading("Both fits")
         units = output_units(model)
@@ -574,7 +576,8 @@ def _run_diagnosis(model_path, data_path, reference_path, out_dir, json_path, ti
             result.to_pandas(),
             caption="reference: fitted on the reference recording; value: refitted "
             "alone on this one, with its 95 % interval (low, high); share: the part of "
-            "the mismatch it explains alone.",
+            "the mismatch it explains alone; necessity: the part of the mismatch left "
+            "with it held (every other refitted) that its move removes.",
         )
         # the candidates of a diagnosis: every free parameter, changed or not
         run.add_csv("candidates.csv", result.to_pandas(), index=False)

@@ -16,15 +16,16 @@ The method, for a model with free parameters ``theta``:
    refitted (cost ``C0``); every free parameter refitted (``C1``); and each free
    parameter refitted *alone* (``C_j``): ``1 - C_j / C0`` is the share of the mismatch
    that moving parameter ``j`` alone explains.
-3. A parameter has changed when moving it alone explains at least ``min_share`` of the
-   mismatch and its refitted value lies outside the combined interval of both fits;
-   or when it is *necessary*: held at its reference value while every other free
-   parameter is refitted (cost ``C_-j``), at least ``min_share`` of that mismatch is
-   what its move removes (``1 - C1 / C_-j``), significantly (an F test, the sample
-   count shrunk by the residual's autocorrelation). A fault that also shifts the
-   stroke's timing (the rig's damper codes, recorded on another day than the
-   reference) is explained "alone" by a valve coefficient that moves both, while the
-   damper is the most necessary. Changed parameters are listed by necessity, then share.
+3. A parameter has changed when it is *necessary*: held at its reference value while
+   every other free parameter is refitted (cost ``C_-j``), at least ``min_share`` of
+   that mismatch is what its move removes (``1 - C1 / C_-j``), significantly (an F
+   test, the sample count shrunk by the residual's autocorrelation). With one free
+   parameter the necessity is its share. The share alone is reported, not used to
+   name: a parameter that explains much alone but that others can replace is a
+   mimic, not a finding (a fault that also shifts the stroke's timing, the rig's
+   damper codes recorded on another day than the reference, is explained "alone" by
+   a valve coefficient that moves both, while the damper is the most necessary).
+   Changed parameters are listed by necessity, then share.
    The whole recording has changed only when refitting all parameters lowers the RMSE
    by at least ``min_gain``; otherwise the verdict is "no change". A recording that has
    changed while no single parameter qualifies is "unattributed": the change is
@@ -77,12 +78,13 @@ class ChangeResult:
     ----------
     verdict : str
         ``"changed"``, ``"no change"``, or ``"unattributed"`` (refitting every free
-        parameter gains at least ``min_gain``, yet no single parameter explains the
-        change with a move outside both fits' intervals).
+        parameter gains at least ``min_gain``, yet no single parameter is necessary
+        to the change).
     changed_parameters : list of dict
-        ``{"parameter", "reference", "value", "interval", "share"}``, most significant
-        first: the reference fit's value, the value refitted alone on the new
-        recording, its 95 % interval, the share of the mismatch it explains alone.
+        ``{"parameter", "reference", "value", "interval", "share", "necessity"}``,
+        most necessary first: the reference fit's value, the value refitted alone on
+        the new recording, its 95 % interval, the share of the mismatch it explains
+        alone, and its necessity.
     parameters : list of dict
         The same for every free parameter (changed or not), with ``"changed"``.
     rmse_reference_params : float
@@ -444,9 +446,8 @@ def diagnose_change(
         Relative RMSE gain that refitting every free parameter on ``data`` must make
         over the reference parameters for anything to count as changed.
     min_share : float, default 0.2
-        Share of the mismatch a parameter must explain alone (its move outside both
-        fits' intervals) to be listed as changed; or its *necessity*, with the test
-        below: held at its reference value while every other parameter is refitted,
+        Necessity a parameter must reach to be listed as changed (with the test
+        below): held at its reference value while every other parameter is refitted,
         this share of the mismatch left is what its move removes.
     alpha : float, default 0.05
         Level of the necessity test: holding the parameter leaves a significantly
@@ -518,15 +519,8 @@ def diagnose_change(
     for name, alone, (necessity, necessary) in zip(free, alones, needed, strict=True):
         share = 1.0 - alone.cost / same.cost if same.cost > 0 else 0.0
         value = alone.values[f"p:{name}"]
-        r_lo, r_hi, r_sd = _interval(ref, name, ref_params[name])
-        lo, hi, sd = _interval(alone, name, value)
-        log = bool(ref.log[ref.names.index(f"p:{name}")])
-        if log and value * ref_params[name] > 0:
-            dist = abs(math.log(value / ref_params[name]))
-        else:
-            dist = abs(value - ref_params[name])
-        sd_both = math.hypot(r_sd, sd)
-        outside = bool(math.isfinite(sd_both) and dist > _Z * sd_both)
+        r_lo, r_hi, _ = _interval(ref, name, ref_params[name])
+        lo, hi, _ = _interval(alone, name, value)
         rows.append(
             {
                 "parameter": name,
@@ -537,8 +531,7 @@ def diagnose_change(
                 "share": share,
                 "necessity": necessity,
                 "changed": False,
-                "_named": (necessary and necessity >= min_share)
-                or (share >= min_share and outside),
+                "_named": necessary and necessity >= min_share,
             }
         )
     gain = 1.0 - full.rmse / same.rmse if same.rmse > 0 else 0.0
