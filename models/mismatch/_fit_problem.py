@@ -440,9 +440,10 @@ def _hold_negligible_states(Jx: np.ndarray, r: np.ndarray, scale: np.ndarray):
     is held where its typical change (``scale``: its value or its measured scale)
     moves the piece's residual by less than :data:`X0_NEGLIGIBLE` of its norm.
     """
-    effect = np.linalg.norm(Jx, axis=1) * scale  # (K, nx)
-    size = np.linalg.norm(r, axis=1)[:, None]  # (K, 1)
-    held = effect < X0_NEGLIGIBLE * size
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflowing norm: inf
+        effect = np.linalg.norm(Jx, axis=1) * scale  # (K, nx)
+        size = np.linalg.norm(r, axis=1)[:, None]  # (K, 1)
+        held = effect < X0_NEGLIGIBLE * size
     return np.where(held[:, None, :], 0.0, Jx)
 
 
