@@ -20,13 +20,18 @@ from pdmkit.errors import DataError
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["dm_test", "whiteness_test"]
+__all__ = ["dm_test", "effective_samples", "whiteness_test"]
 
 
 def _acf(r: np.ndarray, max_lag: int) -> np.ndarray:
+    """Autocorrelation at lags ``1..max_lag`` (zero past the record), by FFT."""
     r = r - r.mean()
-    d = float(np.dot(r, r)) or 1.0
-    return np.array([np.dot(r[k:], r[: r.size - k]) / d for k in range(1, max_lag + 1)])
+    n = r.size
+    f = np.fft.rfft(r, 2 * n)  # zero-padded: the linear, not circular, correlation
+    c = np.fft.irfft(f * np.conj(f), 2 * n)[: min(max_lag, n - 1) + 1]
+    out = np.zeros(max_lag)
+    out[: c.size - 1] = c[1:] / (float(c[0]) or 1.0)
+    return out
 
 
 def _xcf(r: np.ndarray, u: np.ndarray, max_lag: int) -> np.ndarray:
@@ -42,6 +47,40 @@ def _xcf(r: np.ndarray, u: np.ndarray, max_lag: int) -> np.ndarray:
         else:
             out.append(np.dot(r[: n + k], u[-k:]) / d)
     return np.array(out)
+
+
+def effective_samples(r: np.ndarray) -> float:
+    """Independent samples a residual is worth: its length over its autocorrelation time.
+
+    ``tau = 1 + 2 sum rho_k`` over the lags before the autocorrelation first drops to
+    zero (Geyer's initial positive sequence), per output column, the largest ``tau``
+    kept. A simulation's residual on a real recording is smooth: on the rig's lever
+    position (1000 samples at 100 Hz) its lag-1 correlation is 0.98, which an AR(1)
+    model reads as 10 independent samples; its autocorrelation is gone after 14 lags
+    (``tau`` 13: 75 samples).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> round(effective_samples(rng.normal(size=(4000, 1))) / 4000, 1)   # white: all
+    1.0
+    >>> smooth = np.convolve(rng.normal(size=4020), np.ones(20) / 20, "valid")[:, None]
+    >>> 100 < effective_samples(smooth) < 400   # a 20-sample moving average: ~ n / 20
+    True
+    """
+    r = np.asarray(r, dtype=float).reshape(len(r), -1)
+    n = r.shape[0]
+    if n < 3:
+        return float(n)
+    tau = 1.0
+    for col in r.T:
+        if not np.any(col - col.mean()):
+            continue
+        acf = _acf(col, n - 1)
+        stop = np.flatnonzero(acf <= 0.0)
+        k = int(stop[0]) if stop.size else n - 1
+        tau = max(tau, 1.0 + 2.0 * float(np.sum(acf[:k])))
+    return float(min(max(n / tau, 1.0), n))
 
 
 def whiteness_test(

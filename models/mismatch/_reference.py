@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pdmkit.errors import ModelError
+from pdmkit.models._residuals import effective_samples
 from pdmkit.models.mismatch._fit import _initial_values, measured_scales, nominal_starts
 from pdmkit.models.mismatch._fit_problem import (
     _fd_jacobians,
@@ -284,43 +285,6 @@ def _fits(
             )
         )
     return fits
-
-
-def effective_samples(r: np.ndarray) -> float:
-    """Independent samples a residual is worth: its length over its autocorrelation time.
-
-    ``tau = 1 + 2 sum rho_k`` over the lags before the autocorrelation first drops to
-    zero (Geyer's initial positive sequence), per output column, the largest ``tau``
-    kept. A simulation's residual on a real recording is smooth: on the rig's lever
-    position (1000 samples at 100 Hz) its lag-1 correlation is 0.98, which an AR(1)
-    model reads as 10 independent samples; its autocorrelation is gone after 14 lags
-    (``tau`` 13: 75 samples).
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> round(effective_samples(rng.normal(size=(4000, 1))) / 4000, 1)   # white: all
-    1.0
-    >>> smooth = np.convolve(rng.normal(size=4020), np.ones(20) / 20, "valid")[:, None]
-    >>> 100 < effective_samples(smooth) < 400   # a 20-sample moving average: ~ n / 20
-    True
-    """
-    r = np.asarray(r, dtype=float).reshape(len(r), -1)
-    n = r.shape[0]
-    if n < 3:
-        return float(n)
-    tau = 1.0
-    for col in r.T:
-        c = col - col.mean()
-        if not np.any(c):
-            continue
-        f = np.fft.rfft(c, 2 * n)
-        acf = np.fft.irfft(f * np.conj(f))[:n]
-        acf = acf / acf[0]
-        stop = np.flatnonzero(acf[1:] <= 0.0)
-        k = int(stop[0]) + 1 if stop.size else n
-        tau = max(tau, 1.0 + 2.0 * float(np.sum(acf[1:k])))
-    return float(min(max(n / tau, 1.0), n))
 
 
 def _necessity(full: _Fit, helds, y, n_free: int, alpha: float) -> list[tuple]:
