@@ -224,15 +224,26 @@ class Candidate(abc.ABC):
 
         When a force or torque input drives the velocity; ``{}`` otherwise.
         """
-        gain = eff.options.get("force_gain")
-        if not self.per_unit_mass or not gain:
+        if not self.per_unit_mass or force_units(eff, 1.0) is None:
             return {}
         out: dict = {
-            p: None if values[p] is None else float(values[p]) / gain
+            p: None if values[p] is None else force_units(eff, values[p])[0]
             for p in self.per_unit_mass
         }
         out["unit"] = eff.options.get("force_unit", "")
         return out
+
+
+def force_units(eff: Effect, per_unit_mass: float) -> tuple[float, str] | None:
+    """A per-unit-mass value in the units of the force input driving ``eff``'s target.
+
+    ``(value, unit)`` (N or N m; the gain is 1 / mass), None when no force or torque
+    input drives it.
+    """
+    gain = eff.options.get("force_gain")
+    if not gain:
+        return None
+    return float(per_unit_mass) / gain, eff.options.get("force_unit", "")
 
     def __repr__(self) -> str:
         return f"<Candidate {self.id} on {self.attach}>"

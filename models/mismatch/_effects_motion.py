@@ -18,6 +18,7 @@ from pdmkit.models.mismatch._candidate_base import (
     _lin,
     _log,
     _sclip,
+    force_units,
 )
 
 __all__ = [
@@ -190,12 +191,11 @@ class AsymmetricFriction(Candidate):
     def explain(self, eff, values):
         d2 = 2.0 * float(values["d"])
         text = self.physics.format(target=eff.target, d2=_g(d2))
-        gain = eff.options.get("force_gain")
-        if gain:  # per unit mass -> N per unit of speed (N s/m for a velocity in m/s)
-            unit = eff.options.get("force_unit", "")
+        forced = force_units(eff, d2)
+        if forced:  # per unit mass -> N per unit of speed (N s/m for a velocity in m/s)
             text += (
                 f" In the units of the input {eff.options['force_input']}: 2 d ≈ "
-                f"{_g(d2 / gain)} {unit} per unit of {eff.target}."
+                f"{_g(forced[0])} {forced[1]} per unit of {eff.target}."
             )
         return text
 
@@ -351,12 +351,11 @@ class SpringBacklash(Candidate):
         text = self.physics_no_spring.format(
             partner=eff.partner, b=_g(values["b"]), level=_g(level)
         )
-        gain = eff.options.get("force_gain")
-        if gain:
-            unit = eff.options.get("force_unit", "")
+        forced = force_units(eff, level)
+        if forced:
             text += (
                 f" In the units of the input {eff.options['force_input']}: "
-                f"±{_g(level / gain)} {unit}."
+                f"±{_g(forced[0])} {forced[1]}."
             )
         return text
 
