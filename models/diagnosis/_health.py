@@ -316,7 +316,9 @@ class HealthModel(BaseEstimator):
         self.conformal_quantile_ = q
         self.calibration_median_ = float(np.nanmedian(scores[cal_rows]))
         m = self.calibration_median_
-        self.threshold_ = m + float(self.margin) * (q - m)
+        # margin 1 is the conformal quantile itself (m + (q - m) may differ in the last bit)
+        k = float(self.margin)
+        self.threshold_ = q if k == 1.0 else m + k * (q - m)
         self.n_fit_, self.n_calibration_ = int(fit_rows.size), int(cal_rows.size)
         return self
 
