@@ -76,5 +76,6 @@ def test_torch_and_dask_are_extras():
     assert "torch" not in core and "dask" not in core
     assert any(r.startswith("torch") for r in extras["neural"])
     assert any(r.startswith("dask[distributed]") for r in extras["dask"])
-    assert extras["all"] == ["pdmkit[neural,dask,designer,db]"]
+    assert extras["all"] == ["pdmkit[neural,dask,designer,db,fast]"]
+    assert "numba" not in core and any(r.startswith("numba") for r in extras["fast"])
     assert "pdmkit[all]" in extras["dev"]  # make test runs the whole suite

@@ -35,6 +35,7 @@ import numpy as np
 
 from pdmkit.errors import ModelError
 from pdmkit.models._xp import is_torch
+from pdmkit.models.ode._compiled import CompiledModelFunction
 from pdmkit.models.ode._modelfile_checks import (
     _CONTRACT_HINT,
     INTEGRATORS,
@@ -440,6 +441,20 @@ class OdeModel:
             else:
                 self.output_fn = one
             self.evaluation = "per-sample"
+        self._compile_when_worth_it()
+
+    def _compile_when_worth_it(self) -> None:
+        """``rhs`` and ``outputs`` compiled with numba once they have cost enough time.
+
+        See :mod:`pdmkit.models.ode._compiled`: the functions run as written until
+        then, and stay so wherever the translation or the compiler does not take them.
+        """
+        layout = {"x": self.state_names, "u": self.input_names, "p": list(self.params)}
+        if not isinstance(self.rhs, CompiledModelFunction):
+            self.rhs = CompiledModelFunction(self.rhs, layout, self.state_names)
+        fn = self.output_fn
+        if fn is not None and not isinstance(fn, CompiledModelFunction):
+            self.output_fn = CompiledModelFunction(fn, layout, list(self.outputs))
 
     def _compare_elementwise(self, what, batched, one, xb, ub, pb) -> None:
         """Raise when a batched function's values differ from its per-member values."""

@@ -188,9 +188,18 @@ def integrate_batch(
         effects, theta, extra, states, Xl, Useq, inputs, B, xp, (model, P, float(t[0]))
     )
     f = _augmented_rhs(model, effects, theta, M, where, extra, P, B, len(Zl), xp)
-    stops = _stops(model, xp)
-    step = _rk4_records if method == "rk4" else _ros2_records
-    rec_x, rec_z = step(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold, stops)
+    rec_x, rec_z = None, []
+    compiled = getattr(model.rhs, "simulate", None)
+    plain = not Zl and not any(e.candidate.attach in DERIVATIVE_ATTACH for e in effects)
+    if compiled is not None and plain and hold in ("zoh", "foh") and xp.name == "numpy":
+        # the model's own equations alone: one compiled loop (models/ode/_compiled.py)
+        foh = hold == "foh" and bool(inputs)
+        useq_b = Useq if inputs else None
+        rec_x = compiled(method, Xl, useq_b, P, t, n_sub, h, foh, model.limits)
+    if rec_x is None:
+        stops = _stops(model, xp)
+        step = _rk4_records if method == "rk4" else _ros2_records
+        rec_x, rec_z = step(f, Xl, Zl, Useq, t, inputs, N, n_sub, h, hold, stops)
     Yt, Xt = _batch_outputs(
         model, effects, theta, where, extra, rec_x, rec_z, t_out, xp, (Useq, P, origin)
     )
@@ -460,7 +469,10 @@ def _batch_outputs(model, effects, theta, where, extra, rec_x, rec_z, t_out, xp,
     Returns ``(Y (B, N, n_out), X (B, N, nx))``.
     """
     states = model.state_names
-    Xt = xp.stack([xp.stack(xs, 1) for xs in rec_x], 1)  # (B, N, nx)
+    if isinstance(rec_x, np.ndarray):  # the compiled simulation's (B, N, nx)
+        Xt = rec_x
+    else:
+        Xt = xp.stack([xp.stack(xs, 1) for xs in rec_x], 1)  # (B, N, nx)
     Zt = xp.stack([xp.stack(zs, 1) for zs in rec_z], 1) if rec_z else None  # (B, N, m)
     outs = model.outputs
     if model.output_fn is None:
