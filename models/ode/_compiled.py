@@ -324,14 +324,19 @@ class CompiledModelFunction:
         shape = _batch_length(x, u)
         if shape is None:
             return None
-        n = int(np.prod(shape))
-        X = _stack([x[k] for k in self.layout["x"]], shape, n)
-        U = _stack([u[k] for k in self.layout["u"]], shape, n)
+        n = math.prod(shape)
+        try:
+            X = _stack([x[k] for k in self.layout["x"]], shape, n)
+            U = _stack([u[k] for k in self.layout["u"]], shape, n)
+        except KeyError:
+            return None  # the function as written says which name is missing
         P = self._params(p, shape, n)
         if X is None or U is None or P is None:
             return None
         out = np.empty((len(self.returns), n))
         self._kernel(float(t), X, U, P, out)  # numba's numpy error model: no warnings
+        if len(shape) == 1:
+            return dict(zip(self.returns, out, strict=True))
         return {k: out[j].reshape(shape) for j, k in enumerate(self.returns)}
 
     def _params(self, p, shape, n):
