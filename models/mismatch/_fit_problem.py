@@ -23,7 +23,7 @@ from pdmkit.models._optim import Evaluation, LMOptions, Trial, levenberg_marquar
 from pdmkit.models._xp import NumpyNamespace
 from pdmkit.models.mismatch._candidates import Effect, Scales
 from pdmkit.models.mismatch._recording import Recording, data_states
-from pdmkit.models.ode import integrate_batch
+from pdmkit.models.ode import DERIVATIVE_ATTACH, integrate_batch
 
 _NP = NumpyNamespace()
 
@@ -169,6 +169,14 @@ class _Row:
     effects: tuple = ()
 
 
+def _leaves_derivatives(job) -> bool:
+    """True when none of a job's effects adds a term or a state to the derivatives."""
+    return not any(
+        e.candidate.attach in DERIVATIVE_ATTACH or e.candidate.n_extra
+        for e in getattr(job, "effects", ())
+    )
+
+
 @dataclasses.dataclass
 class _Problem:
     """What every job of one batch shares: model, recording, fitted span, weights.
@@ -244,7 +252,24 @@ class _Problem:
         Without ``n``: the fitted pieces, ``(B, K * L, n_out)``, ``x0`` of each row
         ``(K, nx)``. With ``n``: the first ``n`` samples simulated whole from the first
         piece's initial state ``x0[0]``, ``(B, n, n_out)``.
+
+        With a compiled model (:mod:`pdmkit.models.ode._compiled`), rows whose effects
+        leave the derivatives alone (constants, input transforms, sensors without a
+        state of their own) are simulated apart from the others: their batch runs in
+        the compiled loop instead of numpy's integrator.
         """
+        plain = [r for r, row in enumerate(rows) if _leaves_derivatives(row[0])]
+        if not getattr(self.model.rhs, "compiled", False) or len(plain) in (0, len(rows)):
+            return self._simulate(rows, n, states)
+        taken = set(plain)
+        other = [r for r in range(len(rows)) if r not in taken]
+        parts = [self._simulate([rows[r] for r in g], n, states) for g in (plain, other)]
+        out = np.empty((len(rows), *parts[0].shape[1:]), dtype=parts[0].dtype)
+        out[plain], out[other] = parts
+        return out
+
+    def _simulate(self, rows: Sequence[tuple], n: int | None, states: bool):
+        """:meth:`simulate` of one batch."""
         model = self.model
         B = len(rows)
         union: list[Effect] = []

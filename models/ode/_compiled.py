@@ -196,6 +196,11 @@ class CompiledModelFunction:
         self.__wrapped__ = fn
         self.__name__ = getattr(fn, "__name__", "rhs")
 
+    @property
+    def compiled(self) -> bool:
+        """True once the compiled loops have taken over."""
+        return self._kernel is not None
+
     def __call__(self, t, x, u, p):
         if self._kernel is not None:
             out = self._run(t, x, u, p)

@@ -1,9 +1,10 @@
-"""Model files compiled with numba (models/ode/_compiled*.py).
+"""Model files compiled with numba (models/ode/_compiled*.py; the fit: _fit_problem.py).
 
 The translation of the source rig's model file in both styles (numpy and the thesis's
 math/if) gives the function's own values; the compiled RK4 and ROS2 loops repeat the
 numpy integrators; the compiled RK4 is checked against scipy's solve_ivp and against a
-closed-form fall onto a hard stop; what is not translated runs as written and says why.
+closed-form fall onto a hard stop; what is not translated runs as written and says why;
+a fit's rows without a term on a derivative run compiled beside the others, unchanged.
 """
 
 from __future__ import annotations
@@ -13,9 +14,13 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy.integrate import solve_ivp
 
+from pdmkit.models.mismatch._candidates import _dummy_scales, attach_candidates
+from pdmkit.models.mismatch._fit_problem import _lm, _make_jobs, _Problem
+from pdmkit.models.mismatch._setup import prepare
 from pdmkit.models.ode import OdeModel, load_model_file, simulate_ode
 from pdmkit.models.ode._compiled import CompiledModelFunction
 from pdmkit.models.ode._compiled_source import Untranslatable, translate
@@ -178,3 +183,56 @@ def test_the_compiled_model_is_kept_for_the_next_run(tmp_path, monkeypatch):
     sources = list(tmp_path.glob("model_*.py"))
     assert len(sources) == 1 and "def _rk4(" in sources[0].read_text()
     assert list((tmp_path / "__pycache__").glob("model_*.nbi"))  # numba's machine code
+
+
+AXIS = """
+import numpy as np
+
+STATES = {"q": "position", "v": "velocity"}
+INPUTS = {"F": "force"}
+OUTPUTS = ["q"]
+PARAMS = {"M": 2.0, "Fv": 6.0}
+FREE = ["M", "Fv"]
+INITIAL = {"q": 0.0, "v": 0.0}
+
+def rhs(t, x, u, p):
+    return {"q": x["v"], "v": (u["F"] - p["Fv"] * x["v"]) / p["M"]}
+"""
+
+
+def test_rows_without_a_derivative_term_run_compiled_beside_the_others(tmp_path):
+    (tmp_path / "axis.py").write_text(AXIS)
+    model = load_model_file(tmp_path / "axis.py")
+    t = np.arange(600) * 0.01
+    force = np.where(np.floor(t / 0.8) % 2 == 0, 1.0, -1.0)
+    q = simulate_ode(model, t, {"F": force}, n_sub=2).outputs["q"][0]
+    data = pd.DataFrame({"time": t, "F": force, "q": q + 0.01})
+    model, s = prepare(model, data, None, data_name="d", validation_name=None,
+                       input_hold="zoh")  # fmt: skip
+    problem = _Problem(model, s.rec, s.n_fit, s.w, 2)
+    sc = _dummy_scales(model)
+    found = attach_candidates(model, sc, ["sensor_offset", "coulomb_friction"])
+    offset, friction = (next(e for e in found if e.key == k) for k in ("sensor_offset@q",
+                        "coulomb_friction@v"))  # fmt: skip
+
+    def start(eff, **set_to):  # the effect's neutral values, some set
+        return {
+            f"{eff.key}.{k}": set_to.get(k, float(eff.neutral[k])) for k in eff.param_names
+        }
+
+    jobs = [
+        _make_jobs(model, effs, sc, [st], s.values0, s.x_scale)[0]
+        for effs, st in (
+            ((offset,), start(offset, offset=0.01)),
+            ((friction,), start(friction, a=0.2)),
+            ((), {}),
+        )
+    ]
+    _lm(problem, jobs, 0)
+    rows = [(j, j.values(), j.x0) for j in jobs]
+    together = problem.simulate(rows)  # the plain rows (offset, none) apart: compiled
+    assert model.rhs.compiled and model.rhs._checked.get("rk4") is True
+    for r, row in enumerate(rows):
+        alone = problem.simulate([row])
+        np.testing.assert_allclose(together[r], alone[0], rtol=1e-9, atol=1e-12)
+    assert abs(together[0] - together[2]).max() > 1e-3  # the offset row is offset
