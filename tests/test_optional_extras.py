@@ -4,8 +4,9 @@ torch (``pdmkit[neural]``), Dask (``pdmkit[dask]``) and numba (``pdmkit[fast]``)
 extras (pyproject.toml). One fresh interpreter, in which all three are made unimportable
 exactly as if they were not installed (every import finder answers "not found" for
 them), runs ``pdmkit features``, ``rank``, ``classify``, ``sensors`` and a similarity
-``rul`` through the console command's own entry point, then asks for the neural RUL model and a Dask cluster: each
-must fail with one ``pdmkit: error:`` line naming the extra to install.
+``rul`` through the console command's own entry point, then asks for the neural RUL
+model and a Dask cluster: each must fail with one ``pdmkit: error:`` line naming the
+extra to install.
 """
 
 from __future__ import annotations
