@@ -23,7 +23,7 @@ from pdmkit.models._optim import Evaluation, LMOptions, Trial, levenberg_marquar
 from pdmkit.models._xp import NumpyNamespace
 from pdmkit.models.mismatch._candidates import Effect, Scales
 from pdmkit.models.mismatch._recording import Recording, data_states
-from pdmkit.models.ode import DERIVATIVE_ATTACH, integrate_batch
+from pdmkit.models.ode import integrate_batch, leaves_derivatives
 
 _NP = NumpyNamespace()
 
@@ -169,14 +169,6 @@ class _Row:
     effects: tuple = ()
 
 
-def _leaves_derivatives(job) -> bool:
-    """True when none of a job's effects adds a term or a state to the derivatives."""
-    return not any(
-        e.candidate.attach in DERIVATIVE_ATTACH or e.candidate.n_extra
-        for e in getattr(job, "effects", ())
-    )
-
-
 @dataclasses.dataclass
 class _Problem:
     """What every job of one batch shares: model, recording, fitted span, weights.
@@ -258,7 +250,7 @@ class _Problem:
         state of their own) are simulated apart from the others: their batch runs in
         the compiled loop instead of numpy's integrator.
         """
-        plain = [r for r, row in enumerate(rows) if _leaves_derivatives(row[0])]
+        plain = [r for r, row in enumerate(rows) if leaves_derivatives(row[0].effects)]
         if not getattr(self.model.rhs, "compiled", False) or len(plain) in (0, len(rows)):
             return self._simulate(rows, n, states)
         taken = set(plain)

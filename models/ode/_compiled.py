@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
+import inspect
 import math
 import os
 import pathlib
@@ -222,9 +223,9 @@ class CompiledModelFunction:
         spent = self._spent
         try:
             source = translate(self.python, self.layout, self.returns)
-            entry = source.rsplit("def _f0_", 1)[1].split("(", 1)[0]
+            entry = f"_f0_{inspect.unwrap(self.python).__name__}"  # translate's naming
             sizes = tuple(len(self.layout[k]) for k in ("x", "u", "p"))
-            self._loops = _build(source, f"_f0_{entry}", len(self.returns), sizes)
+            self._loops = _build(source, entry, len(self.returns), sizes)
             self._kernel = self._loops["kernel"]
             got = self._run(t, x, u, p)
         except ImportError:

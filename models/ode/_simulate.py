@@ -31,6 +31,7 @@ __all__ = [
     "DERIVATIVE_ATTACH",
     "PARAMETER_ATTACH",
     "integrate_batch",
+    "leaves_derivatives",
     "simulate_ode",
     "stable_substeps",
     "state_jacobians",
@@ -76,6 +77,24 @@ def _check_time(time) -> tuple[np.ndarray, float]:
 #: the ``attach`` kinds of augmentations whose ``derivs`` hook adds to the state
 #: derivatives (the others transform inputs or outputs)
 DERIVATIVE_ATTACH = ("velocity", "velocity_position", "level", "state")
+
+
+def leaves_derivatives(effects) -> bool:
+    """True when no effect adds a term or a state of its own to the derivatives.
+
+    Such a batch (the model's equations, with constants, input transforms or sensors
+    around them) can run in a compiled model's own loop (:mod:`._compiled`).
+
+    Examples
+    --------
+    >>> leaves_derivatives([])
+    True
+    """
+    return not any(
+        e.candidate.attach in DERIVATIVE_ATTACH or e.candidate.n_extra for e in effects
+    )
+
+
 #: the attach kind of an effect that replaces a model parameter (a file's constant)
 PARAMETER_ATTACH = "parameter"
 
@@ -190,8 +209,8 @@ def integrate_batch(
     f = _augmented_rhs(model, effects, theta, M, where, extra, P, B, len(Zl), xp)
     rec_x, rec_z = None, []
     compiled = getattr(model.rhs, "simulate", None)
-    plain = not Zl and not any(e.candidate.attach in DERIVATIVE_ATTACH for e in effects)
-    if compiled is not None and plain and hold in ("zoh", "foh") and xp.name == "numpy":
+    fits = hold in ("zoh", "foh") and xp.name == "numpy"
+    if compiled is not None and fits and leaves_derivatives(effects):
         # the model's own equations alone: one compiled loop (models/ode/_compiled.py)
         foh = hold == "foh" and bool(inputs)
         useq_b = Useq if inputs else None
