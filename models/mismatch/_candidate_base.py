@@ -219,6 +219,9 @@ class Candidate(abc.ABC):
             text += f" In the units of the input {eff.options['force_input']}: {said}."
         return text
 
+    def __repr__(self) -> str:
+        return f"<Candidate {self.id} on {self.attach}>"
+
     def in_input_units(self, eff: Effect, values: Mapping[str, float]) -> dict:
         """Per-unit-mass parameters as forces (N) or torques (N m).
 
@@ -244,9 +247,6 @@ def force_units(eff: Effect, per_unit_mass: float) -> tuple[float, str] | None:
     if not gain:
         return None
     return float(per_unit_mass) / gain, eff.options.get("force_unit", "")
-
-    def __repr__(self) -> str:
-        return f"<Candidate {self.id} on {self.attach}>"
 
 
 def _g(v: float | None) -> str:

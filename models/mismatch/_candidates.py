@@ -60,6 +60,7 @@ from pdmkit.models.mismatch._effects_sensor import (
     SensorOffset,
     SensorSaturation,
 )
+from pdmkit.models.ode import DERIVATIVE_ATTACH, register_effects
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -108,6 +109,10 @@ _ALL: tuple[Candidate, ...] = (
     SensorLag(),
     FileConstant(),
 )
+
+# the effects that act inside the integration, offered to compiled models
+# (pdmkit.models.ode._compiled_effects); the others act on inputs or outputs
+register_effects([type(c) for c in _ALL if c.attach in DERIVATIVE_ATTACH or c.n_extra])
 
 #: candidate by ``(id, attach)``
 CANDIDATES: dict[tuple[str, str], Candidate] = {(c.id, c.attach): c for c in _ALL}

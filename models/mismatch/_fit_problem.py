@@ -23,7 +23,7 @@ from pdmkit.models._optim import Evaluation, LMOptions, Trial, levenberg_marquar
 from pdmkit.models._xp import NumpyNamespace
 from pdmkit.models.mismatch._candidates import Effect, Scales
 from pdmkit.models.mismatch._recording import Recording, data_states
-from pdmkit.models.ode import integrate_batch, leaves_derivatives
+from pdmkit.models.ode import integrate_batch, runs_compiled
 
 _NP = NumpyNamespace()
 
@@ -246,18 +246,18 @@ class _Problem:
         piece's initial state ``x0[0]``, ``(B, n, n_out)``.
 
         With a compiled model (:mod:`pdmkit.models.ode._compiled`), rows whose effects
-        leave the derivatives alone (constants, input transforms, sensors without a
-        state of their own) are simulated apart from the others: their batch runs in
-        the compiled loop instead of numpy's integrator.
+        the compiled loop takes are simulated apart from the others (a user's effect
+        it cannot translate, a lag on a computed output), so they still run compiled.
         """
-        plain = [r for r, row in enumerate(rows) if leaves_derivatives(row[0].effects)]
-        if not getattr(self.model.rhs, "compiled", False) or len(plain) in (0, len(rows)):
+        model = self.model
+        fast = [r for r, row in enumerate(rows) if runs_compiled(model, row[0].effects)]
+        if len(fast) in (0, len(rows)):
             return self._simulate(rows, n, states)
-        taken = set(plain)
+        taken = set(fast)
         other = [r for r in range(len(rows)) if r not in taken]
-        parts = [self._simulate([rows[r] for r in g], n, states) for g in (plain, other)]
+        parts = [self._simulate([rows[r] for r in g], n, states) for g in (fast, other)]
         out = np.empty((len(rows), *parts[0].shape[1:]), dtype=parts[0].dtype)
-        out[plain], out[other] = parts
+        out[fast], out[other] = parts
         return out
 
     def _simulate(self, rows: Sequence[tuple], n: int | None, states: bool):

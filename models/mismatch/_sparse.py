@@ -32,7 +32,9 @@ import numpy as np
 from pdmkit.errors import ModelError
 from pdmkit.models.mismatch._candidates import Candidate, Effect, ParamSpec, Scales
 from pdmkit.models.mismatch._fit_problem import _fd_jacobians, _fd_rows, _lm, _make_jobs
+from pdmkit.models.mismatch._sparse_compiled import SOURCE, term_row
 from pdmkit.models.mismatch._stlsq import stlsq_path
+from pdmkit.models.ode import register_effects
 
 if TYPE_CHECKING:
     from pdmkit.models.ode import OdeModel
@@ -262,6 +264,12 @@ class SparseTerms(Candidate):
     def guesses(self, eff, sc):
         return [dict.fromkeys(self.param_names, 0.0)]
 
+    #: the term in the compiled loops, with its terms as numbers (._sparse_compiled)
+    compiled_derivs = SOURCE
+
+    def compiled_options(self, eff: Effect, layout: Mapping) -> list[float] | None:
+        return term_row(self.terms, self.norms, self.eps, layout)
+
     def derivs(self, xp, eff, th, t, x, u, dx):
         s = eff.target
         acc = dx[s]
@@ -287,6 +295,9 @@ class SparseTerms(Candidate):
 
     def __repr__(self) -> str:
         return f"<SparseTerms {', '.join(self.labels)}>"
+
+
+register_effects([SparseTerms])  # its terms run in a compiled model's loops
 
 
 # ---------------------------------------------------------------------------- library

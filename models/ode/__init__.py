@@ -22,6 +22,7 @@ Examples
 (1, 100)
 """
 
+from pdmkit.models.ode._compiled_effects import register_effects
 from pdmkit.models.ode._linearize import LinearModel, linearize
 from pdmkit.models.ode._modelfile import KINDS, OdeModel
 from pdmkit.models.ode._modelfile_child import MODEL_TIMEOUT
@@ -32,7 +33,7 @@ from pdmkit.models.ode._simulate import (
     DERIVATIVE_ATTACH,
     PARAMETER_ATTACH,
     integrate_batch,
-    leaves_derivatives,
+    runs_compiled,
     simulate_ode,
     stable_substeps,
     state_jacobians,
@@ -48,10 +49,11 @@ __all__ = [
     "OdeModel",
     "ResponseData",
     "integrate_batch",
-    "leaves_derivatives",
     "linearize",
     "load_model_file",
     "load_model_source",
+    "register_effects",
+    "runs_compiled",
     "showcase_model",
     "showcase_source",
     "simulate_ode",

@@ -38,10 +38,12 @@ from typing import Any
 
 import numpy as np
 
-from pdmkit.models.ode._compiled_loops import loops_source
+from pdmkit.models.ode._compiled_effects import effect_rows, hooks_source, registered
+from pdmkit.models.ode._compiled_loops import NO_HOOKS, loops_source
 from pdmkit.models.ode._compiled_source import Untranslatable, translate
 from pdmkit.models.ode._integrators import (
     _ROS2_GAMMA,
+    DERIVATIVE_ATTACH,
     ROS2_JACOBIAN_AGE,
     ROS2_MAX_HALVINGS,
     ROS2_RTOL,
@@ -51,6 +53,9 @@ from pdmkit.models.ode._integrators import (
 )
 
 __all__ = ["CompiledModelFunction", "compile_mode"]
+
+#: the table of a batch without effects (:func:`.effect_rows`)
+_EMPTY_TABLE = (np.zeros((0, 7), dtype=np.int64), np.zeros((0, 1)))
 
 _MODES = ("auto", "always", "never")
 
@@ -129,20 +134,23 @@ def _module(text: str, folder: pathlib.Path | None) -> tuple[dict, bool]:
     return ns, False
 
 
-def _build(source: str, entry: str, nout: int, sizes: tuple[int, int, int]) -> dict:
+def _build(source: str, entry: str, nout: int, sizes: tuple, hooks: str, outputs=None):
     """Compile the translated source with its loops (:mod:`._compiled_loops`).
 
-    numba compiles each function at its first call (or loads it from
-    :func:`cache_folder`), so an integrator costs nothing until it is used.
+    ``hooks`` is the source of the effects' terms (:func:`.hooks_source`), or the
+    dispatcher of a function without them; ``outputs`` the translated ``outputs``
+    function's entry and size, for sensor lags (:func:`.loops_source`). numba compiles
+    each function at its first call (or loads it from :func:`cache_folder`), so an
+    integrator costs nothing until it is used.
     """
     import numba  # heavy: only when a model is compiled
 
-    ns, cached = _module(
-        source + "\n\n" + loops_source(entry, nout, *sizes), cache_folder()
-    )
+    text = "\n\n".join([source, hooks, loops_source(entry, nout, *sizes, outputs)])
+    ns, cached = _module(text, cache_folder())
     for name in [k for k, v in ns.items() if isinstance(v, types.FunctionType)]:
         ns[name] = numba.njit(error_model="numpy", cache=cached)(ns[name])
-    return {k: ns[f"_{k}"] for k in ("kernel", "rk4", "ros2")}
+    names = ("kernel", "rk4", "ros2", "rk4_plain", "ros2_plain")
+    return {k: ns[f"_{k}"] for k in names}
 
 
 class CompiledModelFunction:
@@ -179,16 +187,26 @@ class CompiledModelFunction:
     """
 
     def __init__(
-        self, fn: Callable, layout: Mapping[str, Sequence[str]], returns: Sequence[str]
+        self,
+        fn: Callable,
+        layout: Mapping[str, Sequence[str]],
+        returns: Sequence[str],
+        outputs: tuple[Callable, Sequence[str]] | None = None,
     ) -> None:
         self.python = fn
+        #: an rhs's model ``outputs`` function and its names: compiled beside it for
+        #: sensor lags that follow an output
+        self.outputs = outputs
+        self._outputs_compiled: list[str] = []
         self.layout = {k: list(v) for k, v in layout.items()}
         self.returns = list(returns)
         self.per_sample = bool(getattr(fn, "per_sample", False))
         self.note = "as written"
         self._kernel: Callable | None = None
         self._loops: dict[str, Callable] = {}
-        self._checked: dict[str, bool] = {}  # integrator -> its first run agreed
+        #: ``{effect class: EffectHooks}`` compiled with an ``rhs``
+        self.hooks: dict = {}
+        self._checked: dict[tuple, bool] = {}  # (integrator, effects) -> first run agreed
         self._failed = False
         self._spent = 0.0
         self._p_obj: Any = None
@@ -196,6 +214,17 @@ class CompiledModelFunction:
         self._p_arr: np.ndarray | None = None
         self.__wrapped__ = fn
         self.__name__ = getattr(fn, "__name__", "rhs")
+
+    def ran(self, method: str, with_effects: bool = False) -> bool:
+        """True once a simulation with ``method`` ran compiled and was checked.
+
+        ``with_effects``: one whose batch carried effects' terms or states.
+        """
+        return any(
+            ok and (len(rows) > 0 or not with_effects)
+            for (m, rows), ok in self._checked.items()
+            if m == method
+        )
 
     @property
     def compiled(self) -> bool:
@@ -225,7 +254,11 @@ class CompiledModelFunction:
             source = translate(self.python, self.layout, self.returns)
             entry = f"_f0_{inspect.unwrap(self.python).__name__}"  # translate's naming
             sizes = tuple(len(self.layout[k]) for k in ("x", "u", "p"))
-            self._loops = _build(source, entry, len(self.returns), sizes)
+            hooks, out = NO_HOOKS, None
+            if self.returns == self.layout["x"]:  # an rhs: the effects' terms with it
+                hooks, self.hooks, _left = hooks_source(registered())
+                source, out = self._with_outputs(source)
+            self._loops = _build(source, entry, len(self.returns), sizes, hooks, out)
             self._kernel = self._loops["kernel"]
             got = self._run(t, x, u, p)
         except ImportError:
@@ -242,27 +275,43 @@ class CompiledModelFunction:
         self.note = f"compiled after {spent:.1f} s"
         return None
 
+    def _with_outputs(self, source: str) -> tuple[str, tuple[str, int] | None]:
+        """The source with the model's ``outputs`` translated, where it translates."""
+        if self.outputs is None:
+            return source, None
+        fn, names = self.outputs
+        try:
+            text = translate(fn, self.layout, list(names), prefix="_g")
+        except Untranslatable:
+            return source, None  # sensor lags on its outputs stay in numpy
+        self._outputs_compiled = list(names)
+        entry = f"_g0_{inspect.unwrap(fn).__name__}"
+        return source + "\n\n" + text, (entry, len(names))
+
     def _give_up(self, why: str) -> None:
         self._kernel, self._loops = None, {}
         self._failed = True
         self.note = why
 
     # ------------------------------------------------------------------ simulating
-    def simulate(self, method, Xl, Useq, params, t, n_sub, h, foh, limits):
+    def simulate(self, method, Xl, Useq, params, t, n_sub, h, foh, limits, batch=None):
         """A whole simulation in a compiled loop, or None where it cannot run.
 
         ``method``: ``"rk4"`` or ``"ros2"``; ``Xl``: the ``(B,)`` initial states in
         STATES order; ``Useq``: ``(B, N, nu)`` inputs (None without inputs);
         ``params``: the parameter dict; ``limits``: the model's checked ``LIMITS``,
-        ``{state: (lo, hi, velocity state or None)}``. Returns the states at every
-        sample, ``(B, N, nx)``. Each integrator's first simulation is checked against
-        the model as written over its first samples (to 1e-6 of each state's largest
-        value); a difference leaves that integrator to the model as written from then on.
+        ``{state: (lo, hi, velocity state or None)}``. ``batch`` holds the effects of
+        the batch: ``(effects, theta, masks, extra, Zl, f)`` as
+        :func:`~pdmkit.models.ode.integrate_batch` has them, ``Zl`` the effects' own
+        initial states and ``f`` the numpy right-hand side with their terms (None: the
+        model alone). Returns the states at every sample, ``(B, N, nx + nz)``, the
+        effects' own states last. Each integrator's first simulation with a set of
+        effects is checked against the numpy integrator over its first samples (to
+        1e-6 of each state's largest value); a difference leaves that combination to
+        numpy from then on.
         """
         loop = self._loops.get(method)
-        if loop is None or self._checked.get(method) is False:
-            return None
-        if compile_mode()[0] == "never" or self.returns != self.layout["x"]:
+        if loop is None or compile_mode()[0] == "never" or self.returns != self.layout["x"]:
             return None
         B, N, nx = int(np.size(Xl[0])) if Xl else 0, int(np.size(t)), len(Xl)
         if not B or any(not isinstance(v, np.ndarray) or v.shape != (B,) for v in Xl):
@@ -271,6 +320,16 @@ class CompiledModelFunction:
         P = _stack([params.get(k) for k in self.layout["p"]], (B,), B)
         if U.shape != (B, N, len(self.layout["u"])) or P is None:
             return None
+        table = self._table(batch, B, method)
+        if table is None:
+            return None
+        tab, opt, values, Zl, f = table
+        if not tab.shape[0]:  # the model alone: the loop without the effects' terms
+            loop = self._loops.get(f"{method}_plain", loop)
+        key = (method, tuple(map(tuple, tab[:, :2])))
+        if self._checked.get(key) is False:
+            return None
+        X0 = np.array(list(Xl) + list(Zl), dtype=float).reshape(-1, B)
         idx = {k: j for j, k in enumerate(self.layout["x"])}
         lim = np.array(
             [
@@ -279,47 +338,75 @@ class CompiledModelFunction:
             ],
             dtype=float,
         ).reshape(-1, 4)
-        args = [np.array(Xl, dtype=float), U, P, np.ascontiguousarray(t, dtype=float)]
-        args += [int(n_sub), float(h), bool(foh), lim, np.empty((B, N, nx))]
+        args = [X0, U, np.vstack([P, values]), np.ascontiguousarray(t, dtype=float)]
+        args += [int(n_sub), float(h), bool(foh), lim, np.empty((B, N, X0.shape[0]))]
+        args += [tab, opt]
         if method == "ros2":
             args += [ROS2_RTOL, ROS2_MAX_HALVINGS, ROS2_JACOBIAN_AGE, _ROS2_GAMMA]
         try:
             loop(*args)
         except Exception as exc:  # a numba typing error at the first call
-            self._checked[method] = False
+            self._checked[key] = False
             self.note += f"; its {method} loop did not compile ({type(exc).__name__})"
             return None
         rec = args[8]
-        if method not in self._checked:
-            self._checked[method] = self._agrees(method, rec, args, params, limits)
-            if not self._checked[method]:
-                self.note += f"; its {method} loop differed from the model as written"
+        if key not in self._checked:
+            self._checked[key] = self._agrees(method, rec, args, f, limits, nx)
+            if not self._checked[key]:
+                self.note += f"; its {method} loop differed from numpy's"
                 return None
         return rec
 
-    def _agrees(self, method, rec, args, params, limits) -> bool:
-        """The compiled simulation against the numpy integrator, first samples."""
+    def _table(self, batch, B, method):
+        """``(tab, opt, values, Zl, f)`` of a batch's effects, or None (numpy runs it)."""
+        if batch is None:
+            return (*_EMPTY_TABLE, np.empty((0, B)), [], None)
+        effects, theta, masks, extra, Zl, f = batch
+        if not effects:
+            return (*_EMPTY_TABLE, np.empty((0, B)), [], f)
+        layout = {**self.layout, "y": self._outputs_compiled}
+        rows = effect_rows(
+            effects, theta, masks, extra, layout, self.hooks, B, DERIVATIVE_ATTACH, method
+        )
+        if rows is None or any(
+            not isinstance(z, np.ndarray) or z.shape != (B,) for z in Zl
+        ):
+            return None
+        return (*rows, Zl, f)
+
+    def _agrees(self, method, rec, args, f, limits, nx) -> bool:
+        """The compiled simulation against the numpy integrator, first samples.
+
+        ``f`` is the numpy right-hand side with the effects' terms (None: the model's
+        own function as written).
+        """
         X0, U, _, t, n_sub, h, foh = args[:7]
         n = min(int(rec.shape[1]), 25)
-        python, states = self.python, self.layout["x"]
+        states = self.layout["x"]
+        if f is None:
+            python, params = self.python, dict(zip(self.layout["p"], args[2], strict=False))
 
-        def f(tt, Xl, Zl, u):
-            d = python(tt, dict(zip(states, Xl, strict=True)), u, params)
-            return [np.broadcast_to(d[k], Xl[0].shape) for k in states], ()
+            def f(tt, Xl, Zl, u):
+                d = python(tt, dict(zip(states, Xl, strict=True)), u, params)
+                return [np.broadcast_to(d[k], Xl[0].shape) for k in states], ()
 
         stop = _stops(types.SimpleNamespace(limits=limits, state_names=states), np)
         step = _rk4_records if method == "rk4" else _ros2_records
         hold = "foh" if foh else "zoh"
+        Xl, Zl = list(X0[:nx]), list(X0[nx:])
         with np.errstate(all="ignore"):
-            ref, _ = step(
-                f, list(X0), [], U[:, :n], t[:n], self.layout["u"], n, n_sub, h, hold, stop
+            rx, _ = step(
+                f, Xl, Zl, U[:, :n], t[:n], self.layout["u"], n, n_sub, h, hold, stop
             )
-        want = np.stack([np.stack(xs, 1) for xs in ref], 1)
+        # the model's states (an effect's own state is followed only by the members
+        # that carry it, and acts only through them)
+        want = np.stack([np.stack(list(xs), 1) for xs in rx], 1)
+        got = rec[:, :n, :nx]
         # per state, against its largest value: a finite-difference Jacobian (ROS2)
         # turns the last bit of a libm function into 1e-8 of the step
         scale = np.nanmax(np.abs(want), axis=(0, 1)) + 1e-300
-        gap = np.abs(rec[:, :n] - want) / scale
-        same_nan = np.isnan(rec[:, :n]) == np.isnan(want)
+        gap = np.abs(got - want) / scale
+        same_nan = np.isnan(got) == np.isnan(want)
         return bool(np.all(same_nan) and np.all(np.nan_to_num(gap) <= 1e-6))
 
     # ------------------------------------------------------------------ running

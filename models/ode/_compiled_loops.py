@@ -1,9 +1,12 @@
 """The loops numba compiles around a translated model: one call, RK4 and ROS2.
 
-Each is Python source (numba's subset) built around ``_fvec(t, x, u, p, out)``, the
-model's translated function writing its values into ``out``
-(:mod:`pdmkit.models.ode._compiled_source`). The integrators repeat
-:mod:`pdmkit.models.ode._integrators` operation for operation, member by member:
+Each is Python source (numba's subset) built around ``_fvec(t, x, u, p, out, tab,
+opt)``, the model's translated function writing its values into ``out``
+(:mod:`pdmkit.models.ode._compiled_source`), then the terms of the effects listed in
+the table ``tab`` (:mod:`pdmkit.models.ode._compiled_effects`; the effects' own states
+follow the model's in ``x``, their values follow its parameters in ``p``). The
+integrators repeat :mod:`pdmkit.models.ode._integrators` operation for operation, member
+by member:
 
 - ``_rk4``: classical RK4 with ``n_sub`` steps per sample and the hard stops after each
   step (members are independent);
@@ -22,9 +25,64 @@ from __future__ import annotations
 __all__ = ["loops_source"]
 
 _FVEC = """
-def _fvec(t, x, u, p, out):
+def _fvec(t, x, u, p, out, tab, opt):
+    # the table rows this member carries: p[a0] of them, at p[a0 + 1 ...] (a0 = p[-1])
+    a0 = int(p[p.shape[0] - 1])
+    na = int(p[a0])
+    uu = u
+    if na > 0 and tab[int(p[a0 + 1]), 0] == 0:  # an input replaced by a lag's state
+        uu = u.copy()
+        for j in range(na):
+            i = int(p[a0 + 1 + j])
+            if tab[i, 0] == 0:
+                uu[tab[i, 2]] = x[tab[i, 5]]
+    r = {entry}(t, x, uu, p)
+{stores}
+    for j in range({nout}, out.shape[0]):
+        out[j] = 0.0  # effects' own states this member does not carry stay put
+    xo = x  # the states, then the outputs where a sensor's state follows one
+    seen = False
+    for j in range(na):
+        i = int(p[a0 + 1 + j])
+        st = tab[i, 0]
+        if st == 0:
+            continue
+        xi = x
+        if tab[i, 6] == 1:
+            if not seen:
+                xo = np.empty(x.shape[0] + {nyo})
+                xo[: x.shape[0]] = x
+                _yvec(t, x, uu, p, xo[x.shape[0] :])
+                seen = True
+            xi = xo
+        ui = u if st == 3 else uu
+        _hook(
+            tab[i, 1], st, t, xi, ui, p, out, tab[i, 2], tab[i, 3], tab[i, 4], tab[i, 5],
+            opt[i],
+        )
+"""
+
+_FVEC0 = """
+def _fvec0(t, x, u, p, out, tab, opt):
     r = {entry}(t, x, u, p)
 {stores}
+"""
+
+_YVEC = """
+def _yvec(t, x, u, p, out):
+    r = {yentry}(t, x, u, p)
+{ystores}
+"""
+
+_NO_YVEC = """
+def _yvec(t, x, u, p, out):
+    pass
+"""
+
+#: the dispatcher of a module without effects (an ``outputs`` function)
+NO_HOOKS = """
+def _hook(code, stage, t, x, u, p, dx, tg, pr, th0, zo, op):
+    pass
 """
 
 _KERNEL = """
@@ -33,6 +91,8 @@ def _kernel(t, X, U, P, out):
     u = np.empty({nu})
     p = np.empty({npar})
     row = np.empty({nout})
+    tab = np.zeros((0, 7), dtype=np.int64)
+    opt = np.zeros((0, 1))
     for b in range(out.shape[1]):
         for j in range({nx}):
             x[j] = X[j, b]
@@ -40,7 +100,7 @@ def _kernel(t, X, U, P, out):
             u[j] = U[j, b]
         for j in range({npar}):
             p[j] = P[j, b]
-        _fvec(t, x, u, p, row)
+        _fvec0(t, x, u, p, row, tab, opt)
         for j in range({nout}):
             out[j, b] = row[j]
 """
@@ -72,11 +132,11 @@ def _stop(x, lim):
 """
 
 _RK4 = """
-def _rk4(X0, Useq, P, t, n_sub, h, foh, lim, rec):
-    n = {nx}
+def _rk4{sfx}(X0, Useq, P, t, n_sub, h, foh, lim, rec, tab, opt):
+    n = X0.shape[0]
     x = np.empty(n)
     xs = np.empty(n)
-    p = np.empty({npar})
+    p = np.empty(P.shape[0])
     k1 = np.empty(n)
     k2 = np.empty(n)
     k3 = np.empty(n)
@@ -88,7 +148,7 @@ def _rk4(X0, Useq, P, t, n_sub, h, foh, lim, rec):
     h6 = h / 6.0
     N = rec.shape[1]
     for b in range(X0.shape[1]):
-        for j in range({npar}):
+        for j in range(P.shape[0]):
             p[j] = P[j, b]
         for j in range(n):
             x[j] = X0[j, b]
@@ -101,16 +161,16 @@ def _rk4(X0, Useq, P, t, n_sub, h, foh, lim, rec):
                 t0 = t[k] + s * h
                 _inputs(Useq, b, k, s / n_sub, (s + 1) / n_sub, foh, u0, u1)
                 _inputs(Useq, b, k, (s + 0.5) / n_sub, (s + 0.5) / n_sub, foh, um, um)
-                _fvec(t0, x, u0, p, k1)
+                {fv}(t0, x, u0, p, k1, tab, opt)
                 for j in range(n):
                     xs[j] = x[j] + h2 * k1[j]
-                _fvec(t0 + h2, xs, um, p, k2)
+                {fv}(t0 + h2, xs, um, p, k2, tab, opt)
                 for j in range(n):
                     xs[j] = x[j] + h2 * k2[j]
-                _fvec(t0 + h2, xs, um, p, k3)
+                {fv}(t0 + h2, xs, um, p, k3, tab, opt)
                 for j in range(n):
                     xs[j] = x[j] + h * k3[j]
-                _fvec(t0 + h, xs, u1, p, k4)
+                {fv}(t0 + h, xs, u1, p, k4, tab, opt)
                 for j in range(n):
                     x[j] = x[j] + h6 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
                 _stop(x, lim)
@@ -159,9 +219,10 @@ def _matvec(A, v, out):
         for j in range(v.shape[0]):
             acc += A[i, j] * v[j]
         out[i] = acc
+"""
 
-
-def _jacobian(t0, Y, U0, PT, F0, J, x, f):
+_ROS2_LOOP = """
+def _jacobian{sfx}(t0, Y, U0, PT, F0, J, x, f, tab, opt):
     B, n = Y.shape
     for j in range(n):
         ymax = 0.0
@@ -174,13 +235,15 @@ def _jacobian(t0, Y, U0, PT, F0, J, x, f):
             for i in range(n):
                 x[i] = Y[b, i]
             x[j] = Y[b, j] + d
-            _fvec(t0, x, U0[b], PT[b], f)
+            {fv}(t0, x, U0[b], PT[b], f, tab, opt)
             for i in range(n):
                 v = (f[i] - F0[b, i]) / d
                 J[b, i, j] = v if math.isfinite(v) else 0.0
 
 
-def _ros2(X0, Useq, P, t, n_sub, h, foh, lim, rec, rtol, halvings, jac_age, gamma):
+def _ros2{sfx}(
+    X0, Useq, P, t, n_sub, h, foh, lim, rec, tab, opt, rtol, halvings, jac_age, gamma
+):
     n, B = X0.shape
     N = rec.shape[1]
     Y = np.empty((B, n))
@@ -226,9 +289,9 @@ def _ros2(X0, Useq, P, t, n_sub, h, foh, lim, rec, rtol, halvings, jac_age, gamm
             t0 = t[k] + done * unit
             for b in range(B):
                 _inputs(Useq, b, k, done / units, (done + step) / units, foh, U0[b], U1[b])
-                _fvec(t0, Y[b], U0[b], PT[b], F0[b])
+                {fv}(t0, Y[b], U0[b], PT[b], F0[b], tab, opt)
             if not (fresh_ok and age < jac_age):
-                _jacobian(t0, Y, U0, PT, F0, J, x, f)
+                _jacobian{sfx}(t0, Y, U0, PT, F0, J, x, f, tab, opt)
             fresh_ok = True
             age = age + 1 if age < jac_age else 1
             for b in range(B):
@@ -236,7 +299,7 @@ def _ros2(X0, Useq, P, t, n_sub, h, foh, lim, rec, rtol, halvings, jac_age, gamm
                 _matvec(Minv, F0[b], k1)
                 for i in range(n):
                     x[i] = Y[b, i] + hh * k1[i]
-                _fvec(t0 + hh, x, U1[b], PT[b], f)
+                {fv}(t0 + hh, x, U1[b], PT[b], f, tab, opt)
                 for i in range(n):
                     f[i] = f[i] - 2.0 * k1[i]
                 _matvec(Minv, f, k2)
@@ -272,8 +335,17 @@ def _ros2(X0, Useq, P, t, n_sub, h, foh, lim, rec, rtol, halvings, jac_age, gamm
 """
 
 
-def loops_source(entry: str, nout: int, nx: int, nu: int, npar: int) -> str:
-    """The source of ``_fvec``, ``_kernel``, ``_rk4`` and ``_ros2`` for one model.
+def loops_source(
+    entry: str,
+    nout: int,
+    nx: int,
+    nu: int,
+    npar: int,
+    outputs: tuple[str, int] | None = None,
+) -> str:
+    """The source of ``_fvec``, ``_kernel`` and the integrators (``_rk4``, ``_ros2``).
+
+    Each integrator also as ``_rk4_plain`` / ``_ros2_plain``, around the model alone.
 
     Parameters
     ----------
@@ -281,6 +353,9 @@ def loops_source(entry: str, nout: int, nx: int, nu: int, npar: int) -> str:
         The translated model function (``_f0_rhs``), returning a tuple of ``nout``.
     nout, nx, nu, npar : int
         Values returned; states, inputs and parameters.
+    outputs : (str, int), optional
+        The translated ``outputs`` function and its number of outputs, for sensor
+        lags that follow an output (``_yvec``).
 
     Returns
     -------
@@ -290,11 +365,22 @@ def loops_source(entry: str, nout: int, nx: int, nu: int, npar: int) -> str:
     --------
     >>> src = loops_source("_f0_rhs", 2, 2, 1, 3)
     >>> names = [s[4 : s.index("(")] for s in src.splitlines() if s.startswith("def ")]
-    >>> names[:5], names[-1]
-    (['_fvec', '_kernel', '_inputs', '_stop', '_rk4'], '_ros2')
+    >>> names[:4], names[-1]
+    (['_fvec', '_fvec0', '_yvec', '_kernel'], '_ros2')
     """
     stores = "\n".join(f"    out[{j}] = r[{j}]" for j in range(nout))
     sizes = {"entry": entry, "stores": stores, "nout": nout, "nx": nx, "nu": nu}
     sizes["npar"] = npar
-    parts = [_FVEC, _KERNEL, _INPUTS, _RK4, _ROS2]
-    return "\n".join(p.format(**sizes) for p in parts)
+    sizes["nyo"] = outputs[1] if outputs else 0
+    yvec = _NO_YVEC
+    if outputs:
+        ystores = "\n".join(f"    out[{j}] = r[{j}]" for j in range(outputs[1]))
+        yvec = _YVEC.format(yentry=outputs[0], ystores=ystores)
+    parts = [_FVEC.format(**sizes), _FVEC0.format(**sizes), yvec]
+    parts += [p.format(**sizes) for p in (_KERNEL, _INPUTS, _ROS2)]
+    # each integrator twice: around the model alone (``_rk4_plain``: numba compiles
+    # only what a call reaches, so a model without effects never compiles their
+    # terms) and around the model with the effects of a table
+    for fv, sfx in (("_fvec0", "_plain"), ("_fvec", "")):
+        parts += [p.format(**sizes, fv=fv, sfx=sfx) for p in (_RK4, _ROS2_LOOP)]
+    return "\n".join(parts)

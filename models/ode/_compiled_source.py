@@ -32,7 +32,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-__all__ = ["SHIMS", "Untranslatable", "translate"]
+__all__ = ["SHIMS", "Untranslatable", "element_wise", "translate"]
 
 
 class Untranslatable(Exception):
@@ -82,6 +82,22 @@ def _source(fn: Callable) -> ast.FunctionDef:
     return node
 
 
+def element_wise(node: ast.Attribute, space: str, constants, shimmed, shim_prefix):
+    """``np.<name>`` (or the array namespace's ``xp.<name>``) as the translation writes it.
+
+    A constant, a scalar stand-in (``shim_prefix + name``) or numpy's own function.
+    """
+    if node.attr in constants:
+        return ast.copy_location(ast.Constant(constants[node.attr]), node)
+    if node.attr in shimmed:
+        return ast.copy_location(ast.Name(f"{shim_prefix}{node.attr}", ast.Load()), node)
+    if node.attr in _NUMPY_KEPT:
+        return ast.copy_location(
+            ast.Attribute(ast.Name("np", ast.Load()), node.attr, ast.Load()), node
+        )
+    raise _fail(node, f"{space}.{node.attr} is not among the translated functions")
+
+
 class _Rewriter(ast.NodeTransformer):
     """One function's body rewritten.
 
@@ -127,15 +143,7 @@ class _Rewriter(ast.NodeTransformer):
             raise _fail(node, f"the dict {base.id!r} is used other than as {base.id}[name]")
         mod = self._module(base)
         if mod is np:
-            if node.attr in _NUMPY_CONSTANTS:
-                return ast.copy_location(ast.Constant(_NUMPY_CONSTANTS[node.attr]), node)
-            if node.attr in _NUMPY_SHIMMED:
-                return ast.copy_location(ast.Name(f"_np_{node.attr}", ast.Load()), node)
-            if node.attr in _NUMPY_KEPT:
-                return ast.copy_location(
-                    ast.Attribute(ast.Name("np", ast.Load()), node.attr, ast.Load()), node
-                )
-            raise _fail(node, f"np.{node.attr} is not among the translated functions")
+            return element_wise(node, "np", _NUMPY_CONSTANTS, _NUMPY_SHIMMED, "_np_")
         if mod is math:
             if isinstance(getattr(math, node.attr, None), float):
                 return ast.copy_location(ast.Constant(getattr(math, node.attr)), node)
@@ -216,10 +224,61 @@ class _Rewriter(ast.NodeTransformer):
         self._refuse(node, "a function defined inside the model function")
 
 
+def _inline_single_use(node: ast.FunctionDef) -> None:
+    """Move a value used once, in one branch of a conditional, into that branch.
+
+    ``fill = flow(...); empty = flow(...); return fill if c else empty`` (how
+    ``np.where`` reads after translation) computes both flows; with each moved into its
+    branch only the one taken is computed. The values are the same: the translated code
+    only computes (it writes no dict and calls only translated helpers and element-wise
+    functions), and a value moves only when nothing it reads is assigned again.
+    """
+    stores: dict[str, int] = {}
+    loads: dict[str, int] = {}
+    for n in ast.walk(node):
+        if isinstance(n, ast.Name):
+            book = stores if isinstance(n.ctx, ast.Store) else loads
+            book[n.id] = book.get(n.id, 0) + 1
+    params = {a.arg for a in node.args.args}
+    branch_uses: dict[str, tuple[ast.IfExp, str]] = {}
+    for top in node.body:
+        for n in ast.walk(top):
+            if isinstance(n, ast.IfExp):
+                for side in ("body", "orelse"):
+                    v = getattr(n, side)
+                    if isinstance(v, ast.Name) and isinstance(v.ctx, ast.Load):
+                        branch_uses[v.id] = (n, side)
+    keep = []
+    for st in node.body:
+        target = st.targets[0].id if _plain_assign(st) else None
+        use = branch_uses.get(target) if target else None
+        reads = [n.id for n in ast.walk(st.value) if isinstance(n, ast.Name)] if use else []
+        if (
+            use is None
+            or target in params
+            or stores.get(target) != 1
+            or loads.get(target) != 1
+            or any(stores.get(r, 0) > (0 if r in params else 1) for r in reads)
+        ):
+            keep.append(st)
+            continue
+        setattr(use[0], use[1], st.value)  # computed where it is used, when it is
+    node.body = keep
+
+
+def _plain_assign(st: ast.stmt) -> bool:
+    return (
+        isinstance(st, ast.Assign)
+        and len(st.targets) == 1
+        and isinstance(st.targets[0], ast.Name)
+    )
+
+
 def translate(
     fn: Callable,
     layout: dict[str, Sequence[str]],
     returns: Sequence[str],
+    prefix: str = "_f",
 ) -> str:
     r"""Scalar source of ``fn(t, x, u, p)`` and its helpers, ready for numba.
 
@@ -231,13 +290,16 @@ def translate(
         ``{"x": state names, "u": input names, "p": parameter names}``, in array order.
     returns : sequence of str
         The names of the dict ``fn`` returns, in the order of the returned tuple.
+    prefix : str, optional
+        The start of the translated functions' names (two translations in one module
+        take two prefixes).
 
     Returns
     -------
     str
         Source defining ``_f<k>_<name>`` for ``fn`` (k = 0, the entry point
         ``_f0_<name>(t, x, u, p)`` over three float arrays) and each helper it calls,
-        plus :data:`SHIMS`.
+        plus :data:`SHIMS` (with the default prefix).
 
     Raises
     ------
@@ -264,12 +326,12 @@ def translate(
                 if sp != spaces:
                     raise Untranslatable(f"{helper.__name__} is called with other dicts")
                 return name
-        name = f"_f{len(found)}_{helper.__name__}"
+        name = f"{prefix}{len(found)}_{helper.__name__}"
         found.append((helper, spaces, name))
         return name
 
     queue(fn, {1: "x", 2: "u", 3: "p"})
-    parts = [SHIMS]
+    parts = [SHIMS] if prefix == "_f" else []
     i = 0
     while i < len(found):
         helper, spaces, name = found[i]
@@ -278,6 +340,7 @@ def translate(
         kinds = {argnames[j]: ns for j, ns in spaces.items() if j < len(argnames)}
         rw = _Rewriter(helper, kinds, index, queue, list(returns) if i == 0 else None)
         node.body = [rw.visit(s) for s in node.body]
+        _inline_single_use(node)
         node.name = name
         node.returns = None
         for a in node.args.args:

@@ -16,6 +16,10 @@ import numpy as np
 
 from pdmkit.errors import ModelError
 
+#: the ``attach`` kinds of augmentations whose ``derivs`` hook adds to the state
+#: derivatives (the others transform inputs or outputs)
+DERIVATIVE_ATTACH = ("velocity", "velocity_position", "level", "state")
+
 
 def _stops(model, xp):
     """``stop(Xl) -> Xl``: the model's hard stops (``LIMITS``) applied after a step.

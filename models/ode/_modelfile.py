@@ -450,9 +450,12 @@ class OdeModel:
         then, and stay so wherever the translation or the compiler does not take them.
         """
         layout = {"x": self.state_names, "u": self.input_names, "p": list(self.params)}
-        if not isinstance(self.rhs, CompiledModelFunction):
-            self.rhs = CompiledModelFunction(self.rhs, layout, self.state_names)
         fn = self.output_fn
+        if not isinstance(self.rhs, CompiledModelFunction):
+            outputs = (
+                None if fn is None else (getattr(fn, "python", fn), list(self.outputs))
+            )
+            self.rhs = CompiledModelFunction(self.rhs, layout, self.state_names, outputs)
         if fn is not None and not isinstance(fn, CompiledModelFunction):
             self.output_fn = CompiledModelFunction(fn, layout, list(self.outputs))
 

@@ -9,6 +9,7 @@ child process with a time limit (``_modelfile_child.py``), then in this process,
 from __future__ import annotations
 
 import functools
+import linecache
 import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -67,7 +68,14 @@ def _model_from_namespace(
 
 
 def _compile(source: str, origin: str) -> Any:
-    """Compile the file's text (this runs none of its code); syntax errors named."""
+    """Compile the file's text (this runs none of its code); syntax errors named.
+
+    Text that is not a file on disk (a showcase, a string) is kept in :mod:`linecache`
+    under its origin, so its functions' source can be read back (a compiled model
+    translates it, :mod:`pdmkit.models.ode._compiled`).
+    """
+    if not os.path.isfile(origin):
+        linecache.cache[origin] = (len(source), None, source.splitlines(True), origin)
     try:
         return compile(source, origin, "exec")
     except SyntaxError as exc:

@@ -19,7 +19,17 @@ import numpy as np
 
 from pdmkit.errors import ModelError
 from pdmkit.models._xp import NumpyNamespace, TorchNamespace, is_torch
-from pdmkit.models.ode._integrators import _rk4_records, _ros2_records, _stops
+from pdmkit.models.ode._compiled_effects import (
+    _compiled_fits,
+    _extra_state_columns,
+    runs_compiled,
+)
+from pdmkit.models.ode._integrators import (
+    DERIVATIVE_ATTACH,
+    _rk4_records,
+    _ros2_records,
+    _stops,
+)
 from pdmkit.models.ode._response import ResponseData
 
 if TYPE_CHECKING:
@@ -31,7 +41,7 @@ __all__ = [
     "DERIVATIVE_ATTACH",
     "PARAMETER_ATTACH",
     "integrate_batch",
-    "leaves_derivatives",
+    "runs_compiled",
     "simulate_ode",
     "stable_substeps",
     "state_jacobians",
@@ -72,27 +82,6 @@ def _check_time(time) -> tuple[np.ndarray, float]:
             f"samples {k} and {k + 1} is {dt[k]:g} s, the median step {ts:g} s."
         )
     return t, ts
-
-
-#: the ``attach`` kinds of augmentations whose ``derivs`` hook adds to the state
-#: derivatives (the others transform inputs or outputs)
-DERIVATIVE_ATTACH = ("velocity", "velocity_position", "level", "state")
-
-
-def leaves_derivatives(effects) -> bool:
-    """True when no effect adds a term or a state of its own to the derivatives.
-
-    Such a batch (the model's equations, with constants, input transforms or sensors
-    around them) can run in a compiled model's own loop (:mod:`._compiled`).
-
-    Examples
-    --------
-    >>> leaves_derivatives([])
-    True
-    """
-    return not any(
-        e.candidate.attach in DERIVATIVE_ATTACH or e.candidate.n_extra for e in effects
-    )
 
 
 #: the attach kind of an effect that replaces a model parameter (a file's constant)
@@ -209,12 +198,15 @@ def integrate_batch(
     f = _augmented_rhs(model, effects, theta, M, where, extra, P, B, len(Zl), xp)
     rec_x, rec_z = None, []
     compiled = getattr(model.rhs, "simulate", None)
-    fits = hold in ("zoh", "foh") and xp.name == "numpy"
-    if compiled is not None and fits and leaves_derivatives(effects):
-        # the model's own equations alone: one compiled loop (models/ode/_compiled.py)
+    if compiled is not None and _compiled_fits(model, effects, extra, hold, xp):
+        # the model's equations with the effects' terms: one compiled loop
+        # (models/ode/_compiled.py), or None where it cannot take this batch
         foh = hold == "foh" and bool(inputs)
         useq_b = Useq if inputs else None
-        rec_x = compiled(method, Xl, useq_b, P, t, n_sub, h, foh, model.limits)
+        batch = (effects, theta, M, extra, Zl, f)
+        rec = compiled(method, Xl, useq_b, P, t, n_sub, h, foh, model.limits, batch)
+        if rec is not None:
+            rec_x, rec_z = rec[:, :, :nx], rec[:, :, nx:]
     if rec_x is None:
         stops = _stops(model, xp)
         step = _rk4_records if method == "rk4" else _ros2_records
@@ -349,17 +341,6 @@ def _piece_inputs(U, name, idx, transforms, effects, theta, M, B, xp, ts):
     return out.reshape(-1, idx.shape[1])
 
 
-def _extra_state_columns(effects) -> list[tuple[int, int]]:
-    """``(effect index, column offset)`` of the effects with states of their own."""
-    extra = []
-    off = 0
-    for i, e in enumerate(effects):
-        if e.candidate.n_extra:
-            extra.append((i, off))
-            off += e.candidate.n_extra
-    return extra
-
-
 def _with_outputs(model, effects, extra, P):
     """``f(t, x, u) -> x`` with the outputs' values added, where sensors need them.
 
@@ -492,7 +473,10 @@ def _batch_outputs(model, effects, theta, where, extra, rec_x, rec_z, t_out, xp,
         Xt = rec_x
     else:
         Xt = xp.stack([xp.stack(xs, 1) for xs in rec_x], 1)  # (B, N, nx)
-    Zt = xp.stack([xp.stack(zs, 1) for zs in rec_z], 1) if rec_z else None  # (B, N, m)
+    if isinstance(rec_z, np.ndarray):  # the compiled simulation's (B, N, m)
+        Zt = rec_z if rec_z.shape[2] else None
+    else:
+        Zt = xp.stack([xp.stack(zs, 1) for zs in rec_z], 1) if rec_z else None
     outs = model.outputs
     if model.output_fn is None:
         Y = {o: Xt[:, :, states.index(o)] for o in outs}

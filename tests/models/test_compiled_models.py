@@ -118,7 +118,7 @@ def test_compiled_rk4_against_scipy_solve_ivp():
     q = 0.01 + 0.005 * np.sin(0.3 * t)
     sim = simulate_ode(model, t, {"q": q}, n_sub=4, hold="foh")
     assert model.rhs.note.startswith("compiled")
-    assert model.rhs._checked.get("rk4") is True  # the compiled loop ran
+    assert model.rhs.ran("rk4")  # the compiled loop ran
 
     def f(tt, h):  # the input on straight lines between samples, as hold="foh" says
         qq = np.interp(tt, t, q)
@@ -136,7 +136,7 @@ def test_compiled_rk4_lands_on_a_hard_stop_like_the_closed_form():
                      initial={"x": 1.0}, limits={"x": (0.0, 2.0, "v")}).check()  # fmt: skip
     t = np.linspace(0.0, 1.0, 201)
     sim = simulate_ode(model, t, {}, n_sub=4)
-    assert model.rhs._checked.get("rk4") is True
+    assert model.rhs.ran("rk4")
     fall = np.maximum(1.0 - 9.81 * t**2 / 2.0, 0.0)  # reaches 0 at 0.4515 s and stays
     np.testing.assert_allclose(sim.outputs["x"][0], fall, atol=1e-12)
 
@@ -231,7 +231,7 @@ def test_rows_without_a_derivative_term_run_compiled_beside_the_others(tmp_path)
     _lm(problem, jobs, 0)
     rows = [(j, j.values(), j.x0) for j in jobs]
     together = problem.simulate(rows)  # the plain rows (offset, none) apart: compiled
-    assert model.rhs.compiled and model.rhs._checked.get("rk4") is True
+    assert model.rhs.compiled and model.rhs.ran("rk4")
     for r, row in enumerate(rows):
         alone = problem.simulate([row])
         np.testing.assert_allclose(together[r], alone[0], rtol=1e-9, atol=1e-12)
