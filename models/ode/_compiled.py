@@ -111,7 +111,7 @@ def _module(text: str, folder: pathlib.Path | None) -> tuple[dict, bool]:
     import numba  # heavy: only when a model is compiled
 
     stamp = f"# numba {numba.__version__}, numpy {np.__version__}\n"
-    text = stamp + "import math\n\nimport numpy as np\n\n" + text
+    text = stamp + "import math\n\nimport numpy as np\nfrom numba import prange\n\n" + text
     if folder is not None:
         digest = hashlib.sha256(text.encode()).hexdigest()[:32]
         path = folder / f"model_{digest}.py"
@@ -148,7 +148,8 @@ def _build(source: str, entry: str, nout: int, sizes: tuple, hooks: str, outputs
     text = "\n\n".join([source, hooks, loops_source(entry, nout, *sizes, outputs)])
     ns, cached = _module(text, cache_folder())
     for name in [k for k, v in ns.items() if isinstance(v, types.FunctionType)]:
-        ns[name] = numba.njit(error_model="numpy", cache=cached)(ns[name])
+        threads = name in ("_rk4", "_rk4_plain")  # its members on every core (prange)
+        ns[name] = numba.njit(error_model="numpy", cache=cached, parallel=threads)(ns[name])
     names = ("kernel", "rk4", "ros2", "rk4_plain", "ros2_plain")
     return {k: ns[f"_{k}"] for k in names}
 

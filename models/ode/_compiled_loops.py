@@ -133,6 +133,11 @@ def _stop(x, lim):
 
 _RK4 = """
 def _rk4{sfx}(X0, Useq, P, t, n_sub, h, foh, lim, rec, tab, opt):
+    for b in prange(X0.shape[1]):  # members are independent: one per thread
+        _rk4_member{sfx}(b, X0, Useq, P, t, n_sub, h, foh, lim, rec, tab, opt)
+
+
+def _rk4_member{sfx}(b, X0, Useq, P, t, n_sub, h, foh, lim, rec, tab, opt):
     n = X0.shape[0]
     x = np.empty(n)
     xs = np.empty(n)
@@ -147,33 +152,32 @@ def _rk4{sfx}(X0, Useq, P, t, n_sub, h, foh, lim, rec, tab, opt):
     h2 = 0.5 * h
     h6 = h / 6.0
     N = rec.shape[1]
-    for b in range(X0.shape[1]):
-        for j in range(P.shape[0]):
-            p[j] = P[j, b]
+    for j in range(P.shape[0]):
+        p[j] = P[j, b]
+    for j in range(n):
+        x[j] = X0[j, b]
+    for k in range(N):
         for j in range(n):
-            x[j] = X0[j, b]
-        for k in range(N):
+            rec[b, k, j] = x[j]
+        if k == N - 1:
+            break
+        for s in range(n_sub):
+            t0 = t[k] + s * h
+            _inputs(Useq, b, k, s / n_sub, (s + 1) / n_sub, foh, u0, u1)
+            _inputs(Useq, b, k, (s + 0.5) / n_sub, (s + 0.5) / n_sub, foh, um, um)
+            {fv}(t0, x, u0, p, k1, tab, opt)
             for j in range(n):
-                rec[b, k, j] = x[j]
-            if k == N - 1:
-                break
-            for s in range(n_sub):
-                t0 = t[k] + s * h
-                _inputs(Useq, b, k, s / n_sub, (s + 1) / n_sub, foh, u0, u1)
-                _inputs(Useq, b, k, (s + 0.5) / n_sub, (s + 0.5) / n_sub, foh, um, um)
-                {fv}(t0, x, u0, p, k1, tab, opt)
-                for j in range(n):
-                    xs[j] = x[j] + h2 * k1[j]
-                {fv}(t0 + h2, xs, um, p, k2, tab, opt)
-                for j in range(n):
-                    xs[j] = x[j] + h2 * k2[j]
-                {fv}(t0 + h2, xs, um, p, k3, tab, opt)
-                for j in range(n):
-                    xs[j] = x[j] + h * k3[j]
-                {fv}(t0 + h, xs, u1, p, k4, tab, opt)
-                for j in range(n):
-                    x[j] = x[j] + h6 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
-                _stop(x, lim)
+                xs[j] = x[j] + h2 * k1[j]
+            {fv}(t0 + h2, xs, um, p, k2, tab, opt)
+            for j in range(n):
+                xs[j] = x[j] + h2 * k2[j]
+            {fv}(t0 + h2, xs, um, p, k3, tab, opt)
+            for j in range(n):
+                xs[j] = x[j] + h * k3[j]
+            {fv}(t0 + h, xs, u1, p, k4, tab, opt)
+            for j in range(n):
+                x[j] = x[j] + h6 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
+            _stop(x, lim)
 """
 
 _ROS2 = """
