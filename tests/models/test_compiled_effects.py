@@ -96,7 +96,7 @@ def _plant_batch(tmp_path, method, hold, extra=()):
     """The plant, every effect it admits (one row each, at its first guess), a problem."""
     (tmp_path / "plant.py").write_text(PLANT)
     model = load_model_file(tmp_path / "plant.py").with_integrator(method)
-    t = np.arange(600) * 0.01
+    t = np.arange(300) * 0.02
     force = 20 * np.where(np.floor(t / 1.3) % 2 == 0, 1.0, -1.0)
     inflow = 0.3 + 0.2 * np.sin(0.7 * t)
     sim = simulate_ode(model, t, {"F": force, "Qin": inflow}, n_sub=2)
