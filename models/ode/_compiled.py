@@ -16,6 +16,12 @@ step that does not work (numba not installed, a construct outside the translatio
 compile error, different values) leaves the function as written and says why in
 :attr:`CompiledModelFunction.note`.
 
+An ``rhs`` is compiled with the terms of the candidate effects registered with
+:func:`~pdmkit.models.ode.register_effects` (:mod:`pdmkit.models.ode._compiled_effects`)
+and, where the file has one, its ``outputs`` (a sensor's lag follows an output):
+:meth:`CompiledModelFunction.simulate` then runs a fit's batch with its effects in one
+compiled loop, RK4's members on every core.
+
 ``PDMKIT_COMPILE=never`` keeps every model as written; ``always`` compiles at the first
 batch call (the tests use it). The compiled code runs the same arithmetic in the same
 order as the numpy version, so results agree to rounding (numba's ``error_model
