@@ -112,7 +112,9 @@ def cache_folder() -> pathlib.Path | None:
     return folder if os.access(folder, os.W_OK) else None
 
 
-def _module(text: str, folder: pathlib.Path | None) -> tuple[dict, bool]:
+def _module(
+    text: str, folder: pathlib.Path | None, kind: str = "model"
+) -> tuple[dict, bool]:
     """The translated source run as a module: from a cache file when one can be kept."""
     import numba  # heavy: only when a model is compiled
 
@@ -120,13 +122,13 @@ def _module(text: str, folder: pathlib.Path | None) -> tuple[dict, bool]:
     text = stamp + "import math\n\nimport numpy as np\nfrom numba import prange\n\n" + text
     if folder is not None:
         digest = hashlib.sha256(text.encode()).hexdigest()[:32]
-        path = folder / f"model_{digest}.py"
+        path = folder / f"{kind}_{digest}.py"
         try:
             if not path.exists():
                 tmp = path.with_suffix(f".{os.getpid()}.tmp")
                 tmp.write_text(text)
                 os.replace(tmp, path)
-            name = f"_pdmkit_model_{digest}"
+            name = f"_pdmkit_{kind}_{digest}"
             if name not in sys.modules:  # numba's cache finds the module by its name
                 spec = importlib.util.spec_from_file_location(name, path)
                 module = importlib.util.module_from_spec(spec)
@@ -140,6 +142,23 @@ def _module(text: str, folder: pathlib.Path | None) -> tuple[dict, bool]:
     return ns, False
 
 
+#: the effects' dispatchers compiled in this process, by the digest of their source
+_SHARED_HOOKS: dict[str, Any] = {}
+
+
+def _shared_hooks(hooks: str) -> tuple[str, Any]:
+    """``(digest, _hook)``: the effects' terms compiled once per process, kept on disk."""
+    import numba  # heavy: only when a model is compiled
+
+    key = hashlib.sha256(hooks.encode()).hexdigest()[:16]
+    if key not in _SHARED_HOOKS:
+        ns, cached = _module(hooks, cache_folder(), kind="effects")
+        for name in [k for k, v in ns.items() if isinstance(v, types.FunctionType)]:
+            ns[name] = numba.njit(error_model="numpy", cache=cached)(ns[name])
+        _SHARED_HOOKS[key] = ns["_hook"]
+    return key, _SHARED_HOOKS[key]
+
+
 def _build(source: str, entry: str, nout: int, sizes: tuple, hooks: str, outputs=None):
     """Compile the translated source with its loops (:mod:`._compiled_loops`).
 
@@ -151,8 +170,14 @@ def _build(source: str, entry: str, nout: int, sizes: tuple, hooks: str, outputs
     """
     import numba  # heavy: only when a model is compiled
 
-    text = "\n\n".join([source, hooks, loops_source(entry, nout, *sizes, outputs)])
-    ns, cached = _module(text, cache_folder())
+    loops = loops_source(entry, nout, *sizes, outputs)
+    if hooks == NO_HOOKS:
+        ns, cached = _module("\n\n".join([source, hooks, loops]), cache_folder())
+    else:  # the effects' terms compiled once for every model (they do not depend on it)
+        key, hook = _shared_hooks(hooks)
+        # the effects' digest in the model's text: new terms, a new compiled model
+        ns, cached = _module(f"# effects {key}\n\n{source}\n\n{loops}", cache_folder())
+        ns["_hook"] = hook
     for name in [k for k, v in ns.items() if isinstance(v, types.FunctionType)]:
         threads = name in ("_rk4", "_rk4_plain")  # its members on every core (prange)
         ns[name] = numba.njit(error_model="numpy", cache=cached, parallel=threads)(ns[name])
