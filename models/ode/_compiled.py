@@ -49,7 +49,6 @@ from pdmkit.models.ode._compiled_loops import NO_HOOKS, loops_source
 from pdmkit.models.ode._compiled_source import Untranslatable, translate
 from pdmkit.models.ode._integrators import (
     _ROS2_GAMMA,
-    DERIVATIVE_ATTACH,
     ROS2_JACOBIAN_AGE,
     ROS2_MAX_HALVINGS,
     ROS2_RTOL,
@@ -397,9 +396,7 @@ class CompiledModelFunction:
         if not effects:
             return (*_EMPTY_TABLE, np.empty((0, B)), [], f)
         layout = {**self.layout, "y": self._outputs_compiled}
-        rows = effect_rows(
-            effects, theta, masks, extra, layout, self.hooks, B, DERIVATIVE_ATTACH, method
-        )
+        rows = effect_rows(effects, theta, masks, extra, layout, self.hooks, B, method)
         if rows is None or any(
             not isinstance(z, np.ndarray) or z.shape != (B,) for z in Zl
         ):

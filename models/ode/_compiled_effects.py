@@ -445,7 +445,7 @@ def hooks_source(classes: Sequence[type]) -> tuple[str, dict[type, EffectHooks],
 TABLE_COLUMNS = ("stage", "code", "target", "partner", "theta", "state", "output")
 
 
-def _stage_rows(effects, extra, derivative_attach):
+def _stage_rows(effects, extra):
     """``(stage, effect index, hook)`` in the order ``integrate_batch`` applies them."""
     rows = [
         (STAGE_OVERRIDE, i, None) for i, _ in extra if effects[i].candidate.input_override
@@ -453,18 +453,18 @@ def _stage_rows(effects, extra, derivative_attach):
     rows += [
         (STAGE_DERIVS, i, "derivs")
         for i, e in enumerate(effects)
-        if e.candidate.attach in derivative_attach
+        if e.candidate.attach in DERIVATIVE_ATTACH
     ]
     rows += [
         (STAGE_WITH_EXTRA, i, "derivs_with_extra")
         for i, _ in extra
-        if effects[i].candidate.attach in derivative_attach
+        if effects[i].candidate.attach in DERIVATIVE_ATTACH
     ]
     rows += [(STAGE_EXTRA, i, "extra_derivs") for i, _ in extra]
     return rows
 
 
-def effect_rows(effects, theta, masks, extra, layout, hooks, B, derivative_attach, method):
+def effect_rows(effects, theta, masks, extra, layout, hooks, B, method):
     """The effects of a batch as a table for the compiled loops, or None.
 
     Parameters
@@ -481,8 +481,6 @@ def effect_rows(effects, theta, masks, extra, layout, hooks, B, derivative_attac
         ``{class: EffectHooks}`` of the compiled module.
     B : int
         Rows of the batch.
-    derivative_attach : tuple of str
-        The attach kinds whose ``derivs`` adds to the derivatives.
     method : str
         ``"rk4"``: each member evaluates only the effects it carries (the own states of
         the others stay put); ``"ros2"``: every member follows every effect's own
@@ -510,7 +508,7 @@ def effect_rows(effects, theta, masks, extra, layout, hooks, B, derivative_attac
     values: list = []
     placed: dict[int, tuple[int, list]] = {}
     table, options, carried = [], [], []
-    for stage, i, hook in _stage_rows(effects, extra, derivative_attach):
+    for stage, i, hook in _stage_rows(effects, extra):
         e = effects[i]
         h = hooks.get(type(e.candidate))
         if h is None:
