@@ -1,7 +1,7 @@
 """The loops numba compiles around a translated model: one call, RK4 and ROS2.
 
 Each is Python source (numba's subset) built around ``_fvec(t, x, u, p, out, tab,
-opt)``, the model's translated function writing its values into ``out``
+opt, uw, xw)``, the model's translated function writing its values into ``out``
 (:mod:`pdmkit.models.ode._compiled_source`), then the terms of the effects listed in
 the table ``tab`` (:mod:`pdmkit.models.ode._compiled_effects`; the effects' own states
 follow the model's in ``x``, their values follow its parameters in ``p``). The
@@ -25,57 +25,66 @@ from __future__ import annotations
 __all__ = ["loops_source"]
 
 _FVEC = """
-def _fvec(t, x, u, p, out, tab, opt):
-    # the table rows this member carries: p[a0] of them, at p[a0 + 1 ...] (a0 = p[-1])
+def _fvec(t, x, u, p, out, tab, opt, uw, xw):
+    # the table rows this member carries: p[a0] of them, at p[a0 + 1 ...] (a0 = p[-1]);
+    # uw and xw are the caller's scratch (the inputs after lags; the states then the
+    # outputs): no array is created or rebound here, which would cost more than the
+    # terms themselves (numba counts references of every array a branch may hold)
     a0 = int(p[p.shape[0] - 1])
     na = int(p[a0])
-    uu = u
+    for j in range({nu}):
+        uw[j] = u[j]
     if na > 0 and tab[int(p[a0 + 1]), 0] == 0:  # an input replaced by a lag's state
-        uu = u.copy()
         for j in range(na):
             i = int(p[a0 + 1 + j])
             if tab[i, 0] == 0:
-                uu[tab[i, 2]] = x[tab[i, 5]]
-    r = {entry}(t, x, uu, p)
+                uw[tab[i, 2]] = x[tab[i, 5]]
+    r = {entry}(t, x, uw, p)
 {stores}
     for j in range({nout}, out.shape[0]):
         out[j] = 0.0  # effects' own states this member does not carry stay put
-    xo = x  # the states, then the outputs where a sensor's state follows one
     seen = False
     for j in range(na):
         i = int(p[a0 + 1 + j])
         st = tab[i, 0]
         if st == 0:
             continue
-        xi = x
-        if tab[i, 6] == 1:
+        if tab[i, 6] == 1:  # a sensor's state that follows an output
             if not seen:
-                xo = np.empty(x.shape[0] + {nyo})
-                xo[: x.shape[0]] = x
-                _yvec(t, x, uu, p, xo[x.shape[0] :])
+                for k in range(x.shape[0]):
+                    xw[k] = x[k]
+                _yvec(t, x, uw, p, xw, x.shape[0])
                 seen = True
-            xi = xo
-        ui = u if st == 3 else uu
-        _hook(
-            tab[i, 1], st, t, xi, ui, p, out, tab[i, 2], tab[i, 3], tab[i, 4], tab[i, 5],
-            opt[i],
-        )
+            _hook(
+                tab[i, 1], st, t, xw, uw, p, out, tab[i, 2], tab[i, 3], tab[i, 4],
+                tab[i, 5], opt[i],
+            )
+        elif st == 3:  # a lag's own state follows the input itself
+            _hook(
+                tab[i, 1], st, t, x, u, p, out, tab[i, 2], tab[i, 3], tab[i, 4],
+                tab[i, 5], opt[i],
+            )
+        else:
+            _hook(
+                tab[i, 1], st, t, x, uw, p, out, tab[i, 2], tab[i, 3], tab[i, 4],
+                tab[i, 5], opt[i],
+            )
 """
 
 _FVEC0 = """
-def _fvec0(t, x, u, p, out, tab, opt):
+def _fvec0(t, x, u, p, out, tab, opt, uw, xw):
     r = {entry}(t, x, u, p)
 {stores}
 """
 
 _YVEC = """
-def _yvec(t, x, u, p, out):
+def _yvec(t, x, u, p, out, at):
     r = {yentry}(t, x, u, p)
 {ystores}
 """
 
 _NO_YVEC = """
-def _yvec(t, x, u, p, out):
+def _yvec(t, x, u, p, out, at):
     pass
 """
 
@@ -93,6 +102,8 @@ def _kernel(t, X, U, P, out):
     row = np.empty({nout})
     tab = np.zeros((0, 7), dtype=np.int64)
     opt = np.zeros((0, 1))
+    uw = np.empty({nu})
+    xw = np.empty({nx})
     for b in range(out.shape[1]):
         for j in range({nx}):
             x[j] = X[j, b]
@@ -100,7 +111,7 @@ def _kernel(t, X, U, P, out):
             u[j] = U[j, b]
         for j in range({npar}):
             p[j] = P[j, b]
-        _fvec0(t, x, u, p, row, tab, opt)
+        _fvec0(t, x, u, p, row, tab, opt, uw, xw)
         for j in range({nout}):
             out[j, b] = row[j]
 """
@@ -149,6 +160,8 @@ def _rk4_member{sfx}(b, X0, Useq, P, t, n_sub, h, foh, lim, rec, tab, opt):
     u0 = np.empty({nu})
     um = np.empty({nu})
     u1 = np.empty({nu})
+    uw = np.empty({nu})
+    xw = np.empty(n + {nyo})
     h2 = 0.5 * h
     h6 = h / 6.0
     N = rec.shape[1]
@@ -165,16 +178,16 @@ def _rk4_member{sfx}(b, X0, Useq, P, t, n_sub, h, foh, lim, rec, tab, opt):
             t0 = t[k] + s * h
             _inputs(Useq, b, k, s / n_sub, (s + 1) / n_sub, foh, u0, u1)
             _inputs(Useq, b, k, (s + 0.5) / n_sub, (s + 0.5) / n_sub, foh, um, um)
-            {fv}(t0, x, u0, p, k1, tab, opt)
+            {fv}(t0, x, u0, p, k1, tab, opt, uw, xw)
             for j in range(n):
                 xs[j] = x[j] + h2 * k1[j]
-            {fv}(t0 + h2, xs, um, p, k2, tab, opt)
+            {fv}(t0 + h2, xs, um, p, k2, tab, opt, uw, xw)
             for j in range(n):
                 xs[j] = x[j] + h2 * k2[j]
-            {fv}(t0 + h2, xs, um, p, k3, tab, opt)
+            {fv}(t0 + h2, xs, um, p, k3, tab, opt, uw, xw)
             for j in range(n):
                 xs[j] = x[j] + h * k3[j]
-            {fv}(t0 + h, xs, u1, p, k4, tab, opt)
+            {fv}(t0 + h, xs, u1, p, k4, tab, opt, uw, xw)
             for j in range(n):
                 x[j] = x[j] + h6 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
             _stop(x, lim)
@@ -226,7 +239,7 @@ def _matvec(A, v, out):
 """
 
 _ROS2_LOOP = """
-def _jacobian{sfx}(t0, Y, U0, PT, F0, J, x, f, tab, opt):
+def _jacobian{sfx}(t0, Y, U0, PT, F0, J, x, f, tab, opt, uw, xw):
     B, n = Y.shape
     for j in range(n):
         ymax = 0.0
@@ -239,7 +252,7 @@ def _jacobian{sfx}(t0, Y, U0, PT, F0, J, x, f, tab, opt):
             for i in range(n):
                 x[i] = Y[b, i]
             x[j] = Y[b, j] + d
-            {fv}(t0, x, U0[b], PT[b], f, tab, opt)
+            {fv}(t0, x, U0[b], PT[b], f, tab, opt, uw, xw)
             for i in range(n):
                 v = (f[i] - F0[b, i]) / d
                 J[b, i, j] = v if math.isfinite(v) else 0.0
@@ -264,6 +277,8 @@ def _ros2{sfx}(
     U1 = np.empty((B, {nu}))
     x = np.empty(n)
     f = np.empty(n)
+    uw = np.empty({nu})
+    xw = np.empty(n + {nyo})
     k1 = np.empty(n)
     k2 = np.empty(n)
     err = np.empty((B, n))
@@ -293,9 +308,9 @@ def _ros2{sfx}(
             t0 = t[k] + done * unit
             for b in range(B):
                 _inputs(Useq, b, k, done / units, (done + step) / units, foh, U0[b], U1[b])
-                {fv}(t0, Y[b], U0[b], PT[b], F0[b], tab, opt)
+                {fv}(t0, Y[b], U0[b], PT[b], F0[b], tab, opt, uw, xw)
             if not (fresh_ok and age < jac_age):
-                _jacobian{sfx}(t0, Y, U0, PT, F0, J, x, f, tab, opt)
+                _jacobian{sfx}(t0, Y, U0, PT, F0, J, x, f, tab, opt, uw, xw)
             fresh_ok = True
             age = age + 1 if age < jac_age else 1
             for b in range(B):
@@ -303,7 +318,7 @@ def _ros2{sfx}(
                 _matvec(Minv, F0[b], k1)
                 for i in range(n):
                     x[i] = Y[b, i] + hh * k1[i]
-                {fv}(t0 + hh, x, U1[b], PT[b], f, tab, opt)
+                {fv}(t0 + hh, x, U1[b], PT[b], f, tab, opt, uw, xw)
                 for i in range(n):
                     f[i] = f[i] - 2.0 * k1[i]
                 _matvec(Minv, f, k2)
@@ -378,7 +393,7 @@ def loops_source(
     sizes["nyo"] = outputs[1] if outputs else 0
     yvec = _NO_YVEC
     if outputs:
-        ystores = "\n".join(f"    out[{j}] = r[{j}]" for j in range(outputs[1]))
+        ystores = "\n".join(f"    out[at + {j}] = r[{j}]" for j in range(outputs[1]))
         yvec = _YVEC.format(yentry=outputs[0], ystores=ystores)
     parts = [_FVEC.format(**sizes), _FVEC0.format(**sizes), yvec]
     parts += [p.format(**sizes) for p in (_KERNEL, _INPUTS, _ROS2)]
