@@ -68,6 +68,45 @@ def test_an_all_free_fit_stopped_short_is_restarted_from_the_nested_fit(tank):
     assert _restarted(model, rec, again, [held], 60, 2) is again
 
 
+def test_a_held_fit_stopped_short_is_restarted_from_the_points_of_its_space(tank):
+    """Holding ``A`` and fitting ``a`` contains the fit of ``a`` alone: never above it."""
+    from pdmkit.models.mismatch._reference import _fits, _restarted_helds
+
+    model, rec, _ = tank
+    start = {"p:a": 0.5, "p:A": 2.0, "x0:h": 0.5}
+    far = {"p:a": 0.9, "p:A": 2.0, "x0:h": 0.5}
+    full, alone_a, alone_big_a, held_a = _fits(
+        model,
+        rec,
+        [(True, [start]), (["a"], [start]), (["A"], [start]), (["A"], [start])],
+        60,
+        2,
+    )
+    (short,) = _fits(model, rec, [(["a"], [far])], 1, 2)  # A held, stopped short
+    assert short.cost > 2 * alone_a.cost
+    calls = []
+
+    def fit(specs):
+        calls.append(specs)
+        return _fits(model, rec, specs, 60, 2)
+
+    reference = {"a": 0.5, "A": 2.0}
+    helds = _restarted_helds(
+        model, rec, ["a", "A"], [alone_a, alone_big_a], [held_a, short], full, reference,
+        fit,
+    )  # fmt: skip
+    # the held fit of A started from a's single fit and from the all-free end with A
+    # set back: it ends no higher than a's fit alone, at the true a
+    (specs,) = calls
+    assert specs[1][0] == ["a"]
+    assert {"p:a": alone_a.values["p:a"]}.items() <= specs[1][1][2].items()
+    assert specs[1][1][1]["p:A"] == 2.0
+    assert helds[1].cost <= alone_a.cost * (1 + 1e-6)
+    assert helds[1].values["p:a"] == pytest.approx(0.4, rel=0.02)
+    # a converged held fit is kept (nothing lower was found)
+    assert helds[0].cost <= held_a.cost
+
+
 def test_intervals_on_white_noise_are_white_noise_theory(tank):
     """A white residual is worth all its samples: the interval is scipy's own."""
     from pdmkit.models.mismatch._reference import _fits, _interval
