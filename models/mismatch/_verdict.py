@@ -597,6 +597,20 @@ def _fit_summary(model, s, problem, nominal, base, final) -> dict:
         ),
         "input_hold": s.hold,
         "n_sub_augmented": final.n_sub if final is not None else None,
+        "rmse_by_output": _by_output(model, s.w, base, final or base),
+    }
+
+
+def _by_output(model, w, base, final) -> dict:
+    """Validation RMSE of each output in its own units, nominal and augmented."""
+
+    def rmse(scored, k):
+        e = scored.e_val[:, k] / w[k]
+        return float(np.sqrt(np.mean(e**2)))
+
+    return {
+        name: {"nominal": rmse(base, k), "augmented": rmse(final, k)}
+        for k, name in enumerate(model.outputs)
     }
 
 

@@ -60,6 +60,10 @@ def test_pooled_validation_rmse_is_the_mean_square_of_each(thirds, tmp_path):
             (n_b * alone[0].fit[key] ** 2 + n_c * alone[1].fit[key] ** 2) / (n_b + n_c)
         )
         assert both["fit"][key] == pytest.approx(pooled, rel=1e-3), key
+    # one output: its RMSE in its own units is the overall one
+    by_output = both["fit"]["rmse_by_output"]["x"]
+    assert by_output["nominal"] == pytest.approx(both["fit"]["rmse_nominal"], rel=1e-9)
+    assert by_output["augmented"] == pytest.approx(both["fit"]["rmse_augmented"], rel=1e-9)
     # the concealed offset is found on both, at the generator's value
     assert both["verdict"]["effect"] == "sensor_offset"
     offset = both["verdict"]["params"]["offset"]
