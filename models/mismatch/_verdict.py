@@ -55,6 +55,12 @@ _UNEXPLAINED_NO_SPARSE = (
     "explains it significantly (no data-driven equation was tried: that stage did not "
     "run). See best_partial for what comes closest."
 )
+_UNEXPLAINED_NO_EQUATION = (
+    "Something systematic is left in the residual, but no effect of the library "
+    "explains it significantly, and the data-driven stage found no equation it could "
+    "fit (no term set selected, or every one it selected diverged). See best_partial "
+    "for what comes closest."
+)
 
 
 @dataclasses.dataclass
@@ -404,10 +410,11 @@ def candidate_table(
     return table.drop(columns="_s")
 
 
-def _no_effect(model, rec, base, singles, sparse_scored, beaten) -> dict:
+def _no_effect(model, rec, base, singles, sparse_scored, beaten, sparse_tried) -> dict:
     """``none``, or ``unexplained`` (with what comes closest).
 
-    ``unexplained`` when something systematic is left that no candidate explains.
+    ``unexplained`` when something systematic is left that no candidate explains;
+    its text says whether the data-driven stage ran (``sparse_tried``) and found none.
     """
     if not (_structured(base) or beaten is not None):
         return {"effect": "none", "target": None, "physics": _NONE_PHYSICS, "params": {}}
@@ -417,7 +424,11 @@ def _no_effect(model, rec, base, singles, sparse_scored, beaten) -> dict:
         "target": None,
         "physics": _PARTIAL_PHYSICS
         if beaten is not None
-        else (_UNEXPLAINED_PHYSICS if sparse_scored else _UNEXPLAINED_NO_SPARSE),
+        else (
+            _UNEXPLAINED_PHYSICS
+            if sparse_scored
+            else (_UNEXPLAINED_NO_EQUATION if sparse_tried else _UNEXPLAINED_NO_SPARSE)
+        ),
         "params": {},
     }
     if lead is not None:
@@ -532,14 +543,15 @@ def build_verdict(
     beaten: _Scored | None,
     tie_tolerance: float,
     inactive: frozenset = frozenset(),
+    sparse_tried: bool = False,
 ) -> dict:
     """The verdict: the effect named (or ``none`` / ``unexplained``).
 
     With its physics in one sentence, its parameters, further effects and look-alike
-    alternatives.
+    alternatives. ``sparse_tried``: the data-driven stage ran (it may find nothing).
     """
     if accepted is None:
-        return _no_effect(model, rec, base, singles, sparse_scored, beaten)
+        return _no_effect(model, rec, base, singles, sparse_scored, beaten, sparse_tried)
     verdict = _named(model, rec, accepted, pair, pair_order, inactive)
     _alternatives(verdict, pair or accepted, singles, tie_tolerance)
     return verdict
