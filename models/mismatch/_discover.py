@@ -637,7 +637,6 @@ def _discover(model, data, validation, stages: _Stages, o: _Options) -> Mismatch
     if wanted and stages.over():
         stages.skipped.append("data-driven terms")
     elif wanted:
-        t["sparse_tried"] = True
         t0 = time.perf_counter()
         sparse_scored, sparse_best, beat = _sparse_terms(f, nominal, base, ref, significant)
         if sparse_best is not None:
@@ -695,7 +694,7 @@ def _conclude(model, s, f, nominal, x_nominal, sel: _Selection, o, stages, t):
         beaten=sel.beaten,
         tie_tolerance=o.tie_tolerance,
         inactive=inactive_params(f.problem, final) if final is not None else frozenset(),
-        sparse_tried=t.get("sparse_tried", False),
+        sparse_tried=t["sparse"] > 0,  # the stage's seconds: 0 when it did not run
     )
     add_warnings(verdict, (final or sel.base).job, stages.report())
     for text in verdict["warnings"]:
