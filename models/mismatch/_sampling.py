@@ -37,13 +37,20 @@ __all__ = [
 
 
 # ---------------------------------------------------------------------------- scales
+
+
+def _model_params(model, values: Mapping[str, float]) -> dict[str, float]:
+    """The model's parameters, those in ``values`` (``"p:<name>"``) taken from there."""
+    return {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+
+
 def simulate_states(model, rec: Recording, values: Mapping[str, float], n_sub: int):
     """States ``(N, n_states)`` of ``model`` with ``values`` along ``rec``'s inputs.
 
     ``values`` holds ``p:`` parameters and ``x0:`` initial states; missing parameters are
     nominal.
     """
-    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    P = _model_params(model, values)
     X0 = np.array([[values[f"x0:{s}"] for s in model.states]])
     with np.errstate(all="ignore"):
         _, Xt = integrate_batch(
@@ -65,7 +72,7 @@ def _nominal_scales(
     ``index`` (the fitted pieces of a long record), instead of a whole simulation.
     """
     t = rec.time
-    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    P = _model_params(model, values)
     if along is None:
         X, index = simulate_states(model, rec, values, n_sub), np.arange(rec.n)
     else:
@@ -164,7 +171,7 @@ def _choose_n_sub(
     """
     if model.integrator == "ros2":  # stable at any step; its error control refines
         return 1
-    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    P = _model_params(model, values)
     if along is None:
         head, X = _head_states(model, rec, values)
         if X is None:
@@ -263,7 +270,7 @@ def choose_decimation(
         X, index = along
     if not np.all(np.isfinite(X)):
         return 1
-    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    P = _model_params(model, values)
     inputs = {k: v[index] for k, v in rec.inputs.items()}
     fast = [
         float(np.max(np.abs(np.linalg.eigvals(J))))
@@ -311,7 +318,7 @@ def simulate_outputs(
     model, rec: Recording, values: Mapping[str, float], n_sub: int = 1
 ) -> np.ndarray:
     """Outputs ``(N, n_out)`` of ``model`` with ``values`` along ``rec``'s inputs."""
-    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    P = _model_params(model, values)
     X0 = np.array([[values[f"x0:{s}"] for s in model.states]])
     with np.errstate(all="ignore"):
         Y, _ = integrate_batch(
@@ -434,9 +441,9 @@ def fed_through(model, head: Recording, X: np.ndarray, values) -> np.ndarray:
     [False, True]
     """
     n_out = len(model.outputs)
-    if model.output_fn is None or not head.inputs or X is None:
+    if model.output_fn is None or not head.inputs:
         return np.zeros(n_out, dtype=bool)
-    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    P = _model_params(model, values)
     x = {s: X[:, j] for j, s in enumerate(model.states)}
     recorded = {q: v[: X.shape[0]] for q, v in head.inputs.items()}
 
@@ -601,7 +608,7 @@ def choose_pieces(
     X = simulate_states(model, head, values, n_sub)
     if not np.all(np.isfinite(X)):
         return None
-    P = {k: values.get(f"p:{k}", v) for k, v in model.params.items()}
+    P = _model_params(model, values)
     idx = np.unique(np.linspace(0, head.n - 1, 12).astype(int))
     x = {s: X[idx, j] for j, s in enumerate(model.states)}
     u = {k: v[idx] for k, v in head.inputs.items()}

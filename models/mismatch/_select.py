@@ -153,12 +153,14 @@ def _validation_outputs(model, rec_val, scored, w, n_sub, n0, x_scale, max_iter)
             x0=x0,
         )
     _lm(pv, jobs, max_iter, ftol=X0_FTOL, budgeted=False)
-    rows = [(s.job, s.job.values(), None) for s in scored]
-    for k, j in zip(own, jobs, strict=True):
-        rows[k] = (j, j.values(), j.x0)
-    if len(own) < len(scored):
-        x0 = jobs[own.index(nominal)].x0
-        rows = [(j, v, x0 if x is None else x) for j, v, x in rows]
+    fitted = dict(zip(own, jobs, strict=True))
+    shared = fitted[nominal].x0 if nominal is not None else None  # the screened start
+    rows = [
+        (fitted[k], fitted[k].values(), fitted[k].x0)
+        if k in fitted
+        else (s.job, s.job.values(), shared)
+        for k, s in enumerate(scored)
+    ]
     return pv.simulate(rows, n=rec_val.n)
 
 

@@ -92,9 +92,8 @@ def test_a_held_fit_stopped_short_is_restarted_from_the_points_of_its_space(tank
 
     reference = {"a": 0.5, "A": 2.0}
     helds = _restarted_helds(
-        model, rec, ["a", "A"], [alone_a, alone_big_a], [held_a, short], full, reference,
-        fit,
-    )  # fmt: skip
+        ["a", "A"], [alone_a, alone_big_a], [held_a, short], full, reference, fit
+    )
     # the held fit of A started from a's single fit and from the all-free end with A
     # set back: it ends no higher than a's fit alone, at the true a
     (specs,) = calls
